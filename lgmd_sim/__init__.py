@@ -1,0 +1,15 @@
+"""lgmd-sim: a Gymnasium jitter-robot testbed for bio-inspired (LGMD) collision detection.
+
+Packages:
+    lgmd_sim.models      the LGMD model family (feedback LGMD, LGMD1, LGMD2, F(ONn), F(OFFp))
+    lgmd_sim.metrics     ISI, MpSI, SI and event metrics (hits, false alarms, lead time)
+    lgmd_sim.stimuli     seeded synthetic stimuli (looming, receding, translating, jitter)
+    lgmd_sim.world       the MuJoCo jitter world: terrain, robot, camera carriers, obstacles
+    lgmd_sim.envs        Gymnasium environments, the scenario catalogue and wrappers
+    lgmd_sim.benchmarks  speed benchmarks
+    lgmd_sim.cli         the `lgmd-sim` command
+
+Importing lgmd_sim registers every scenario of the catalogue as `lgmd_sim/<Name>-v0`.
+"""
+
+__version__ = "0.1.0"
