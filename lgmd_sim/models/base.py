@@ -198,9 +198,8 @@ class LGMDModel(ABC):
         alarm = potential > self.params.threshold
         if self.batched:
             return LGMDOutput(potential, alarm, maps)
-        return LGMDOutput(
-            float(potential[0]), bool(alarm[0]), {k: v[0] for k, v in maps.items()} if maps else None
-        )
+        one = {k: v[0] for k, v in maps.items()} if maps else None
+        return LGMDOutput(float(potential[0]), bool(alarm[0]), one)
 
     # -- hooks -------------------------------------------------------------------------
 
@@ -232,7 +231,9 @@ class LGMDModel(ABC):
         if not (a.ndim == lead + 2 or colour):
             raise ValueError(f"{self.name}: expected frames of shape {what}, got {a.shape}")
         if self.batched and a.shape[0] != self._n:
-            raise ValueError(f"{self.name}: expected {self._n} frames (one per stream), got {a.shape[0]}")
+            raise ValueError(
+                f"{self.name}: expected {self._n} frames (one per stream), got {a.shape[0]}"
+            )
         if min(a.shape[lead : lead + 2]) < 1:
             raise ValueError(f"{self.name}: empty frame of shape {a.shape}")
         if a.dtype == np.uint8:

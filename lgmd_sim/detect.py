@@ -1,0 +1,326 @@
+"""`lgmd-sim detect`: run LGMD models over videos; write a CSV, a JSON summary and a figure.
+
+The library entry points are `detect` (any sequence of frames) and `detect_video` (a
+video file or image folder); both return a `Detection`:
+
+>>> from lgmd_sim.detect import detect_video
+>>> d = detect_video("run.mp4", ["feedback", "lgmd2"], collision_frame=120)
+>>> d.isi, d.models["feedback"].first_alarm, d.models["feedback"].event.outcome
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import csv
+import json
+import math
+import os
+import sys
+from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import cv2
+import numpy as np
+
+from lgmd_sim import metrics, models
+from lgmd_sim.fileio import atomic_output
+from lgmd_sim.models.base import LGMDModel
+from lgmd_sim.video import VideoReader
+
+__all__ = ["Detection", "ModelTrace", "detect", "detect_video", "parse_models", "run"]
+
+
+@dataclass(frozen=True, eq=False)
+class ModelTrace:
+    """One model's response to a clip.
+
+    Attributes:
+        threshold: the model's alarm threshold.
+        potential: (T,) membrane potential per frame.
+        alarm: (T,) alarm flag per frame (potential above the threshold).
+        sensitivity: SI (Eq. 23) with its never-crossed flag.
+        mpsi: MpSI (Eq. 22).
+        event: hit / miss against the labelled collision frame, None when unlabelled.
+    """
+
+    threshold: float
+    potential: np.ndarray
+    alarm: np.ndarray
+    sensitivity: metrics.Sensitivity
+    mpsi: float
+    event: metrics.EventResult | None
+
+    @property
+    def first_alarm(self) -> int | None:
+        return self.sensitivity.first_alarm
+
+    def summary(self, series: bool = False) -> dict[str, Any]:
+        """JSON-ready metrics; with ``series``, the membrane potential of every frame."""
+        out: dict[str, Any] = {
+            "first_alarm": self.first_alarm,
+            "si": self.sensitivity.si,
+            "si_crossed": self.sensitivity.crossed,
+            "mpsi": self.mpsi,
+            "peak_potential": float(self.potential.max()),
+            "threshold": self.threshold,
+        }
+        if self.event is not None:
+            ev = self.event
+            out.update(outcome=ev.outcome, lead_frames=ev.lead_frames, lead_s=ev.lead_s,
+                       window_frames=ev.window_frames)
+        if series:
+            out["membrane_potential"] = [round(float(v), 6) for v in self.potential]
+        return out
+
+
+@dataclass(frozen=True, eq=False)
+class Detection:
+    """Every model's response to one clip, and the clip's frame-to-frame similarity.
+
+    Attributes:
+        video: the clip's name or path.
+        frames: number of frames.
+        fps: frames per second.
+        ssim: (T,) SSIM of each frame with the previous one, NaN for frame 0.
+        isi: ISI (Eq. 21), the mean of ``ssim[1:]``.
+        collision_frame: the labelled collision frame, or None.
+        models: model name -> its `ModelTrace`, in the order asked for.
+    """
+
+    video: str
+    frames: int
+    fps: float
+    ssim: np.ndarray
+    isi: float
+    collision_frame: int | None
+    models: Mapping[str, ModelTrace]
+
+    def summary(self, series: bool = False) -> dict[str, Any]:
+        """JSON-ready summary (the ``--json`` record); see `ModelTrace.summary`."""
+        return {
+            "video": self.video,
+            "frames": self.frames,
+            "fps": self.fps,
+            "isi": self.isi,
+            "collision_frame": self.collision_frame,
+            "models": {name: t.summary(series) for name, t in self.models.items()},
+        }
+
+
+def parse_models(spec: str | Sequence[str]) -> list[str]:
+    """Model names from "all", a comma-separated list, or a sequence; unknown names fail."""
+    names = spec.split(",") if isinstance(spec, str) else list(spec)
+    names = [n.strip() for n in names if n.strip()]
+    if names == ["all"]:
+        return models.available()
+    unknown = [n for n in names if n not in models.available()]
+    if unknown or not names:
+        what = f"unknown model(s) {', '.join(map(repr, unknown))}" if unknown else "no models"
+        raise ValueError(f"{what}; valid: all, {', '.join(models.available())}")
+    return list(dict.fromkeys(names))  # drop repeats, keep order
+
+
+def _build(spec: str | Sequence[str] | Mapping[str, LGMDModel]) -> dict[str, LGMDModel]:
+    if isinstance(spec, Mapping):
+        if not spec:
+            raise ValueError("no models")
+        for m in spec.values():
+            m.reset()
+        return dict(spec)
+    return {name: models.make(name) for name in parse_models(spec)}
+
+
+def detect(
+    frames: Iterable[np.ndarray],
+    fps: float,
+    model_spec: str | Sequence[str] | Mapping[str, LGMDModel] = "all",
+    collision_frame: int | None = None,
+    *,
+    name: str = "",
+    total: int | None = None,
+    progress: bool | None = False,
+    window_s: float = 1.0,
+) -> Detection:
+    """Run models over a clip, frame by frame, and compute the clip's metrics.
+
+    Args:
+        frames: grey (H, W) or RGB (H, W, 3) frames, uint8 or float in 0..1.
+        fps: frames per second of the clip.
+        model_spec: "all", model names (a list or a comma-separated string), or a mapping
+            of name -> built model (reset before use), e.g. for another preset.
+        collision_frame: labelled collision frame (0-based); adds the event metrics.
+        name: the clip's name, for the result and the progress bar.
+        total: number of frames if known (for the progress bar).
+        progress: show a progress bar on stderr (None: only on a terminal).
+        window_s: tolerance window of the event metrics, seconds before the collision.
+    """
+    from tqdm import tqdm
+
+    if not (math.isfinite(fps) and fps > 0):
+        raise ValueError(f"{name or 'clip'}: fps must be a finite number > 0, got {fps!r}")
+    built = _build(model_spec)
+    potentials: dict[str, list[float]] = {n: [] for n in built}
+    alarms: dict[str, list[bool]] = {n: [] for n in built}
+    ssims = [math.nan]
+    prev = None
+    bar = tqdm(frames, total=total, desc=Path(name).name or None, unit="frame",
+               disable=None if progress is None else not progress, file=sys.stderr, leave=False)
+    for frame in bar:
+        grey = _grey(frame, name)
+        if prev is not None:
+            if prev.shape != grey.shape:
+                raise ValueError(f"{name or 'clip'}: frame {len(ssims)} is "
+                                 f"{grey.shape[0]}x{grey.shape[1]}, earlier frames are "
+                                 f"{prev.shape[0]}x{prev.shape[1]}")
+            ssims.append(metrics.ssim(prev, grey))
+        prev = grey
+        for n, model in built.items():
+            out = model.step(grey)
+            potentials[n].append(out.potential)
+            alarms[n].append(out.alarm)
+    n_frames = 0 if prev is None else len(ssims)
+    if n_frames < 2:
+        raise ValueError(f"{name or 'clip'}: needs at least 2 frames, got {n_frames}")
+    if collision_frame is not None and not 0 <= collision_frame < n_frames:
+        raise ValueError(f"{name or 'clip'}: collision frame {collision_frame} is outside "
+                         f"its frames 0..{n_frames - 1}")
+    traces = {}
+    for n, model in built.items():
+        mp = np.asarray(potentials[n], np.float64)
+        alarm = np.asarray(alarms[n], bool)
+        threshold = float(model.params.threshold)
+        event = None if collision_frame is None else metrics.evaluate_clip(
+            alarm, collision_frame, fps, window_s=window_s
+        )
+        traces[n] = ModelTrace(threshold, mp, alarm, metrics.sensitivity_index(mp, threshold),
+                               metrics.mpsi(mp), event)
+    ssim = np.asarray(ssims)
+    return Detection(name, n_frames, float(fps), ssim, float(ssim[1:].mean()),
+                     collision_frame, traces)
+
+
+def _grey(frame: np.ndarray, name: str) -> np.ndarray:
+    """A frame as grey, converted once for the SSIM and every model alike."""
+    a = np.asarray(frame)
+    if a.ndim == 3 and a.shape[-1] == 3:
+        if a.dtype != np.uint8:
+            a = a.astype(np.float32)
+        return cv2.cvtColor(np.ascontiguousarray(a), cv2.COLOR_RGB2GRAY)
+    if a.ndim == 3 and a.shape[-1] == 1:
+        return a[..., 0]
+    if a.ndim != 2:
+        raise ValueError(f"{name or 'clip'}: frames must be (H, W) or (H, W, 3), got {a.shape}")
+    return a
+
+
+def detect_video(
+    path: str | os.PathLike,
+    model_spec: str | Sequence[str] | Mapping[str, LGMDModel] = "all",
+    collision_frame: int | None = None,
+    *,
+    progress: bool | None = False,
+    window_s: float = 1.0,
+) -> Detection:
+    """`detect` over a video file or image folder (see `lgmd_sim.video.VideoReader`)."""
+    clip = VideoReader(path)
+    return detect(clip, clip.fps, model_spec, collision_frame, name=str(path),
+                  total=clip.frame_count, progress=progress, window_s=window_s)
+
+
+# --- outputs ------------------------------------------------------------------------------
+
+
+def _write_csv(path: Path, d: Detection) -> None:
+    names = list(d.models)
+    with path.open("w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(["frame", "time_s", "ssim"]
+                   + [c for n in names for c in (f"{n}_potential", f"{n}_alarm")])
+        for t in range(d.frames):
+            row: list[Any] = [t, f"{t / d.fps:.6f}", "" if t == 0 else f"{d.ssim[t]:.6f}"]
+            for n in names:
+                tr = d.models[n]
+                row += [f"{tr.potential[t]:.6f}", int(tr.alarm[t])]
+            w.writerow(row)
+
+
+def _write_figure(path: Path, d: Detection) -> None:
+    """The paper's figure layout: potentials with threshold and collision, SSIM below."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(8, 5.5), layout="constrained")
+    FigureCanvasAgg(fig)
+    top, bottom = fig.subplots(2, 1, sharex=True, height_ratios=[2, 1])
+    frames = np.arange(d.frames)
+    for name, tr in d.models.items():
+        top.plot(frames, tr.potential, lw=1.4, label=name)
+    for threshold in sorted({tr.threshold for tr in d.models.values()}):
+        top.axhline(threshold, color="k", ls="--", lw=1, label=f"threshold {threshold:g}")
+    if d.collision_frame is not None:
+        for ax in (top, bottom):
+            ax.axvline(d.collision_frame, color="tab:red", ls=":", lw=1.5,
+                       label="collision" if ax is top else None)
+    top.set_ylabel("membrane potential")
+    top.set_ylim(0.45, 1.02)
+    top.legend(loc="upper left", fontsize="small", ncols=2)
+    top.set_title(Path(d.video).name)
+    bottom.plot(frames[1:], d.ssim[1:], color="tab:gray", lw=1.2)
+    bottom.set_ylabel("SSIM")
+    bottom.set_xlabel("frame")
+    bottom.set_title(f"SSIM of consecutive frames (ISI {d.isi:.4f})", fontsize="medium")
+    bottom.set_ylim(min(0.0, float(np.min(d.ssim[1:]))), 1.02)
+    fig.savefig(path, format="png", dpi=120)
+
+
+def write_outputs(d: Detection, out_dir: str | os.PathLike, stem: str) -> dict[str, Path]:
+    """Write <stem>.csv, <stem>.json and <stem>.png into out_dir; all of them or none."""
+    out_dir = Path(out_dir)
+    paths = {ext: out_dir / f"{stem}.{ext}" for ext in ("csv", "json", "png")}
+    with contextlib.ExitStack() as stack:  # each file moves into place only if all succeed
+        tmp = {ext: stack.enter_context(atomic_output(p)) for ext, p in paths.items()}
+        _write_csv(tmp["csv"], d)
+        tmp["json"].write_text(json.dumps(d.summary(), indent=2, allow_nan=False) + "\n")
+        _write_figure(tmp["png"], d)
+    return paths
+
+
+def _stems(videos: Sequence[str]) -> list[str]:
+    """Output names: each video's stem, numbered where two videos share one."""
+    stems = [Path(v.rstrip("/\\")).stem or "video" for v in videos]
+    seen: dict[str, int] = {}
+    out = []
+    for s in stems:
+        seen[s] = seen.get(s, 0) + 1
+        out.append(s if stems.count(s) == 1 else f"{s}-{seen[s]}")
+    return out
+
+
+def run(args: argparse.Namespace) -> int:
+    """`lgmd-sim detect`: every video in turn; a bad one is reported and skipped (exit 2)."""
+    names = parse_models(args.models)
+    failed = 0
+    for video, stem in zip(args.videos, _stems(args.videos), strict=True):
+        try:
+            d = detect_video(video, names, args.collision_frame,
+                             progress=False if args.no_progress else None)
+        except ValueError as exc:
+            print(f"lgmd-sim detect: error: {exc}", file=sys.stderr)
+            failed += 1
+            continue
+        paths = write_outputs(d, args.out, stem)
+        if args.json:
+            record = d.summary(series=True)
+            record["outputs"] = {ext: str(p) for ext, p in paths.items()}
+            print(json.dumps(record, allow_nan=False), flush=True)
+        else:
+            alarms = ", ".join(
+                f"{n} {'no alarm' if t.first_alarm is None else f'alarm at {t.first_alarm}'}"
+                for n, t in d.models.items()
+            )
+            print(f"{video}: {d.frames} frames, ISI {d.isi:.4f}; {alarms}; "
+                  f"wrote {', '.join(str(p) for p in paths.values())}")
+    return 2 if failed else 0

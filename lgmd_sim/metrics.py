@@ -1,0 +1,295 @@
+"""Evaluation metrics: the paper's ISI, MpSI and SI (Eq. 21-23) and the event metrics.
+
+Frame indices are 0-based throughout (as in ``lgmd-sim detect``'s CSV and
+``--collision-frame``), except where the paper's SI counts frames (see
+`sensitivity_index`).
+
+>>> from lgmd_sim import metrics
+>>> metrics.isi(frames)                       # Eq. 21: mean SSIM of consecutive frames
+>>> metrics.mpsi(potentials)                  # Eq. 22: max / mean
+>>> metrics.sensitivity_index(potentials)     # Eq. 23, with the never-crossed case flagged
+>>> ev = metrics.evaluate_clip(potentials, collision_frame=120, fps=30)
+>>> metrics.score([ev, ...])                  # the group's score, 0..100
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
+from typing import Literal
+
+import cv2
+import numpy as np
+
+__all__ = [
+    "DEFAULT_THRESHOLD",
+    "EventResult",
+    "Sensitivity",
+    "evaluate_clip",
+    "first_alarm",
+    "isi",
+    "mpsi",
+    "score",
+    "sensitivity_index",
+    "ssim",
+    "ssim_series",
+]
+
+#: Membrane-potential threshold of the paper (Sec. 4.1.3).
+DEFAULT_THRESHOLD = 0.8
+
+# SSIM as Wang, Bovik, Sheikh & Simoncelli (2004): an 11 x 11 Gaussian window with
+# sigma 1.5, K1 = 0.01, K2 = 0.03, averaged over the positions where the window fits.
+_SSIM_SIGMA = 1.5
+_SSIM_WINDOW = 11
+_SSIM_K1, _SSIM_K2 = 0.01, 0.03
+
+
+# --- frame similarity ---------------------------------------------------------------------
+
+
+def _grey(frame: np.ndarray, what: str) -> tuple[np.ndarray, float]:
+    """A frame as float32 grey and its data range: 255 for uint8, 1 for float (0..1)."""
+    a = np.asarray(frame)
+    if a.ndim == 3 and a.shape[-1] == 1:
+        a = a[..., 0]
+    if a.ndim == 3 and a.shape[-1] == 3:
+        work = a.astype(np.float32) if a.dtype != np.uint8 else a
+        a = cv2.cvtColor(np.ascontiguousarray(work), cv2.COLOR_RGB2GRAY)
+    if a.ndim != 2 or min(a.shape) < 1:
+        raise ValueError(f"{what}: expected a grey (H, W) or colour (H, W, 3) frame, "
+                         f"got shape {np.shape(frame)}")
+    if a.dtype == np.uint8:
+        return a.astype(np.float32), 255.0
+    if not np.issubdtype(a.dtype, np.floating):
+        raise ValueError(f"{what}: frames must be uint8 or float, got {a.dtype}")
+    if not np.isfinite(a).all():
+        raise ValueError(f"{what}: frame contains NaN or infinite values")
+    return a.astype(np.float32), 1.0
+
+
+def ssim(a: np.ndarray, b: np.ndarray) -> float:
+    """Structural similarity of two frames (Wang et al. 2004), in [-1, 1].
+
+    Grey or RGB colour (converted to grey, BT.601), uint8 (range 255) or float (range 1).
+    Local statistics use a Gaussian window (sigma 1.5, 11 x 11); the map is averaged over
+    the positions where the whole window fits (the whole frame when it is smaller).
+    Computed in float32 (within 1e-6 of a float64 evaluation).
+    """
+    x, range_a = _grey(a, "ssim: first frame")
+    y, range_b = _grey(b, "ssim: second frame")
+    if x.shape != y.shape:
+        raise ValueError(f"ssim: frame sizes differ: {x.shape} and {y.shape}")
+    if range_a != range_b:
+        raise ValueError("ssim: frames must both be uint8 or both float")
+    c1, c2 = (_SSIM_K1 * range_a) ** 2, (_SSIM_K2 * range_a) ** 2
+    # float32 is twice as fast; centring the values keeps E[x^2] - E[x]^2 accurate in it
+    centre = np.float32(range_a / 2)
+    x, y = x - centre, y - centre
+
+    def blur(z: np.ndarray) -> np.ndarray:
+        return cv2.GaussianBlur(z, (_SSIM_WINDOW, _SSIM_WINDOW), _SSIM_SIGMA,
+                                borderType=cv2.BORDER_REFLECT)
+
+    mu_x, mu_y = blur(x), blur(y)
+    var_x = blur(x * x) - mu_x * mu_x
+    var_y = blur(y * y) - mu_y * mu_y
+    cov = blur(x * y) - mu_x * mu_y
+    mu_x, mu_y = mu_x + centre, mu_y + centre
+    s = ((2 * mu_x * mu_y + c1) * (2 * cov + c2)) / (
+        (mu_x * mu_x + mu_y * mu_y + c1) * (var_x + var_y + c2)
+    )
+    r = _SSIM_WINDOW // 2
+    if min(s.shape) > 2 * r:
+        s = s[r:-r, r:-r]
+    return float(s.mean(dtype=np.float64))
+
+
+def ssim_series(frames: Iterable[np.ndarray]) -> np.ndarray:
+    """SSIM of each frame with the previous one: (T,) floats, NaN for frame 0."""
+    out = [np.nan]
+    prev = None
+    for frame in frames:
+        if prev is not None:
+            out.append(ssim(prev, frame))
+        prev = frame
+    if prev is None:
+        raise ValueError("ssim_series: no frames")
+    return np.asarray(out)
+
+
+def isi(frames: Iterable[np.ndarray]) -> float:
+    """Interframe Similarity Index (Eq. 21): the mean SSIM of consecutive frames."""
+    series = ssim_series(frames)
+    if len(series) < 2:
+        raise ValueError("isi: needs at least two frames")
+    return float(series[1:].mean())
+
+
+# --- membrane-potential indices -----------------------------------------------------------
+
+
+def _series(values: Sequence[float] | np.ndarray, what: str) -> np.ndarray:
+    a = np.asarray(values)
+    if a.ndim != 1 or a.size == 0:
+        raise ValueError(f"{what}: expected a non-empty 1-D series, got shape {a.shape}")
+    if a.dtype != np.bool_:
+        a = a.astype(np.float64)
+        if not np.isfinite(a).all():
+            raise ValueError(f"{what}: series contains NaN or infinite values")
+    return a
+
+
+def mpsi(potentials: Sequence[float] | np.ndarray) -> float:
+    """Membrane Potential Stability Index (Eq. 22): max(Mp) / mean(Mp)."""
+    mp = _series(potentials, "mpsi").astype(np.float64)
+    mean = float(mp.mean())
+    if mean <= 0:
+        raise ValueError(f"mpsi: the mean potential must be > 0, got {mean:g}")
+    return float(mp.max()) / mean
+
+
+def first_alarm(
+    values: Sequence[float] | np.ndarray, threshold: float = DEFAULT_THRESHOLD
+) -> int | None:
+    """The first frame (0-based) with an alarm, or None.
+
+    Args:
+        values: alarm flags (bool), or membrane potentials compared with ``threshold``
+            (an alarm is a potential strictly above it, as the models flag it).
+        threshold: the potential threshold.
+    """
+    a = _series(values, "first_alarm")
+    hits = a if a.dtype == np.bool_ else a > threshold
+    idx = np.flatnonzero(hits)
+    return int(idx[0]) if idx.size else None
+
+
+@dataclass(frozen=True)
+class Sensitivity:
+    """The Sensitivity Index (Eq. 23) of one series.
+
+    Attributes:
+        si: frames up to and including the first alarm, over the number of frames, in
+            (0, 1]; 1.0 when the potential never crosses (see ``crossed``).
+        crossed: whether the potential ever exceeded the threshold.
+        first_alarm: the first frame (0-based) above the threshold, or None.
+        n_frames: the number of frames.
+    """
+
+    si: float
+    crossed: bool
+    first_alarm: int | None
+    n_frames: int
+
+
+def sensitivity_index(
+    potentials: Sequence[float] | np.ndarray, threshold: float = DEFAULT_THRESHOLD
+) -> Sensitivity:
+    """Sensitivity Index (Eq. 23): SI = F_n / N_f; smaller means an earlier alarm.
+
+    F_n counts frames from 1 (the paper's numbering), so an alarm on the last frame gives
+    1. The paper leaves the never-crossed case undefined: it is reported as si = 1.0 with
+    crossed = False, never silently (reference/paper-notes.md, item 8).
+    """
+    mp = _series(potentials, "sensitivity_index")
+    first = first_alarm(mp, threshold)
+    n = len(mp)
+    if first is None:
+        return Sensitivity(1.0, False, None, n)
+    return Sensitivity((first + 1) / n, True, first, n)
+
+
+# --- events: hit, miss, false alarm -------------------------------------------------------
+
+Outcome = Literal["hit", "miss", "false_alarm", "correct_rejection"]
+
+
+@dataclass(frozen=True)
+class EventResult:
+    """One clip judged against its label.
+
+    Attributes:
+        outcome: for a collision clip "hit" (first alarm within the window before the
+            collision) or "miss" (no alarm, too early or too late); for a clip without
+            collision "false_alarm" (any alarm) or "correct_rejection".
+        first_alarm: the first alarm frame, or None.
+        collision_frame: the labelled collision frame, None for a non-collision clip.
+        window_frames: the tolerance window, frames before the collision.
+        lead_frames: collision_frame - first_alarm (positive: before the collision), or
+            None without an alarm or a collision.
+        lead_s: lead_frames in seconds.
+    """
+
+    outcome: Outcome
+    first_alarm: int | None
+    collision_frame: int | None
+    window_frames: int
+    lead_frames: int | None
+    lead_s: float | None
+
+    @property
+    def collision(self) -> bool:
+        return self.collision_frame is not None
+
+
+def evaluate_clip(
+    values: Sequence[float] | np.ndarray,
+    collision_frame: int | None,
+    fps: float,
+    *,
+    threshold: float = DEFAULT_THRESHOLD,
+    window_s: float = 1.0,
+) -> EventResult:
+    """Judge a clip's alarms against its labelled collision frame.
+
+    A collision clip is a hit when its first alarm falls in the window of ``window_s``
+    seconds (round(window_s * fps) frames) before the collision, collision frame
+    included; otherwise a miss. A clip without collision (``collision_frame=None``) with
+    any alarm is a false alarm. This is the evaluation of the group's published code
+    (LGMDEvolution.cs; see reference/baselines.md).
+
+    Args:
+        values: membrane potentials or alarm flags, one per frame.
+        collision_frame: 0-based labelled collision frame, or None.
+        fps: frames per second of the clip.
+        threshold: potential threshold (unused for alarm flags).
+        window_s: tolerance window before the collision, seconds.
+    """
+    if not (np.isfinite(fps) and fps > 0):
+        raise ValueError(f"evaluate_clip: fps must be a finite number > 0, got {fps!r}")
+    if not (np.isfinite(window_s) and window_s >= 0):
+        raise ValueError(f"evaluate_clip: window_s must be a finite number >= 0, got {window_s!r}")
+    if collision_frame is not None and (
+        isinstance(collision_frame, bool) or not isinstance(collision_frame, int | np.integer)
+        or collision_frame < 0
+    ):
+        raise ValueError(f"evaluate_clip: collision_frame must be an integer >= 0 or None, "
+                         f"got {collision_frame!r}")
+    first = first_alarm(values, threshold)
+    window = round(window_s * fps)
+    if collision_frame is None:
+        outcome: Outcome = "correct_rejection" if first is None else "false_alarm"
+        return EventResult(outcome, first, None, window, None, None)
+    collision_frame = int(collision_frame)
+    if first is None:
+        return EventResult("miss", None, collision_frame, window, None, None)
+    lead = collision_frame - first
+    outcome = "hit" if 0 <= lead <= window else "miss"
+    return EventResult(outcome, first, collision_frame, window, lead, lead / fps)
+
+
+def score(results: Iterable[EventResult]) -> float:
+    """The group's score over a set of clips: (1 - (3 Fcol + Fnon) / (3 Ncol + Nnon)) x 100.
+
+    Fcol counts missed collision clips out of Ncol, Fnon false alarms out of Nnon clips
+    without collision; a miss weighs three times a false alarm. 100 is perfect.
+    """
+    results = list(results)
+    if not results:
+        raise ValueError("score: no clips")
+    n_col = sum(r.collision for r in results)
+    f_col = sum(r.outcome == "miss" for r in results)
+    f_non = sum(r.outcome == "false_alarm" for r in results)
+    n_non = len(results) - n_col
+    return (1 - (3 * f_col + f_non) / (3 * n_col + n_non)) * 100

@@ -1,0 +1,126 @@
+"""Reading frames from a video file or a folder of images, as RGB uint8.
+
+>>> from lgmd_sim.video import VideoReader
+>>> clip = VideoReader("run.mp4")          # or a folder of frame0001.png, frame0002.png...
+>>> clip.fps, clip.frame_count
+>>> for rgb in clip: ...                   # (H, W, 3) uint8 frames, in order
+
+Problems surface as a ValueError naming the file (and the frame, when a video stops
+decoding part-way), so ``lgmd-sim`` can report them in one line.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+from collections.abc import Iterator
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+__all__ = ["DEFAULT_FOLDER_FPS", "IMAGE_SUFFIXES", "VideoReader", "natural_key"]
+
+#: Frame rate assumed for image folders and for videos that do not state one.
+DEFAULT_FOLDER_FPS = 30.0
+#: Files of an image folder that are read as frames (case-insensitive); others are skipped.
+IMAGE_SUFFIXES = frozenset(
+    {".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff", ".webp", ".ppm", ".pgm", ".pnm"}
+)
+
+
+def natural_key(name: str) -> list[str | int]:
+    """Sort key that orders digit runs by value: frame2 before frame10."""
+    return [int(part) if i % 2 else part.lower() for i, part in enumerate(re.split(r"(\d+)", name))]
+
+
+class VideoReader:
+    """The frames of a video file (anything OpenCV can open) or of an image folder.
+
+    Opening checks that the source exists and can be read; iterating decodes the frames
+    one at a time (each iteration starts again from the first frame).
+
+    Attributes:
+        path: the video file or folder.
+        fps: frames per second (the file's, or `DEFAULT_FOLDER_FPS` for a folder or a
+            file that states none).
+        frame_count: the number of frames when known in advance, else None.
+        is_folder: whether ``path`` is an image folder.
+    """
+
+    def __init__(self, path: str | os.PathLike):
+        self.path = Path(path)
+        self.is_folder = self.path.is_dir()
+        self._images: list[Path] = []
+        if self.is_folder:
+            self._images = sorted(
+                (p for p in self.path.iterdir()
+                 if p.is_file() and p.suffix.lower() in IMAGE_SUFFIXES),
+                key=lambda p: natural_key(p.name),
+            )
+            if not self._images:
+                raise ValueError(f"cannot read image folder '{self.path}': no images found "
+                                 f"(looked for {', '.join(sorted(IMAGE_SUFFIXES))})")
+            self.fps = DEFAULT_FOLDER_FPS
+            self.frame_count: int | None = len(self._images)
+            return
+        if not self.path.exists():
+            raise ValueError(f"cannot read video '{self.path}': no such file or folder")
+        cap = self._open()
+        try:
+            fps = cap.get(cv2.CAP_PROP_FPS)
+            count = cap.get(cv2.CAP_PROP_FRAME_COUNT)
+        finally:
+            cap.release()
+        self.fps = float(fps) if np.isfinite(fps) and 0 < fps < 10_000 else DEFAULT_FOLDER_FPS
+        self.frame_count = int(count) if np.isfinite(count) and 0 < count < 2**31 else None
+
+    def __repr__(self) -> str:
+        return f"VideoReader('{self.path}', fps={self.fps:g}, frame_count={self.frame_count})"
+
+    def _open(self) -> cv2.VideoCapture:
+        cap = cv2.VideoCapture(str(self.path))
+        if not cap.isOpened():
+            cap.release()
+            raise ValueError(f"cannot read video '{self.path}': OpenCV cannot open it "
+                             "(not a video, corrupt, or an unsupported codec)")
+        return cap
+
+    def __iter__(self) -> Iterator[np.ndarray]:
+        return self._folder_frames() if self.is_folder else self._video_frames()
+
+    def _folder_frames(self) -> Iterator[np.ndarray]:
+        size = None
+        for i, image in enumerate(self._images):
+            bgr = cv2.imread(str(image), cv2.IMREAD_COLOR)
+            if bgr is None:
+                raise ValueError(f"cannot read image '{image}' (frame {i} of folder "
+                                 f"'{self.path}')")
+            if size is None:
+                size = bgr.shape[:2]
+            elif bgr.shape[:2] != size:
+                raise ValueError(
+                    f"image '{image}' is {bgr.shape[0]}x{bgr.shape[1]}, unlike the "
+                    f"{size[0]}x{size[1]} of the folder's first image (frame {i} of '{self.path}')"
+                )
+            yield cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB)
+
+    def _video_frames(self) -> Iterator[np.ndarray]:
+        cap = self._open()
+        n = 0
+        try:
+            while True:
+                ok, bgr = cap.read()
+                if not ok:
+                    break
+                n += 1
+                yield cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB)
+        finally:
+            cap.release()
+        if n == 0:
+            raise ValueError(f"cannot read video '{self.path}': no frames decoded")
+        # OpenCV's read() says False both at the end and on a decoding error; a file that
+        # stops short of the frame count its container states is damaged.
+        if self.frame_count is not None and n < self.frame_count:
+            raise ValueError(f"cannot read video '{self.path}': decoding failed at frame {n} "
+                             f"(the file states {self.frame_count} frames)")
