@@ -5,7 +5,10 @@ lgmd_sim/_data/envs and lgmd_sim/_data/assets (see lgmd_sim/resources.py)."""
 from setuptools import find_packages, setup
 
 setup(
-    packages=find_packages(include=["lgmd_sim", "lgmd_sim.*"])
-    + ["lgmd_sim._data.envs", "lgmd_sim._data.assets"],
+    packages=[
+        *find_packages(include=["lgmd_sim", "lgmd_sim.*"]),
+        "lgmd_sim._data.envs",
+        "lgmd_sim._data.assets",
+    ],
     package_dir={"lgmd_sim._data.envs": "envs", "lgmd_sim._data.assets": "assets"},
 )

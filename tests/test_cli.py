@@ -19,8 +19,10 @@ def test_help_lists_every_subcommand(capsys):
 
 def test_help_does_not_import_mujoco():
     # `lgmd-sim --help` and `lgmd-sim detect` must stay light: MuJoCo loads only for the world.
-    code = "import sys; from lgmd_sim import cli; cli.build_parser(); print('mujoco' in sys.modules)"
-    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    code = ("import sys; from lgmd_sim import cli; cli.build_parser();"
+            "print('mujoco' in sys.modules)")
+    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                            check=True)
     assert result.stdout.strip() == "False"
 
 

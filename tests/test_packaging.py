@@ -17,12 +17,14 @@ def test_wheel_carries_envs_and_assets(tmp_path):
     (wheel,) = tmp_path.glob("lgmd_sim-*.whl")
     names = zipfile.ZipFile(wheel).namelist()
     catalogue = sorted(n for n in names if n.startswith("lgmd_sim/_data/envs/"))
-    assert [Path(n).name for n in catalogue] == sorted(p.name for p in (ROOT / "envs").glob("*.toml"))
+    expected = sorted(p.name for p in (ROOT / "envs").glob("*.toml"))
+    assert [Path(n).name for n in catalogue] == expected
     assert catalogue, "no scenario files in the wheel"
     shipped_assets = {n for n in names if n.startswith("lgmd_sim/_data/assets/")}
     for path in (ROOT / "assets").rglob("*"):
         if path.is_file():
-            assert f"lgmd_sim/_data/assets/{path.relative_to(ROOT / 'assets').as_posix()}" in shipped_assets
+            relative = path.relative_to(ROOT / "assets").as_posix()
+            assert f"lgmd_sim/_data/assets/{relative}" in shipped_assets
     assert "lgmd_sim/cli.py" in names
 
 
