@@ -13,3 +13,7 @@ Importing lgmd_sim registers every scenario of the catalogue as `lgmd_sim/<Name>
 """
 
 __version__ = "0.1.0"
+
+from lgmd_sim.envs.catalogue import register_all as _register_all
+
+_register_all()  # entry-point strings only: no MuJoCo import until an env is made

@@ -1,0 +1,140 @@
+"""`JitterEnv`: the Gymnasium environment over a `JitterWorld`."""
+
+from __future__ import annotations
+
+from typing import Any, ClassVar
+
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+
+from lgmd_sim.envs.catalogue import params_for
+from lgmd_sim.envs.params import EnvParams
+from lgmd_sim.world.core import ACCEL_RANGE, GYRO_RANGE, WHEEL_RANGE, JitterWorld
+
+#: Observation bound of the goal distance (m).
+GOAL_RANGE = 1000.0
+
+
+class JitterEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
+    """A camera carrier (robot, hand-held or tripod camera) among obstacles.
+
+    One step is one camera frame (1/fps s of physics).
+
+    - Observation: a Dict of ``frame`` (uint8 (H, W, 3) RGB or (H, W, 1) grey),
+      ``proprio`` (float32: left and right wheel speeds in rad/s, 0 for carriers without
+      wheels; IMU angular velocity in rad/s and specific force in m/s^2, in the carrier's
+      frame) and, when the scenario has a goal, ``goal`` (float32: distance in m, sine and
+      cosine of its bearing from the camera's heading, positive to the left).
+    - Action: Box [-1, 1]^2, scaled to (linear velocity, angular velocity) by
+      ``max_speed`` and ``max_turn``; values outside are clipped; NaN or infinite values
+      raise ValueError. A tripod ignores the action.
+    - Reward: ``progress_reward`` per metre of progress towards the goal, minus
+      ``collision_penalty`` on a step with a collision, minus ``effort_penalty`` times the
+      squared action norm.
+    - Terminated on a collision (if ``terminate_on_collision``) or on reaching the goal;
+      truncated after ``time_limit * fps`` steps.
+    - ``info``: the ground truth of the frame (see `JitterWorld`): time, frame, carrier
+      and camera pose, camera angular and linear velocity (camera frame: x right, y up,
+      z backwards), the most threatening obstacle's index, distance, bearing, closing
+      speed and time to collision, collision flag and first collision frame, SSIM with
+      the previous frame, and goal distance and bearing.
+
+    Args:
+        scenario: a catalogue scenario name (envs/<name>.toml) or None for the defaults.
+        render_mode: None or "rgb_array" (the camera view; the chase view when
+            ``render_camera="chase"``).
+        **overrides: any parameter of `EnvParams` (see ``lgmd-sim envs <name>``).
+    """
+
+    metadata: ClassVar[dict[str, Any]] = {"render_modes": ["rgb_array"], "render_fps": 30}
+
+    def __init__(self, scenario: str | None = None, render_mode: str | None = None,
+                 **overrides: Any) -> None:
+        if render_mode not in (None, "rgb_array"):
+            raise ValueError(f"render_mode must be None or 'rgb_array', got {render_mode!r}")
+        self.params: EnvParams = params_for(scenario, overrides)
+        self.scenario = scenario
+        self.render_mode = render_mode
+        self.metadata = {**self.metadata, "render_fps": self.params.fps}
+        self.world = JitterWorld(self.params)
+        h, w = self.params.size
+        channels = 3 if self.params.frame == "rgb" else 1
+        obs: dict[str, spaces.Space] = {
+            "frame": spaces.Box(0, 255, (h, w, channels), np.uint8),
+            "proprio": spaces.Box(
+                np.array([-WHEEL_RANGE] * 2 + [-GYRO_RANGE] * 3 + [-ACCEL_RANGE] * 3,
+                         np.float32),
+                np.array([WHEEL_RANGE] * 2 + [GYRO_RANGE] * 3 + [ACCEL_RANGE] * 3,
+                         np.float32), dtype=np.float32),
+        }
+        self._has_goal = self.params.goal_distance > 0
+        if self._has_goal:
+            obs["goal"] = spaces.Box(np.array([0, -1, -1], np.float32),
+                                     np.array([GOAL_RANGE, 1, 1], np.float32), dtype=np.float32)
+        self.observation_space = spaces.Dict(obs)
+        self.action_space = spaces.Box(-1.0, 1.0, (2,), np.float32)
+        self._scale = np.array([self.params.max_speed, self.params.max_turn])
+        self._steps = 0
+        self._goal_distance = 0.0
+
+    # -- Gymnasium API -------------------------------------------------------------------
+
+    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None
+              ) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+        super().reset(seed=seed)
+        # The episode's world seed comes from the env's generator: reset(seed=s) fixes
+        # every later episode too, as Gymnasium specifies.
+        self.world.reset(seed=int(self.np_random.integers(2**63)))
+        self._steps = 0
+        self._goal_distance = self.world.truth.get("goal_distance", 0.0)
+        return self._observation(), dict(self.world.truth)
+
+    def step(self, action: np.ndarray) -> tuple[dict[str, np.ndarray], float, bool, bool,
+                                                 dict[str, Any]]:
+        a = np.asarray(action, dtype=np.float64)
+        if a.shape != (2,):
+            raise ValueError(f"action must have shape (2,), got {a.shape}")
+        if not np.isfinite(a).all():
+            raise ValueError(f"action must be finite, got {a.tolist()}")
+        a = np.clip(a, -1.0, 1.0)
+        v, omega = a * self._scale
+        self.world.step(float(v), float(omega))
+        self._steps += 1
+        p, truth = self.params, self.world.truth
+        reward = -p.effort_penalty * float(a @ a)
+        if truth["collision"]:
+            reward -= p.collision_penalty
+        reached = False
+        if self._has_goal:
+            reward += p.progress_reward * (self._goal_distance - truth["goal_distance"])
+            self._goal_distance = truth["goal_distance"]
+            reached = truth["goal_distance"] < p.goal_radius
+        terminated = reached or (p.terminate_on_collision and truth["collision"])
+        truncated = not terminated and self._steps >= p.max_steps
+        info = dict(truth)
+        info["goal_reached"] = reached
+        return self._observation(), reward, terminated, truncated, info
+
+    def render(self) -> np.ndarray | None:
+        if self.render_mode != "rgb_array":
+            return None
+        if self.params.render_camera == "chase":
+            return self.world.render_chase()
+        return self.world.rgb.copy()
+
+    def close(self) -> None:
+        self.world.close()
+
+    # -- helpers -------------------------------------------------------------------------
+
+    def _observation(self) -> dict[str, np.ndarray]:
+        w = self.world
+        # The world makes fresh frame arrays every step: no copy needed.
+        frame = w.rgb if self.params.frame == "rgb" else w.grey[:, :, None]
+        obs = {"frame": frame, "proprio": w.proprio()}
+        if self._has_goal:
+            bearing = w.truth["goal_bearing"]
+            obs["goal"] = np.array([min(w.truth["goal_distance"], GOAL_RANGE), np.sin(bearing),
+                                    np.cos(bearing)], np.float32)
+        return obs

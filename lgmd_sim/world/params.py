@@ -1,0 +1,264 @@
+"""The parameters of a jitter world: named, defaulted with a source, checked on creation.
+
+Every scenario of the catalogue (envs/*.toml) is a set of overrides of these defaults, and
+``gym.make(id, **overrides)`` overrides them again. This module does not import MuJoCo, so
+that the catalogue can list and check parameters cheaply.
+
+The common jitter scale
+-----------------------
+``jitter`` is one number for every carrier: 0 is a steady camera, 1 a typical rough-ground
+or hand-held level, larger is stronger. It sets the terrain roughness of the `robot`
+carrier (``jitter * ROUGHNESS_PER_JITTER`` metres RMS) and the shake of the `handheld`
+and `tripod` carriers (``jitter * SHAKE_PER_JITTER`` degrees RMS rotation plus
+``jitter * SHIFT_PER_JITTER`` metres RMS translation). The two constants are calibrated so
+that jitter 1 gives camera streams with an ISI (mean SSIM of consecutive frames) near the
+paper's jitter streams (0.63 to 0.76, Table 2) at 270 x 480; explicit ``roughness`` or
+``shake`` values override the mapping.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+from typing import Any
+
+from lgmd_sim.models.base import (
+    Check,
+    finite,
+    in_range,
+    int_at_least,
+    non_negative,
+    one_of,
+    param,
+    positive,
+    tuple_of,
+)
+from lgmd_sim.world import terrain
+
+#: Terrain RMS height (m) per unit of jitter for the robot carrier (calibrated, see above).
+ROUGHNESS_PER_JITTER = 0.008
+#: Hand-held / tripod shake: RMS rotation (degrees) per unit of jitter (calibrated).
+SHAKE_PER_JITTER = 1.1
+#: Hand-held / tripod shake: RMS translation (m) per unit of jitter.
+SHIFT_PER_JITTER = 0.006
+
+#: Named frame sizes (height, width).
+RESOLUTIONS: dict[str, tuple[int, int]] = {
+    "paper": (270, 480),  # paper Sec. 4.1.2: the recorded streams are 270 x 480 at 30 fps
+    "rl": (120, 160),
+    "small": (64, 64),
+}
+#: Largest frame side accepted (4K); larger would exhaust memory before it helps anyone.
+MAX_SIDE = 3840
+#: Smallest frame side: the SSIM window (11 x 11) must fit.
+MIN_SIDE = 16
+
+#: Most terrain tiles (each two heightfields) a world may have: 40 x 40 m at 0.1 m cells.
+MAX_TILES = 400
+CARRIERS = ("robot", "handheld", "tripod")
+OBSTACLE_KINDS = ("box", "cylinder", "wall", "balloon")
+MOVERS = ("none", "balloon", "ball", "swing", "vehicle")
+
+
+def optional(check: Check) -> Check:
+    """Accept None (meaning: derived from other parameters) or what `check` accepts."""
+
+    def check_optional(v: Any) -> str | None:
+        return None if v is None else check(v)
+
+    return check_optional
+
+
+def resolution_check(v: Any) -> str | None:
+    if isinstance(v, str):
+        return None if v in RESOLUTIONS else (
+            f"must be one of {', '.join(map(repr, RESOLUTIONS))} or [height, width]"
+        )
+    error = tuple_of(int_at_least(MIN_SIDE), 2)(v)
+    if error:
+        return f"must be a preset name or [height, width] with sides {MIN_SIDE}..{MAX_SIDE}"
+    if max(v) > MAX_SIDE:
+        return f"sides must be at most {MAX_SIDE}, got {v[0]} x {v[1]}"
+    return None
+
+
+def kinds_check(v: Any) -> str | None:
+    error = tuple_of(one_of(*OBSTACLE_KINDS))(v)
+    return f"must list kinds among {', '.join(OBSTACLE_KINDS)}" if error else None
+
+
+@dataclass(frozen=True)
+class CheckedParams:
+    """A frozen set of parameters whose fields are checked on creation."""
+
+    def __post_init__(self) -> None:
+        for f in dataclasses.fields(self):
+            value = getattr(self, f.name)
+            if isinstance(value, list):  # TOML and JSON give lists; keep the params hashable
+                value = tuple(value)
+                object.__setattr__(self, f.name, value)
+            check = f.metadata.get("check")
+            error = check(value) if check else None
+            if error:
+                raise ValueError(f"parameter {f.name}={value!r}: {error}")
+
+    @classmethod
+    def describe(cls) -> list[tuple[str, Any, str, str]]:
+        """(name, default, source, doc) for every parameter."""
+        return [
+            (f.name, f.default, f.metadata.get("source", ""), f.metadata.get("doc", ""))
+            for f in dataclasses.fields(cls)
+        ]
+
+    @classmethod
+    def names(cls) -> set[str]:
+        return {f.name for f in dataclasses.fields(cls)}
+
+    def replace(self, **changes: Any) -> CheckedParams:
+        unknown = sorted(set(changes) - self.names())
+        if unknown:
+            raise ValueError(f"unknown parameter(s) {', '.join(unknown)}; "
+                             f"known: {', '.join(sorted(self.names()))}")
+        return dataclasses.replace(self, **changes)
+
+
+DESIGN = "design choice"
+
+
+@dataclass(frozen=True)
+class SceneParams(CheckedParams):
+    """What the world contains and how it is seen."""
+
+    # -- camera carrier and jitter --------------------------------------------------------
+    carrier: str = param("robot", DESIGN, check=one_of(*CARRIERS),
+                         doc="what carries the camera: robot, handheld or tripod")
+    jitter: float = param(1.0, "common jitter scale (see lgmd_sim.world.params)",
+                          check=non_negative,
+                          doc="0 steady, 1 typical rough ground / hand-held, larger stronger")
+    roughness: float | None = param(
+        None, f"jitter x {ROUGHNESS_PER_JITTER} m for the robot carrier, else 0",
+        check=optional(non_negative), doc="terrain RMS height (m); 0 is flat ground")
+    terrain_scale: float = param(0.5, DESIGN, check=in_range(0.05, 50.0),
+                                 doc="spatial scale of the terrain bumps (m)")
+    terrain_cell: float = param(
+        0.1, "design: fine enough for 6 cm wheels, coarse enough to render fast",
+        check=in_range(0.02, 2.0), doc="heightfield grid spacing (m)")
+    arena: tuple[float, float] = param(
+        (12.0, 8.0), DESIGN, check=tuple_of(in_range(1.0, 200.0), 2),
+        doc="length (along the start heading) and width of the rough patch (m), rounded up to "
+            "whole drawing tiles of 20 cells")
+    shake: float | None = param(
+        None, f"jitter x {SHAKE_PER_JITTER} deg for handheld and tripod carriers, else 0",
+        check=optional(non_negative), doc="RMS rotation of the camera shake (degrees)")
+    shake_band: tuple[float, float] = param(
+        (0.8, 7.0), "hand tremor and gait sway lie within about 1 to 8 Hz",
+        check=tuple_of(in_range(0.05, 14.0), 2), doc="frequency band of the shake (Hz)")
+    max_speed: float = param(1.0, "a small outdoor robot / walking pace", check=in_range(0.01, 20),
+                             doc="linear velocity at action +1 (m/s)")
+    max_turn: float = param(2.0, DESIGN, check=in_range(0.01, 20),
+                            doc="angular velocity at action +1 (rad/s)")
+    camera_height: float = param(1.2, "a camera held at chest height / on a tripod",
+                                 check=in_range(0.05, 10.0),
+                                 doc="camera height of the handheld and tripod carriers (m)")
+    # -- camera and rendering --------------------------------------------------------------
+    resolution: str | tuple[int, int] = param(
+        "rl", "presets: paper 270x480 (Sec. 4.1.2), rl 120x160, small 64x64",
+        check=resolution_check, doc="preset name or [height, width]")
+    fovy: float = param(55.0, "about a GoPro's linear field of view (Sec. 4.1.2's camera)",
+                        check=in_range(10.0, 150.0), doc="vertical field of view (degrees)")
+    frame: str = param("rgb", DESIGN, check=one_of("rgb", "grey"),
+                       doc="observed frame: rgb (H, W, 3) or grey (H, W, 1)")
+    fps: float = param(30.0, "paper Sec. 4.1.2: 30 frames per second", check=in_range(1, 1000),
+                       doc="camera frame rate; one env step per frame")
+    substeps: int = param(8, "design: 4.2 ms physics steps at 30 fps",
+                          check=int_at_least(1), doc="physics steps per frame")
+    shadows: bool = param(False, "software GL: shadows cost more than the whole frame",
+                          check=one_of(True, False), doc="render shadows")
+    multisample: int = param(0, "software GL: no multisampling",
+                             check=int_at_least(0), doc="multisample anti-aliasing samples")
+    render_camera: str = param("camera", DESIGN, check=one_of("camera", "chase"),
+                               doc="what render() shows: the carrier's camera or a chase view")
+    # -- obstacles ---------------------------------------------------------------------------
+    n_obstacles: int = param(0, DESIGN, check=int_at_least(0), doc="static obstacles")
+    obstacle_kinds: tuple[str, ...] = param(
+        ("box", "cylinder"), DESIGN, check=kinds_check,
+        doc=f"kinds of the static obstacles, cycled: {', '.join(OBSTACLE_KINDS)}")
+    obstacle_field: tuple[float, float, float] = param(
+        (2.0, 8.0, 2.5), DESIGN, check=tuple_of(finite, 3),
+        doc="static obstacles lie at x in [x0, x1], |y| <= half-width (m)")
+    obstacle_ahead: float = param(0.0, DESIGN, check=non_negative,
+                                  doc="put the first obstacle this far straight ahead (0: no)")
+    mover: str = param("none", DESIGN, check=one_of(*MOVERS),
+                       doc=f"moving object: {', '.join(MOVERS)}")
+    mover_distance: float = param(8.0, DESIGN, check=in_range(0.5, 200.0),
+                                  doc="start distance of the moving object (m)")
+    mover_speed: float = param(2.0, DESIGN, check=in_range(0.05, 50.0),
+                               doc="approach speed of the moving object (m/s)")
+    miss_distance: float = param(0.0, DESIGN, check=non_negative,
+                                 doc="closest surface gap the mover is aimed at (0: collide)")
+    mover_spread: float = param(15.0, DESIGN, check=in_range(0.0, 90.0),
+                                doc="seeded spread of the mover's approach direction (deg)")
+    aim_lead_speed: float = param(
+        0.0, DESIGN, check=non_negative,
+        doc="carrier speed (m/s) assumed when aiming the mover at a moving camera")
+    scenery: int = param(16, DESIGN, check=int_at_least(0),
+                         doc="background trees and buildings (not obstacles)")
+    goal_distance: float = param(0.0, DESIGN, check=non_negative,
+                                 doc="goal this far straight ahead (m); 0: no goal")
+    goal_radius: float = param(0.5, DESIGN, check=positive, doc="goal reached within (m)")
+    # -- lighting ----------------------------------------------------------------------------
+    sun_elevation: float = param(50.0, DESIGN, check=in_range(5.0, 90.0),
+                                 doc="sun elevation (degrees); its azimuth is seeded")
+    shade: float = param(0.0, "the paper's road footage suffers illumination changes",
+                         check=in_range(0.0, 1.0),
+                         doc="fraction of sunlight a passing shade blocks (0: none)")
+    flicker: float = param(0.0, "the paper's road footage suffers illumination changes",
+                           check=in_range(0.0, 1.0), doc="relative amplitude of light flicker")
+    flicker_hz: float = param(6.0, DESIGN, check=in_range(0.1, 100.0),
+                              doc="flicker frequency (Hz)")
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        if self.shake_band[0] >= self.shake_band[1]:
+            raise ValueError(f"parameter shake_band={self.shake_band!r}: low must be < high")
+        nyquist = self.fps * self.substeps / 2
+        if self.shake_band[1] >= nyquist:
+            raise ValueError(f"parameter shake_band={self.shake_band!r}: must stay below "
+                             f"{nyquist:g} Hz (half the physics rate)")
+        x0, x1, half = self.obstacle_field
+        if not (x0 < x1 and half > 0):
+            raise ValueError(f"parameter obstacle_field={self.obstacle_field!r}: "
+                             "needs x0 < x1 and half-width > 0")
+        tiles = terrain.tile_grid(self.arena, self.terrain_cell)
+        if self.resolved_roughness > 0 and tiles[0] * tiles[1] > MAX_TILES:
+            raise ValueError(f"parameters arena={self.arena!r} / terrain_cell="
+                             f"{self.terrain_cell!r}: {tiles[0] * tiles[1]} terrain tiles, more "
+                             f"than {MAX_TILES}; use a coarser terrain_cell or a smaller arena")
+
+    # -- derived -----------------------------------------------------------------------------
+
+    @property
+    def size(self) -> tuple[int, int]:
+        """Frame (height, width)."""
+        res = self.resolution
+        return RESOLUTIONS[res] if isinstance(res, str) else (int(res[0]), int(res[1]))
+
+    @property
+    def resolved_roughness(self) -> float:
+        """Terrain RMS height (m)."""
+        if self.roughness is not None:
+            return float(self.roughness)
+        return self.jitter * ROUGHNESS_PER_JITTER if self.carrier == "robot" else 0.0
+
+    @property
+    def resolved_shake(self) -> tuple[float, float]:
+        """Shake RMS rotation (rad) and translation (m) of handheld and tripod carriers."""
+        if self.carrier == "robot":
+            return 0.0, 0.0
+        degrees = self.shake if self.shake is not None else self.jitter * SHAKE_PER_JITTER
+        scale = degrees / SHAKE_PER_JITTER  # translation follows rotation on the jitter scale
+        return float(degrees) * 3.141592653589793 / 180.0, scale * SHIFT_PER_JITTER
+
+    @property
+    def timestep(self) -> float:
+        return 1.0 / (self.fps * self.substeps)
