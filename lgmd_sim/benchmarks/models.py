@@ -1,0 +1,176 @@
+"""`lgmd-sim bench models`: frames per second of every LGMD model on one core.
+
+For each model of `lgmd_sim.models.available()`: streaming frames/s (one stream, one
+frame per step), batched frames/s (N streams per step; frames counted over all streams),
+the frames/s of its per-equation reference implementation, and the ratio of streaming
+to reference, all measured in the same run on the same frames. The process is pinned to
+one core and every library to one thread. Frames come from a random texture moving
+diagonally, so every pixel changes and the kernels do their full work.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import platform
+import sys
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = ["Row", "measure", "moving_texture", "run"]
+
+#: Warm-up steps before timing: numba compiles (or loads its cache) on the first call.
+WARMUP_STEPS = 5
+#: Each fast figure is the best of this many runs: on a shared machine, other processes
+#: only ever slow a run down.
+RUNS = 5
+#: A reference stops after this many seconds (it is slow), with at least MIN_FRAMES.
+REFERENCE_BUDGET_S = 10.0
+MIN_FRAMES = 3
+
+
+@dataclass(frozen=True)
+class Row:
+    """One model's figures; None where not measured, with the reason in ``note``."""
+
+    model: str
+    streaming: float | None = None
+    batched: float | None = None
+    reference: float | None = None
+    note: str = ""
+
+    @property
+    def ratio(self) -> float | None:
+        if self.streaming is None or self.reference is None:
+            return None
+        return self.streaming / self.reference
+
+
+def moving_texture(height: int, width: int, n: int, seed: int = 0) -> np.ndarray:
+    """n uint8 frames: a window moving 3 px right and 2 px down per frame over a texture.
+
+    The texture is uniform noise smoothed over about 2 pixels (grey levels 0..255), so
+    every pixel changes every frame, as under a shaking camera.
+    """
+    import cv2
+
+    rng = np.random.default_rng(seed)
+    big = rng.integers(0, 256, (height + 2 * n + 8, width + 3 * n + 8), dtype=np.uint8)
+    big = cv2.GaussianBlur(big, (5, 5), 1.0)
+    big = cv2.normalize(big, None, 0, 255, cv2.NORM_MINMAX)
+    return np.stack([big[2 * t : 2 * t + height, 3 * t : 3 * t + width] for t in range(n)])
+
+
+def _rate(step: Callable[[int], object], n_frames: int, budget_s: float | None = None) -> float:
+    """Steps per second over n_frames calls of step(i): the best of RUNS runs.
+
+    With ``budget_s`` (for slow references): one run, stopped once budget_s is spent.
+    """
+    for i in range(WARMUP_STEPS if budget_s is None else 1):
+        step(i)
+    best = 0.0
+    for _ in range(1 if budget_s is not None else RUNS):
+        done = 0
+        start = time.perf_counter()
+        while done < n_frames:
+            step(done)
+            done += 1
+            if budget_s is not None and done >= MIN_FRAMES and (
+                time.perf_counter() - start > budget_s
+            ):
+                break
+        best = max(best, done / (time.perf_counter() - start))
+    return best
+
+
+def measure(name: str, frames: np.ndarray, n_frames: int, n_streams: int) -> Row:
+    """Streaming, batched and reference frames/s of model `name` on `frames`."""
+    from lgmd_sim import models
+    from lgmd_sim.models.reference import make_reference
+
+    try:
+        model = models.make(name)
+    except ImportError as exc:
+        return Row(name, note=f"not available ({exc})")
+    cycle = len(frames)
+    streaming = _rate(lambda i: model.step(frames[i % cycle]), n_frames)
+    batch_model = models.make(name, n_streams=n_streams)
+    offsets = np.arange(n_streams) * 7  # every stream sees other frames
+    stacks = [np.ascontiguousarray(frames[(offsets + i) % cycle]) for i in range(cycle)]
+    batched = n_streams * _rate(lambda i: batch_model.step(stacks[i % cycle]),
+                                max(1, n_frames // n_streams))
+    try:
+        ref = make_reference(name)
+    except ValueError as exc:
+        return Row(name, streaming, batched, note=f"no reference ({exc})")
+    reference = _rate(lambda i: ref.step(frames[i % cycle]), n_frames, REFERENCE_BUDGET_S)
+    return Row(name, streaming, batched, reference)
+
+
+def _pin_to_one_core() -> str:
+    """Pin this process to one core and every library to one thread; describe where."""
+    import cv2
+    import numba
+
+    cv2.setNumThreads(1)
+    numba.set_num_threads(1)
+    if not hasattr(os, "sched_setaffinity"):
+        return "not pinned (no sched_setaffinity on this platform)"
+    core = min(os.sched_getaffinity(0))
+    os.sched_setaffinity(0, {core})
+    return f"pinned to core {core} of {os.cpu_count()}"
+
+
+def _cpu_name() -> str:
+    try:
+        with open("/proc/cpuinfo") as f:
+            for line in f:
+                if line.startswith("model name"):
+                    return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or platform.machine()
+
+
+def _table(rows: list[Row], n_streams: int, markdown: bool) -> str:
+    head = ["model", "streaming fps", f"batched fps ({n_streams} streams)", "reference fps",
+            "fast / reference"]
+
+    def fmt(v: float | None, suffix: str = "") -> str:
+        return "-" if v is None else f"{v:,.0f}{suffix}" if v >= 10 else f"{v:.1f}{suffix}"
+
+    body = [[r.model, fmt(r.streaming), fmt(r.batched), fmt(r.reference), fmt(r.ratio, "x")]
+            for r in rows]
+    notes = [f"{r.model}: {r.note}" for r in rows if r.note]
+    if markdown:
+        lines = ["| " + " | ".join(head) + " |", "|" + "|".join(["---"] + ["---:"] * 4) + "|"]
+        lines += ["| " + " | ".join(b) + " |" for b in body]
+    else:
+        widths = [max(len(x[i]) for x in [head, *body]) for i in range(len(head))]
+        lines = ["  ".join(c.ljust(w) if i == 0 else c.rjust(w)
+                           for i, (c, w) in enumerate(zip(x, widths, strict=True)))
+                 for x in [head, *body]]
+    return "\n".join(lines + (["", *notes] if notes else []))
+
+
+def run(args: argparse.Namespace) -> int:
+    """Measure every model and print the table (Markdown with ``--markdown``)."""
+    import numba
+
+    from lgmd_sim import models
+
+    where = _pin_to_one_core()
+    frames = moving_texture(args.height, args.width, 64)
+    print(f"# lgmd-sim bench models: {args.height}x{args.width} uint8 frames, best of "
+          f"{RUNS} runs of {args.frames} frames (references: one run), one core")
+    print(f"# CPU: {_cpu_name()}, {where}; Python {platform.python_version()}, "
+          f"numpy {np.__version__}, numba {numba.__version__}")
+    rows = []
+    for name in models.available():
+        rows.append(measure(name, frames, args.frames, args.streams))
+        print(f"measured {name}", file=sys.stderr, flush=True)
+    print(_table(rows, args.streams, args.markdown))
+    return 0
