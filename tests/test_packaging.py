@@ -45,7 +45,7 @@ def test_installed_wheel_works_outside_the_checkout(tmp_path):
     code = (
         "import gymnasium as gym, lgmd_sim, lgmd_sim.resources as r;"
         "print(lgmd_sim.__file__); print(r.envs_dir()); print(r.assets_dir());"
-        "env = gym.make('lgmd_sim/StationaryApproach-v0', height=32, width=48);"
+        "env = gym.make('lgmd_sim/StationaryApproach-v0', resolution=[32, 48]);"
         "obs, info = env.reset(seed=0); env.close(); print(obs['frame'].shape)"
     )
     result = subprocess.run(

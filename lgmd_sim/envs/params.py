@@ -4,8 +4,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from lgmd_sim.models.base import non_negative, one_of, param
-from lgmd_sim.world.params import DESIGN, SceneParams, in_range
+from lgmd_sim.params import in_range, non_negative, one_of, param
+from lgmd_sim.world.params import DESIGN, SceneParams
 
 
 @dataclass(frozen=True)

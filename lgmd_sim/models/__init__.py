@@ -10,7 +10,6 @@
 
 from __future__ import annotations
 
-import dataclasses
 from importlib import import_module
 from typing import Any
 
@@ -57,7 +56,7 @@ def make(
     if preset not in cls.presets:
         raise ValueError(f"unknown preset {preset!r} for model {name!r}; available: "
                          f"{', '.join(cls.presets)}")
-    known = {f.name for f in dataclasses.fields(cls.Params)}
+    known = cls.Params.names()
     unknown = sorted(set(params) - known)
     if unknown:
         raise ValueError(f"unknown parameter(s) {', '.join(unknown)} for model {name!r}; "

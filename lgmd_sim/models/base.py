@@ -13,69 +13,21 @@ state for some streams) and `_step` (one frame per stream, returning potentials)
 
 from __future__ import annotations
 
-import dataclasses
 from abc import ABC, abstractmethod
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any, ClassVar
 
 import cv2
 import numpy as np
 
+from lgmd_sim.params import CheckedParams, in_range, param
+
 # --- parameters -------------------------------------------------------------------------
-
-Check = Callable[[Any], str | None]  # returns an error message, or None when valid
-
-
-def param(default: Any, source: str, *, check: Check | None = None, doc: str = "") -> Any:
-    """A model parameter: its default, where that default comes from, and its check."""
-    return dataclasses.field(
-        default=default, metadata={"source": source, "check": check, "doc": doc}
-    )
-
-
-def positive(v: Any) -> str | None:
-    return None if _is_real(v) and v > 0 else "must be a finite number > 0"
-
-
-def non_negative(v: Any) -> str | None:
-    return None if _is_real(v) and v >= 0 else "must be a finite number >= 0"
-
-
-def finite(v: Any) -> str | None:
-    return None if _is_real(v) else "must be a finite number"
-
-
-def in_range(lo: float, hi: float) -> Check:
-    def check(v: Any) -> str | None:
-        return None if _is_real(v) and lo <= v <= hi else f"must be a number in [{lo}, {hi}]"
-
-    return check
-
-
-def int_at_least(lo: int) -> Check:
-    def check(v: Any) -> str | None:
-        ok = isinstance(v, int | np.integer) and not isinstance(v, bool) and v >= lo
-        return None if ok else f"must be an integer >= {lo}"
-
-    return check
-
-
-def one_of(*choices: str) -> Check:
-    def check(v: Any) -> str | None:
-        return None if v in choices else f"must be one of {', '.join(map(repr, choices))}"
-
-    return check
-
-
-def _is_real(v: Any) -> bool:
-    return isinstance(v, int | float | np.integer | np.floating) and not isinstance(v, bool) and (
-        bool(np.isfinite(v))
-    )
 
 
 @dataclass(frozen=True)
-class ModelParams:
+class ModelParams(CheckedParams):
     """Base of every model's parameters: named, defaulted with a source, checked on creation."""
 
     threshold: float = param(
@@ -84,34 +36,6 @@ class ModelParams:
         check=in_range(0.5, 1.0),
         doc="alarm when the membrane potential exceeds this",
     )
-
-    def __post_init__(self) -> None:
-        for f in dataclasses.fields(self):
-            check = f.metadata.get("check")
-            value = getattr(self, f.name)
-            error = check(value) if check else None
-            if error:
-                raise ValueError(f"{type(self).__name__}.{f.name}={value!r}: {error}")
-
-    @classmethod
-    def describe(cls) -> list[tuple[str, Any, str, str]]:
-        """(name, default, source, doc) for every parameter, for docs and ``--help``."""
-        return [
-            (f.name, f.default, f.metadata.get("source", ""), f.metadata.get("doc", ""))
-            for f in dataclasses.fields(cls)
-        ]
-
-
-def tuple_of(check: Check, length: int | None = None) -> Check:
-    """Check every element of a tuple parameter (and its length, when given)."""
-
-    def check_all(v: Any) -> str | None:
-        if not isinstance(v, tuple | list) or (length is not None and len(v) != length):
-            return f"must be a sequence of {length or 'one or more'} values"
-        errors = [e for e in map(check, v) if e]
-        return f"every element {errors[0]}" if errors else None
-
-    return check_all
 
 
 # --- outputs ----------------------------------------------------------------------------

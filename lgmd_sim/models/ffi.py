@@ -20,8 +20,9 @@ from typing import ClassVar
 
 import numpy as np
 
-from lgmd_sim.models.base import ModelParams, finite, non_negative, param, positive
+from lgmd_sim.models.base import ModelParams
 from lgmd_sim.models.lgmd2 import LGMD2, LGMD2Params
+from lgmd_sim.params import finite, non_negative, param, positive
 
 __all__ = ["FFIParams", "FOffLGMD", "FOnLGMD"]
 

@@ -25,17 +25,8 @@ from typing import Any, ClassVar
 import numpy as np
 from numba import njit
 
-from lgmd_sim.models.base import (
-    LGMDModel,
-    ModelParams,
-    finite,
-    in_range,
-    non_negative,
-    param,
-    positive,
-    tuple_of,
-)
-from lgmd_sim.models.kernels import fill_borders, ring_slot
+from lgmd_sim.models.base import LGMDModel, ModelParams
+from lgmd_sim.models.kernels import fill_borders, ring_slot, staggered_arrays
 from lgmd_sim.models.lgmd1 import (
     _NO_MAP,
     JIT,
@@ -45,6 +36,7 @@ from lgmd_sim.models.lgmd1 import (
     sigmoid_potential,
     take_first_frames,
 )
+from lgmd_sim.params import finite, in_range, non_negative, param, positive, tuple_of
 
 __all__ = ["LGMD2", "LGMD2Params", "low_pass_coefficient"]
 
@@ -121,21 +113,19 @@ class LGMD2(LGMDModel):
     # -- state -------------------------------------------------------------------------
 
     def _allocate(self, n: int, height: int, width: int) -> None:
-        f32 = np.float32
         self._prev = np.zeros((n, height, width), np.uint8)
         self._fresh = np.ones(n, bool)
-        self._on = np.zeros((n, height, width), f32)
-        self._off = np.zeros((n, height, width), f32)
-        # Low-passes (padded, replicated borders): ON centre, near, diagonal; OFF the same.
-        self._lp = np.zeros((n, 6, height + 2, width + 2), f32)
+        # ON, OFF, the low-passes (padded, replicated borders: ON centre, near, diagonal;
+        # OFF the same) and the scratch lines, staggered (`staggered_arrays`): allocated
+        # apart, they shared page offsets and ran 2x slower.
+        self._on, self._off, self._lp, self._s_ring, self._vsum, self._q, self._ce_cols = (
+            staggered_arrays([(n, height, width), (n, height, width),
+                              (n, 6, height + 2, width + 2), (3, width + 2), (width + 2,),
+                              (height, width), (width,)]))
         # Per stream: PM, PM_on, PM_off, mean ON, mean OFF; K and the adapted K (SFA).
         self._pm = np.zeros((n, 5))
         self._k = np.full(n, 0.5)
         self._adapted = np.full(n, 0.5)
-        self._s_ring = np.zeros((3, width + 2), f32)
-        self._vsum = np.zeros(width + 2, f32)
-        self._q = np.zeros((height, width), f32)
-        self._q_max = np.zeros(height, f32)
 
     def _reset_streams(self, idx: np.ndarray) -> None:
         self._fresh[idx] = True
@@ -173,7 +163,7 @@ class LGMD2(LGMDModel):
             grey, self._prev, self._on, self._off, self._lp, w_on, w_off,
             gate_on.astype(f32), gate_off.astype(f32), f32(p.carry), self._weights,
             self._alphas, p.delta_c, p.c_w, p.c_de, p.t_de, self._s_ring, self._vsum,
-            self._q, self._q_max, layers is not None, *maps, g_total,
+            self._q, self._ce_cols, layers is not None, *maps, g_total,
         )
         k = sigmoid_potential(g_total, n_cells, p.c_sig)
         self._adapted = spike_frequency_adaptation(
@@ -245,7 +235,7 @@ def _low_pass_row(lp_row, source, alpha):
 
 @njit(**JIT)
 def _onoff_frames(frames, prev, on, off, lp, w_on, w_off, gate_on, gate_off, carry,
-                  weights, alphas, delta_c, c_w, c_de, t_de, s_ring, vsum, q, q_max,
+                  weights, alphas, delta_c, c_w, c_de, t_de, s_ring, vsum, q, ce_cols,
                   want, l_p, l_on, l_off, l_s, l_g, g_total):
     """One frame per stream of the ON/OFF models, up to sum G.
 
@@ -262,7 +252,7 @@ def _onoff_frames(frames, prev, on, off, lp, w_on, w_off, gate_on, gate_off, car
         woff = w_off[n]
         g_on = gate_on[n]
         g_off = gate_off[n]
-        ce_max = zero
+        ce_cols[:] = zero
         for y in range(height + 1):
             if y < height:
                 fr = frames[n, y]
@@ -303,12 +293,10 @@ def _onoff_frames(frames, prev, on, off, lp, w_on, w_off, gate_on, gate_off, car
                 for k in range(3):
                     _low_pass_row(lp[n, k, y], on[n, y - 1], alphas[k])
                     _low_pass_row(lp[n, k + 3, y], off[n, y - 1], alphas[k + 3])
-                cm, qm = g_row(s_ring[ring_slot(y - 2, height, 3)], s_ring[(y - 1) % 3],
-                               s_ring[ring_slot(y, height, 3)], vsum, q[y - 1])
-                ce_max = max(ce_max, cm)
-                q_max[y - 1] = qm
+                g_row(s_ring[ring_slot(y - 2, height, 3)], s_ring[(y - 1) % 3],
+                      s_ring[ring_slot(y, height, 3)], vsum, q[y - 1], ce_cols)
         for k in range(6):  # replicated top and bottom borders
             lp[n, k, 0] = lp[n, k, 1]
             lp[n, k, height + 1] = lp[n, k, height]
-        g_total[n] = g_sum(q, q_max, ce_max, delta_c, c_w, c_de, t_de, want,
+        g_total[n] = g_sum(q, ce_cols, delta_c, c_w, c_de, t_de, want,
                            l_g[n] if want else q)

@@ -53,9 +53,30 @@ def _single_threaded_worker() -> None:
 
 if multiprocessing.parent_process() is not None:  # a spawned or forkserver worker
     _single_threaded_worker()
-# A forked worker: its GL starts afresh after the fork (lgmd_sim.world.render), so Mesa
-# reads the variable then.
-os.register_at_fork(after_in_child=_single_threaded_worker)
+
+# A forked worker inherits OpenCV's thread pool as it was at the fork. Reconfiguring it in
+# the child can deadlock on a pool lock some parent thread held at that instant, so the
+# parent makes it single-threaded just before forking and restores it just after. Mesa
+# reads LP_NUM_THREADS when the child makes its GL context (after the fork, see render).
+_parent_threads: list[int] = []
+
+
+def _before_fork() -> None:
+    _parent_threads.append(cv2.getNumThreads())
+    cv2.setNumThreads(1)
+
+
+def _after_fork_in_parent() -> None:
+    cv2.setNumThreads(_parent_threads.pop())
+
+
+def _after_fork_in_child() -> None:
+    _parent_threads.clear()
+    os.environ.setdefault("LP_NUM_THREADS", "1")
+
+
+os.register_at_fork(before=_before_fork, after_in_parent=_after_fork_in_parent,
+                    after_in_child=_after_fork_in_child)
 
 BACKEND = choose_backend()
 os.environ["MUJOCO_GL"] = BACKEND

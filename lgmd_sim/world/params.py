@@ -18,17 +18,17 @@ paper's jitter streams (0.63 to 0.76, Table 2) at 270 x 480; explicit ``roughnes
 
 from __future__ import annotations
 
-import dataclasses
 from dataclasses import dataclass
 from typing import Any
 
-from lgmd_sim.models.base import (
-    Check,
+from lgmd_sim.params import (
+    CheckedParams,
     finite,
     in_range,
     int_at_least,
     non_negative,
     one_of,
+    optional,
     param,
     positive,
     tuple_of,
@@ -60,15 +60,6 @@ OBSTACLE_KINDS = ("box", "cylinder", "wall", "balloon")
 MOVERS = ("none", "balloon", "ball", "swing", "vehicle")
 
 
-def optional(check: Check) -> Check:
-    """Accept None (meaning: derived from other parameters) or what `check` accepts."""
-
-    def check_optional(v: Any) -> str | None:
-        return None if v is None else check(v)
-
-    return check_optional
-
-
 def resolution_check(v: Any) -> str | None:
     if isinstance(v, str):
         return None if v in RESOLUTIONS else (
@@ -85,41 +76,6 @@ def resolution_check(v: Any) -> str | None:
 def kinds_check(v: Any) -> str | None:
     error = tuple_of(one_of(*OBSTACLE_KINDS))(v)
     return f"must list kinds among {', '.join(OBSTACLE_KINDS)}" if error else None
-
-
-@dataclass(frozen=True)
-class CheckedParams:
-    """A frozen set of parameters whose fields are checked on creation."""
-
-    def __post_init__(self) -> None:
-        for f in dataclasses.fields(self):
-            value = getattr(self, f.name)
-            if isinstance(value, list):  # TOML and JSON give lists; keep the params hashable
-                value = tuple(value)
-                object.__setattr__(self, f.name, value)
-            check = f.metadata.get("check")
-            error = check(value) if check else None
-            if error:
-                raise ValueError(f"parameter {f.name}={value!r}: {error}")
-
-    @classmethod
-    def describe(cls) -> list[tuple[str, Any, str, str]]:
-        """(name, default, source, doc) for every parameter."""
-        return [
-            (f.name, f.default, f.metadata.get("source", ""), f.metadata.get("doc", ""))
-            for f in dataclasses.fields(cls)
-        ]
-
-    @classmethod
-    def names(cls) -> set[str]:
-        return {f.name for f in dataclasses.fields(cls)}
-
-    def replace(self, **changes: Any) -> CheckedParams:
-        unknown = sorted(set(changes) - self.names())
-        if unknown:
-            raise ValueError(f"unknown parameter(s) {', '.join(unknown)}; "
-                             f"known: {', '.join(sorted(self.names()))}")
-        return dataclasses.replace(self, **changes)
 
 
 DESIGN = "design choice"

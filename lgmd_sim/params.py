@@ -1,0 +1,120 @@
+"""Named, checked parameters: the one mechanism behind model, world and env parameters.
+
+A parameter set is a frozen dataclass deriving from `CheckedParams`; each field is made
+with `param(default, source, check=..., doc=...)`, so that every number carries where its
+default comes from, and every value is checked when the set is created.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+Check = Callable[[Any], str | None]  # returns an error message, or None when valid
+
+
+def param(default: Any, source: str, *, check: Check | None = None, doc: str = "") -> Any:
+    """A parameter: its default, where that default comes from, and its check."""
+    return dataclasses.field(
+        default=default, metadata={"source": source, "check": check, "doc": doc}
+    )
+
+
+def _is_real(v: Any) -> bool:
+    return (isinstance(v, int | float | np.integer | np.floating) and not isinstance(v, bool)
+            and bool(np.isfinite(v)))
+
+
+def positive(v: Any) -> str | None:
+    return None if _is_real(v) and v > 0 else "must be a finite number > 0"
+
+
+def non_negative(v: Any) -> str | None:
+    return None if _is_real(v) and v >= 0 else "must be a finite number >= 0"
+
+
+def finite(v: Any) -> str | None:
+    return None if _is_real(v) else "must be a finite number"
+
+
+def in_range(lo: float, hi: float) -> Check:
+    def check(v: Any) -> str | None:
+        return None if _is_real(v) and lo <= v <= hi else f"must be a number in [{lo}, {hi}]"
+
+    return check
+
+
+def int_at_least(lo: int) -> Check:
+    def check(v: Any) -> str | None:
+        ok = isinstance(v, int | np.integer) and not isinstance(v, bool) and v >= lo
+        return None if ok else f"must be an integer >= {lo}"
+
+    return check
+
+
+def one_of(*choices: Any) -> Check:
+    def check(v: Any) -> str | None:
+        return None if v in choices else f"must be one of {', '.join(map(repr, choices))}"
+
+    return check
+
+
+def tuple_of(check: Check, length: int | None = None) -> Check:
+    """Check every element of a sequence parameter (and its length, when given)."""
+
+    def check_all(v: Any) -> str | None:
+        if not isinstance(v, tuple | list) or (length is not None and len(v) != length):
+            return f"must be a sequence of {length or 'one or more'} values"
+        errors = [e for e in map(check, v) if e]
+        return f"every element {errors[0]}" if errors else None
+
+    return check_all
+
+
+def optional(check: Check) -> Check:
+    """Accept None (meaning: derived from other parameters) or what `check` accepts."""
+
+    def check_optional(v: Any) -> str | None:
+        return None if v is None else check(v)
+
+    return check_optional
+
+
+@dataclass(frozen=True)
+class CheckedParams:
+    """A frozen parameter set whose fields are checked on creation."""
+
+    def __post_init__(self) -> None:
+        for f in dataclasses.fields(self):
+            value = getattr(self, f.name)
+            if isinstance(value, list):  # TOML and JSON give lists; keep the set hashable
+                value = tuple(value)
+                object.__setattr__(self, f.name, value)
+            check = f.metadata.get("check")
+            error = check(value) if check else None
+            if error:
+                raise ValueError(f"{type(self).__name__}: parameter {f.name}={value!r} {error}")
+
+    @classmethod
+    def describe(cls) -> list[tuple[str, Any, str, str]]:
+        """(name, default, source, doc) for every parameter, for docs and listings."""
+        return [
+            (f.name, f.default, f.metadata.get("source", ""), f.metadata.get("doc", ""))
+            for f in dataclasses.fields(cls)
+        ]
+
+    @classmethod
+    def names(cls) -> set[str]:
+        return {f.name for f in dataclasses.fields(cls)}
+
+    def replace(self, **changes: Any) -> CheckedParams:
+        """A copy with some parameters changed; unknown names are an error."""
+        unknown = sorted(set(changes) - self.names())
+        if unknown:
+            raise ValueError(f"unknown parameter(s) {', '.join(unknown)}; "
+                             f"known: {', '.join(sorted(self.names()))}")
+        return dataclasses.replace(self, **changes)
