@@ -150,6 +150,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     module, func = args.run.split(":")
     try:
         return int(getattr(import_module(module), func)(args) or 0)
+    except BrokenPipeError:  # output piped into e.g. `head`, which stopped reading
+        return 0
     except (ValueError, OSError) as exc:  # a user's input: say what, not a traceback
         print(f"lgmd-sim {args.command}: error: {exc}", file=sys.stderr)
         return 2
