@@ -17,10 +17,11 @@ from __future__ import annotations
 
 import argparse
 import os
-import platform
 import time
 
 import numpy as np
+
+from lgmd_sim.benchmarks import cpu_name, format_table
 
 RESOLUTIONS = ((120, 160), (270, 480))
 #: Steps before timing starts (GL context, first frames, JIT caches).
@@ -95,28 +96,19 @@ def measure(steps: int) -> tuple[list[dict], list[dict]]:
     return single, scaling
 
 
-def _table(header: list[str], rows: list[list[str]], markdown: bool) -> str:
-    if markdown:
-        lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
-        return "\n".join(lines + ["| " + " | ".join(r) + " |" for r in rows])
-    widths = [max(len(x) for x in col) for col in zip(header, *rows, strict=True)]
-    fmt = "  ".join(f"{{:>{w}}}" for w in widths)
-    return "\n".join(fmt.format(*r) for r in [header, *rows])
-
-
 def run(args: argparse.Namespace) -> int:
     os.environ.setdefault("MUJOCO_GL", "egl")
     single, scaling = measure(args.steps)
-    print(f"# lgmd-sim bench envs: {args.steps} steps per run; {platform.processor() or ''} "
+    print(f"# lgmd-sim bench envs: {args.steps} steps per run; CPU: {cpu_name()}, "
           f"{os.cpu_count()} cores; MUJOCO_GL={os.environ['MUJOCO_GL']}")
-    print(_table(
+    print(format_table(
         ["scenario", "size", "env steps/s", "bare renders/s", "step / render time"],
         [[r["scenario"], r["size"], f"{r['steps_per_s']:.0f}", f"{r['render_per_s']:.0f}",
           f"{r['ratio']:.2f}x"] for r in single],
         args.markdown,
     ))
     print()
-    print(_table(
+    print(format_table(
         ["scenario (120x160)", "1 async worker steps/s", "2 async workers steps/s", "speed-up"],
         [[r["scenario"], f"{r['one']:.0f}", f"{r['two']:.0f}", f"{r['speedup']:.2f}x"]
          for r in scaling],

@@ -20,6 +20,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from lgmd_sim.benchmarks import cpu_name, format_table
+
 __all__ = ["Row", "measure", "moving_texture", "run"]
 
 #: Warm-up steps before timing: numba compiles (or loads its cache) on the first call.
@@ -124,17 +126,6 @@ def _pin_to_one_core() -> str:
     return f"pinned to core {core} of {os.cpu_count()}"
 
 
-def _cpu_name() -> str:
-    try:
-        with open("/proc/cpuinfo") as f:
-            for line in f:
-                if line.startswith("model name"):
-                    return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return platform.processor() or platform.machine()
-
-
 def _table(rows: list[Row], n_streams: int, markdown: bool) -> str:
     head = ["model", "streaming fps", f"batched fps ({n_streams} streams)", "reference fps",
             "fast / reference"]
@@ -145,15 +136,7 @@ def _table(rows: list[Row], n_streams: int, markdown: bool) -> str:
     body = [[r.model, fmt(r.streaming), fmt(r.batched), fmt(r.reference), fmt(r.ratio, "x")]
             for r in rows]
     notes = [f"{r.model}: {r.note}" for r in rows if r.note]
-    if markdown:
-        lines = ["| " + " | ".join(head) + " |", "|" + "|".join(["---"] + ["---:"] * 4) + "|"]
-        lines += ["| " + " | ".join(b) + " |" for b in body]
-    else:
-        widths = [max(len(x[i]) for x in [head, *body]) for i in range(len(head))]
-        lines = ["  ".join(c.ljust(w) if i == 0 else c.rjust(w)
-                           for i, (c, w) in enumerate(zip(x, widths, strict=True)))
-                 for x in [head, *body]]
-    return "\n".join(lines + (["", *notes] if notes else []))
+    return "\n".join([format_table(head, body, markdown), *(["", *notes] if notes else [])])
 
 
 def run(args: argparse.Namespace) -> int:
@@ -166,7 +149,7 @@ def run(args: argparse.Namespace) -> int:
     frames = moving_texture(args.height, args.width, 64)
     print(f"# lgmd-sim bench models: {args.height}x{args.width} uint8 frames, best of "
           f"{RUNS} runs of {args.frames} frames (references: one run), one core")
-    print(f"# CPU: {_cpu_name()}, {where}; Python {platform.python_version()}, "
+    print(f"# CPU: {cpu_name()}, {where}; Python {platform.python_version()}, "
           f"numpy {np.__version__}, numba {numba.__version__}")
     rows = []
     for name in models.available():
