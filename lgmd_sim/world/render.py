@@ -59,6 +59,15 @@ def _thread_context():  # -> mujoco.GLContext
     return gl
 
 
+def _make_current(gl) -> None:  # gl: mujoco.GLContext
+    """Make `gl` current unless it already is: asking EGL costs a fifth of eglMakeCurrent."""
+    if BACKEND == "egl":
+        current = sys.modules["mujoco.egl"].EGL.eglGetCurrentContext()
+        if current and current.address == gl._context.address:
+            return
+    gl.make_current()
+
+
 class OffscreenRenderer:
     """Render a model's cameras into RGB arrays of a fixed size.
 
@@ -97,7 +106,7 @@ class OffscreenRenderer:
             raise RuntimeError("render() after close()")
         if out is None:
             out = np.empty((self.height, self.width, 3), np.uint8)
-        self._gl.make_current()
+        _make_current(self._gl)
         # Renderers share the GL context: bind this one's framebuffer.
         mujoco.mjr_setBuffer(mujoco.mjtFramebuffer.mjFB_OFFSCREEN.value, self._context)
         self._camera.fixedcamid = camera
