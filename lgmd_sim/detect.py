@@ -22,11 +22,11 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-import cv2
 import numpy as np
 
 from lgmd_sim import metrics, models
 from lgmd_sim.fileio import atomic_output
+from lgmd_sim.frames import to_grey
 from lgmd_sim.models.base import LGMDModel
 from lgmd_sim.video import VideoReader
 
@@ -169,7 +169,7 @@ def detect(
     bar = tqdm(frames, total=total, desc=Path(name).name or None, unit="frame",
                disable=None if progress is None else not progress, file=sys.stderr, leave=False)
     for frame in bar:
-        grey = _grey(frame, name)
+        grey = to_grey(frame, name or "clip")
         if prev is not None:
             if prev.shape != grey.shape:
                 raise ValueError(f"{name or 'clip'}: frame {len(ssims)} is "
@@ -200,20 +200,6 @@ def detect(
     ssim = np.asarray(ssims)
     return Detection(name, n_frames, float(fps), ssim, float(ssim[1:].mean()),
                      collision_frame, traces)
-
-
-def _grey(frame: np.ndarray, name: str) -> np.ndarray:
-    """A frame as grey, converted once for the SSIM and every model alike."""
-    a = np.asarray(frame)
-    if a.ndim == 3 and a.shape[-1] == 3:
-        if a.dtype != np.uint8:
-            a = a.astype(np.float32)
-        return cv2.cvtColor(np.ascontiguousarray(a), cv2.COLOR_RGB2GRAY)
-    if a.ndim == 3 and a.shape[-1] == 1:
-        return a[..., 0]
-    if a.ndim != 2:
-        raise ValueError(f"{name or 'clip'}: frames must be (H, W) or (H, W, 3), got {a.shape}")
-    return a
 
 
 def detect_video(

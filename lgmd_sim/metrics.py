@@ -21,6 +21,8 @@ from typing import Literal
 import cv2
 import numpy as np
 
+from lgmd_sim.frames import to_grey
+
 __all__ = [
     "DEFAULT_THRESHOLD",
     "EventResult",
@@ -50,15 +52,7 @@ _SSIM_K1, _SSIM_K2 = 0.01, 0.03
 
 def _grey(frame: np.ndarray, what: str) -> tuple[np.ndarray, float]:
     """A frame as float32 grey and its data range: 255 for uint8, 1 for float (0..1)."""
-    a = np.asarray(frame)
-    if a.ndim == 3 and a.shape[-1] == 1:
-        a = a[..., 0]
-    if a.ndim == 3 and a.shape[-1] == 3:
-        work = a.astype(np.float32) if a.dtype != np.uint8 else a
-        a = cv2.cvtColor(np.ascontiguousarray(work), cv2.COLOR_RGB2GRAY)
-    if a.ndim != 2 or min(a.shape) < 1:
-        raise ValueError(f"{what}: expected a grey (H, W) or colour (H, W, 3) frame, "
-                         f"got shape {np.shape(frame)}")
+    a = to_grey(frame, what)
     if a.dtype == np.uint8:
         return a.astype(np.float32), 255.0
     if not np.issubdtype(a.dtype, np.floating):

@@ -18,9 +18,9 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any, ClassVar
 
-import cv2
 import numpy as np
 
+from lgmd_sim.frames import to_grey
 from lgmd_sim.params import CheckedParams, in_range, param
 
 # --- parameters -------------------------------------------------------------------------
@@ -177,10 +177,5 @@ class LGMDModel(ABC):
         if not self.batched:
             a = a[None]
         if colour:
-            a = np.stack([_rgb_to_grey(f) for f in a])
+            a = np.stack([to_grey(f) for f in a])
         return np.ascontiguousarray(a)
-
-
-def _rgb_to_grey(rgb: np.ndarray) -> np.ndarray:
-    """ITU-R BT.601 luma, as OpenCV computes it (and the published LGMD code uses)."""
-    return cv2.cvtColor(np.ascontiguousarray(rgb), cv2.COLOR_RGB2GRAY)
