@@ -28,6 +28,10 @@ IMAGE_SUFFIXES = frozenset(
     {".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff", ".webp", ".ppm", ".pgm", ".pnm"}
 )
 
+# FFmpeg's own log lines ("moov atom not found"...) would precede our one-line error on a
+# corrupt file; silence them unless the user asks (OpenCV reads this at the first open).
+os.environ.setdefault("OPENCV_FFMPEG_LOGLEVEL", "-8")
+
 
 def natural_key(name: str) -> list[str | int]:
     """Sort key that orders digit runs by value: frame2 before frame10."""

@@ -120,11 +120,11 @@ def test_image_folder_in_natural_order_with_json_stdout(tmp_path, clip, capsys):
     lambda d: d / "missing.avi",
     lambda d: (d / "notes.txt").write_text("not a video") and d / "notes.txt",
 ])
-def test_bad_input_exits_2_naming_it_and_leaves_nothing(tmp_path, make_bad, capsys):
+def test_bad_input_exits_2_naming_it_and_leaves_nothing(tmp_path, make_bad, capfd):
     bad = make_bad(tmp_path)
     out = tmp_path / "out"
     assert _detect(str(bad), "--models", MODELS[0], "--out", str(out)) == 2
-    captured = capsys.readouterr()
+    captured = capfd.readouterr()  # file-descriptor level: FFmpeg's own logging counts too
     err = captured.err.strip().splitlines()
     assert len(err) == 1 and str(bad) in err[0] and err[0].startswith("lgmd-sim detect: error:")
     assert captured.out == ""
