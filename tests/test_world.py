@@ -82,7 +82,7 @@ def test_shake_rms_and_band():
 # -- SSIM ---------------------------------------------------------------------------------
 
 
-@pytest.mark.parametrize("shape", [(270, 480), (64, 64), (16, 20)])
+@pytest.mark.parametrize("shape", [(270, 480), (64, 64), (16, 20), (8, 9)])
 def test_streaming_ssim_equals_metrics_ssim(shape):
     rng = np.random.default_rng(0)
     frames = [rng.integers(0, 256, shape, dtype=np.uint8) for _ in range(3)]
@@ -90,10 +90,21 @@ def test_streaming_ssim_equals_metrics_ssim(shape):
         np.uint8)
     stream = SSIMStream(*shape)
     assert math.isnan(stream.push(frames[0]))
+    values = []
     for prev, cur in itertools.pairwise(frames):
-        assert stream.push(cur) == pytest.approx(metrics.ssim(prev, cur), abs=1e-6)
+        values.append(stream.push(cur))
+        assert values[-1] == pytest.approx(metrics.ssim(prev, cur), abs=1e-6)
     stream.reset()
     assert math.isnan(stream.push(frames[0]))
+    assert [stream.push(cur) for cur in frames[1:]] == values  # the same bits again
+
+
+def test_streaming_ssim_rejects_a_wrong_frame():
+    stream = SSIMStream(16, 20)
+    with pytest.raises(ValueError, match="SSIMStream"):
+        stream.push(np.zeros((20, 16), np.uint8))
+    with pytest.raises(ValueError, match="SSIMStream"):
+        stream.push(np.zeros((16, 20), np.float32))
 
 
 # -- carriers and physics -----------------------------------------------------------------

@@ -6,8 +6,8 @@ OpenGL context (EGL or OSMesa, see `lgmd_sim.world.gl`), each with its own MuJoC
 context: a new GL context costs a quarter of a second of shader compilation on Mesa's
 software renderer, a MuJoCo context on an existing one a few milliseconds. Worker
 processes (vector envs) each have their own. `SSIMStream` gives each new frame's SSIM
-with the previous one at the price of three Gaussian blurs (the previous frame's two are
-kept), with the definition of `lgmd_sim.metrics.ssim`.
+with the previous one in one numba pass over the frame (the previous frame's blurred
+moments are kept), with the definition of `lgmd_sim.metrics.ssim`.
 
 Fork safety: a process forked after EGL was initialised hangs when it creates a context
 (Mesa's driver state does not survive fork). So before any fork (``gym.make_vec(...,
@@ -159,43 +159,95 @@ os.register_at_fork(before=_release_gl_before_fork)
 SHIFT = 128.0
 
 
+#: The 1-D Gaussian of the SSIM window, as OpenCV's GaussianBlur samples it.
+SSIM_TAPS = tuple(np.float32(t) for t in
+                  cv2.getGaussianKernel(SSIM_WINDOW, SSIM_SIGMA, cv2.CV_64F).ravel())
+
+
 # error_model="numpy": no division-by-zero check, so the loop vectorises (den >= c1 * c2 > 0).
 @numba.njit(cache=True, nogil=True, fastmath=True, error_model="numpy")
-def _ssim_mean(mu_x: np.ndarray, mu_y: np.ndarray, xx: np.ndarray, yy: np.ndarray,
-               xy: np.ndarray, r: int) -> float:
-    """Mean SSIM map from the blurred moments of the shifted frames, over the positions
-    where the whole window fits."""
-    h, w = mu_x.shape
-    if h <= 2 * r or w <= 2 * r:
-        r = 0
+def _ssim_push(grey: np.ndarray, previous: np.ndarray, mu_x: np.ndarray, xx: np.ndarray,
+               mu_y: np.ndarray, yy: np.ndarray, has_previous: bool, taps: tuple) -> float:
+    """Blur the moments of the shifted frame ``grey`` into ``mu_y`` and ``yy``, and return
+    the mean SSIM map against the frame ``previous`` (blurred moments ``mu_x``, ``xx``);
+    NaN without one. Then copy ``grey`` into ``previous``.
+
+    The frames are (H, W) uint8, the blurred arrays (H - 2r, W - 2r) float32: only the
+    positions where the whole window fits, so no border is read (small frames come padded).
+    One output row at a time: the vertical sums of y, y^2 and x y over the full width into
+    line buffers (in L1 cache), then the horizontal sums and the SSIM terms; the window is
+    symmetric, so each tap weighs the sum of its two rows (columns).
+    """
+    h, w = grey.shape
+    n = len(taps)
+    r = n // 2
+    ho, wo = h - 2 * r, w - 2 * r
+    shift = np.float32(SHIFT)
+    v_mu = np.empty(w, np.float32)
+    v_sq = np.empty(w, np.float32)
+    v_xy = np.empty(w, np.float32)
+    h_xy = np.empty(wo, np.float32)
     c1, c2 = np.float32(SSIM_C1), np.float32(SSIM_C2)
-    two, shift = np.float32(2.0), np.float32(SHIFT)
+    two = np.float32(2.0)
     total = 0.0
-    for i in range(r, h - r):
-        ax, ay, axx = mu_x[i, r:w - r], mu_y[i, r:w - r], xx[i, r:w - r]
-        ayy, axy = yy[i, r:w - r], xy[i, r:w - r]
+    for o in range(ho):
+        t = taps[r]
+        gy, gx = grey[o + r], previous[o + r]
+        for j in range(w):
+            b = np.float32(gy[j]) - shift
+            v_mu[j] = t * b
+            v_sq[j] = t * (b * b)
+            v_xy[j] = t * ((np.float32(gx[j]) - shift) * b)
+        for k in range(r):
+            t = taps[k]
+            gy, gx = grey[o + k], previous[o + k]
+            gy2, gx2 = grey[o + n - 1 - k], previous[o + n - 1 - k]
+            for j in range(w):
+                b, b2 = np.float32(gy[j]) - shift, np.float32(gy2[j]) - shift
+                v_mu[j] += t * (b + b2)
+                v_sq[j] += t * (b * b + b2 * b2)
+                v_xy[j] += t * ((np.float32(gx[j]) - shift) * b
+                                + (np.float32(gx2[j]) - shift) * b2)
+        amu, ayy, amx, axx = mu_y[o], yy[o], mu_x[o], xx[o]
+        for j in range(wo):
+            t = taps[r]
+            m, s, c = t * v_mu[j + r], t * v_sq[j + r], t * v_xy[j + r]
+            for k in range(r):
+                t = taps[k]
+                m += t * (v_mu[j + k] + v_mu[j + n - 1 - k])
+                s += t * (v_sq[j + k] + v_sq[j + n - 1 - k])
+                c += t * (v_xy[j + k] + v_xy[j + n - 1 - k])
+            amu[j] = m
+            ayy[j] = s
+            h_xy[j] = c
         row = np.float32(0.0)  # float32 within a row vectorises; rows add up in float64
-        for j in range(ax.size):
-            a, b = ax[j], ay[j]  # shifted means: (co)variances need no shift back
-            lum_a, lum_b = a + shift, b + shift
-            num = (two * lum_a * lum_b + c1) * (two * (axy[j] - a * b) + c2)
+        for j in range(wo):
+            a, m = amx[j], amu[j]  # shifted means: (co)variances need no shift back
+            lum_a, lum_b = a + shift, m + shift
+            num = (two * lum_a * lum_b + c1) * (two * (h_xy[j] - a * m) + c2)
             den = (lum_a * lum_a + lum_b * lum_b + c1) * ((axx[j] - a * a)
-                                                          + (ayy[j] - b * b) + c2)
+                                                          + (ayy[j] - m * m) + c2)
             row += num / den
         total += row
-    return total / ((h - 2 * r) * (w - 2 * r))
+    previous[:] = grey
+    if not has_previous:
+        return np.nan
+    return total / (ho * wo)
 
 
 class SSIMStream:
     """SSIM of each grey frame with the previous one (NaN for the first of a stream)."""
 
     def __init__(self, height: int, width: int) -> None:
-        def buf() -> np.ndarray:
-            return np.empty((height, width), np.float32)
-
-        self._x, self._mu_x, self._xx = buf(), buf(), buf()
-        self._y, self._mu_y, self._yy = buf(), buf(), buf()
-        self._xy, self._tmp = buf(), buf()
+        r = SSIM_WINDOW // 2
+        # A frame the window does not fit is padded as OpenCV's blur would (all averaged).
+        self._pad = r if min(height, width) <= 2 * r else 0
+        h, w = height + 2 * self._pad, width + 2 * self._pad
+        self._previous = np.zeros((h, w), np.uint8)
+        blurred = (h - 2 * r, w - 2 * r)
+        self._mu_x, self._xx = np.empty(blurred, np.float32), np.empty(blurred, np.float32)
+        self._mu_y, self._yy = np.empty(blurred, np.float32), np.empty(blurred, np.float32)
+        self._shape = (height, width)
         self._has_previous = False
 
     def reset(self) -> None:
@@ -203,24 +255,16 @@ class SSIMStream:
 
     def push(self, grey: np.ndarray) -> float:
         """Add a (H, W) uint8 frame; return its SSIM with the previous frame."""
-        np.subtract(grey, np.float32(SHIFT), out=self._y, casting="unsafe")
-        self._blur(self._y, self._mu_y)
-        np.multiply(self._y, self._y, out=self._tmp)
-        self._blur(self._tmp, self._yy)
-        value = float("nan")
-        if self._has_previous:
-            np.multiply(self._x, self._y, out=self._tmp)
-            self._blur(self._tmp, self._xy)
-            value = _ssim_mean(self._mu_x, self._mu_y, self._xx, self._yy, self._xy,
-                               SSIM_WINDOW // 2)
-        # The new frame becomes the previous one: swap buffers, keep its blurred moments.
-        self._x, self._y = self._y, self._x
+        if grey.shape != self._shape or grey.dtype != np.uint8:
+            raise ValueError(f"SSIMStream: expected a {self._shape} uint8 frame, got "
+                             f"{grey.shape} {grey.dtype}")
+        if self._pad:
+            p = self._pad
+            grey = cv2.copyMakeBorder(grey, p, p, p, p, cv2.BORDER_REFLECT)
+        value = _ssim_push(grey, self._previous, self._mu_x, self._xx, self._mu_y, self._yy,
+                           self._has_previous, SSIM_TAPS)
+        # The new frame becomes the previous one: keep its blurred moments.
         self._mu_x, self._mu_y = self._mu_y, self._mu_x
         self._xx, self._yy = self._yy, self._xx
         self._has_previous = True
         return value
-
-    @staticmethod
-    def _blur(src: np.ndarray, dst: np.ndarray) -> None:
-        cv2.GaussianBlur(src, (SSIM_WINDOW, SSIM_WINDOW), SSIM_SIGMA, dst=dst,
-                         borderType=cv2.BORDER_REFLECT)
