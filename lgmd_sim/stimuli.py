@@ -18,9 +18,12 @@ import dataclasses
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import cv2
 import numpy as np
+
+from lgmd_sim.params import Check, int_at_least, one_of, positive
 
 __all__ = [
     "Stimulus",
@@ -69,23 +72,24 @@ class Stimulus:
 # --- argument checks ----------------------------------------------------------------------
 
 
+def _require(name: str, value: Any, check: Check) -> Any:
+    """`value` if the project's parameter `check` accepts it, else a ValueError naming it."""
+    error = check(value)
+    if error:
+        raise ValueError(f"{name} {error}, got {value!r}")
+    return value
+
+
 def _check_positive(name: str, value: float) -> float:
-    if isinstance(value, bool) or not isinstance(value, int | float | np.integer | np.floating) \
-            or not math.isfinite(value) or value <= 0:
-        raise ValueError(f"{name} must be a finite number > 0, got {value!r}")
-    return float(value)
+    return float(_require(name, value, positive))
 
 
 def _check_count(name: str, value: int, lo: int) -> int:
-    if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < lo:
-        raise ValueError(f"{name} must be an integer >= {lo}, got {value!r}")
-    return int(value)
+    return int(_require(name, value, int_at_least(lo)))
 
 
 def _check_choice(name: str, value: str, choices: Sequence[str]) -> str:
-    if value not in choices:
-        raise ValueError(f"{name} must be one of {', '.join(map(repr, choices))}, got {value!r}")
-    return value
+    return _require(name, value, one_of(*choices))
 
 
 def _check_fraction(name: str, value: float) -> float:
