@@ -35,5 +35,4 @@ if [ ! -f "$stamp" ] || [ "$(cat "$stamp")" != "$want" ]; then
   fi
   echo "$want" > "$stamp"
 fi
-export MUJOCO_GL="${MUJOCO_GL:-egl}"
 export PATH="$ROOT/.venv/bin:$PATH"

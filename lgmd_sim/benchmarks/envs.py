@@ -97,10 +97,11 @@ def measure(steps: int) -> tuple[list[dict], list[dict]]:
 
 
 def run(args: argparse.Namespace) -> int:
-    os.environ.setdefault("MUJOCO_GL", "egl")
     single, scaling = measure(args.steps)
+    from lgmd_sim.world.gl import BACKEND  # chosen by lgmd_sim.world when it loaded
+
     print(f"# lgmd-sim bench envs: {args.steps} steps per run; CPU: {cpu_name()}, "
-          f"{os.cpu_count()} cores; MUJOCO_GL={os.environ['MUJOCO_GL']}")
+          f"{os.cpu_count()} cores; MUJOCO_GL={BACKEND}")
     print(format_table(
         ["scenario", "size", "env steps/s", "bare renders/s", "step / render time"],
         [[r["scenario"], r["size"], f"{r['steps_per_s']:.0f}", f"{r['render_per_s']:.0f}",
