@@ -8,9 +8,13 @@ model, a bad value) print one line naming the thing and exit with status 2.
 from __future__ import annotations
 
 import argparse
+import signal
 import sys
 from collections.abc import Sequence
 from importlib import import_module
+
+from lgmd_sim import __version__
+from lgmd_sim.extras import MissingExtra
 
 
 def _positive_int(text: str) -> int:
@@ -41,6 +45,7 @@ def build_parser() -> argparse.ArgumentParser:
         "LGMD models, a MuJoCo jitter world with Gymnasium environments, and tools to run "
         "the models on your own video.",
     )
+    parser.add_argument("--version", action="version", version=f"lgmd-sim {__version__}")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
 
     p = sub.add_parser(
@@ -62,10 +67,14 @@ def build_parser() -> argparse.ArgumentParser:
         help="labelled collision frame (0-based): marked in the figure, and used to score "
         "hit, miss and lead time",
     )
-    p.add_argument("--out", default="detect-out", metavar="DIR",
-                   help="output folder (default: ./detect-out)")
+    p.add_argument("--out", metavar="DIR",
+                   help="write <name>.csv, <name>.json and <name>.png per video into DIR "
+                   "(default: ./detect-out; with --json, files are written only when --out "
+                   "is given). <name> is the video's stem, or its file name where two "
+                   "videos share a stem")
     p.add_argument("--json", action="store_true",
-                   help="print one JSON object per video to stdout")
+                   help="print one JSON object per video to stdout (with the membrane "
+                   "potential of every frame)")
     p.add_argument("--no-progress", action="store_true", help="hide the progress bar")
     p.set_defaults(run="lgmd_sim.detect:run")
 
@@ -145,19 +154,33 @@ def list_models(args: argparse.Namespace) -> int:
     return 0
 
 
+class Terminated(BaseException):
+    """SIGTERM, raised where the program is so that cleanup (partial files) runs."""
+
+
+def _terminate(signum: int, frame: object) -> None:
+    raise Terminated
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     module, func = args.run.split(":")
+    previous = signal.signal(signal.SIGTERM, _terminate)
     try:
         return int(getattr(import_module(module), func)(args) or 0)
     except BrokenPipeError:  # output piped into e.g. `head`, which stopped reading
         return 0
-    except (ValueError, OSError) as exc:  # a user's input: say what, not a traceback
+    except (ValueError, OSError, MissingExtra) as exc:  # a user's input: say what, briefly
         print(f"lgmd-sim {args.command}: error: {exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         print(f"lgmd-sim {args.command}: interrupted", file=sys.stderr)
-        return 130
+        return 128 + signal.SIGINT
+    except Terminated:
+        print(f"lgmd-sim {args.command}: terminated", file=sys.stderr)
+        return 128 + signal.SIGTERM
+    finally:
+        signal.signal(signal.SIGTERM, previous)
 
 
 if __name__ == "__main__":

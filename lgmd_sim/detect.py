@@ -11,7 +11,6 @@ video file or image folder); both return a `Detection`:
 from __future__ import annotations
 
 import argparse
-import contextlib
 import csv
 import json
 import math
@@ -25,12 +24,13 @@ from typing import Any
 import numpy as np
 
 from lgmd_sim import metrics, models
-from lgmd_sim.fileio import atomic_output
+from lgmd_sim.fileio import write_files
 from lgmd_sim.frames import to_grey
 from lgmd_sim.models.base import LGMDModel
 from lgmd_sim.video import VideoReader
 
-__all__ = ["Detection", "ModelTrace", "detect", "detect_video", "parse_models", "run"]
+__all__ = ["Detection", "ModelTrace", "detect", "detect_video", "output_names", "parse_models",
+           "run", "write_outputs"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -133,6 +133,13 @@ def _build(spec: str | Sequence[str] | Mapping[str, LGMDModel]) -> dict[str, LGM
     return {name: models.make(name) for name in parse_models(spec)}
 
 
+def check_collision_frame(collision_frame: int, n_frames: int, name: str) -> None:
+    """A labelled collision frame must be one of the clip's frames."""
+    if not 0 <= collision_frame < n_frames:
+        raise ValueError(f"{name}: collision frame {collision_frame} is outside its frames "
+                         f"0..{n_frames - 1}")
+
+
 def detect(
     frames: Iterable[np.ndarray],
     fps: float,
@@ -184,9 +191,8 @@ def detect(
     n_frames = 0 if prev is None else len(ssims)
     if n_frames < 2:
         raise ValueError(f"{name or 'clip'}: needs at least 2 frames, got {n_frames}")
-    if collision_frame is not None and not 0 <= collision_frame < n_frames:
-        raise ValueError(f"{name or 'clip'}: collision frame {collision_frame} is outside "
-                         f"its frames 0..{n_frames - 1}")
+    if collision_frame is not None:
+        check_collision_frame(collision_frame, n_frames, name or "clip")
     traces = {}
     for n, model in built.items():
         mp = np.asarray(potentials[n], np.float64)
@@ -263,41 +269,76 @@ def _write_figure(path: Path, d: Detection) -> None:
 
 
 def write_outputs(d: Detection, out_dir: str | os.PathLike, stem: str) -> dict[str, Path]:
-    """Write <stem>.csv, <stem>.json and <stem>.png into out_dir; all of them or none."""
+    """Write <stem>.csv, <stem>.json and <stem>.png into out_dir: the set as a whole, or
+    (on any error) none of it, the previous set left as it was."""
     out_dir = Path(out_dir)
     paths = {ext: out_dir / f"{stem}.{ext}" for ext in ("csv", "json", "png")}
-    with contextlib.ExitStack() as stack:  # each file moves into place only if all succeed
-        tmp = {ext: stack.enter_context(atomic_output(p)) for ext, p in paths.items()}
-        _write_csv(tmp["csv"], d)
-        tmp["json"].write_text(json.dumps(d.summary(), indent=2, allow_nan=False) + "\n")
-        _write_figure(tmp["png"], d)
+    write_files({
+        paths["csv"]: lambda tmp: _write_csv(tmp, d),
+        paths["json"]: lambda tmp: tmp.write_text(
+            json.dumps(d.summary(), indent=2, allow_nan=False) + "\n"),
+        paths["png"]: lambda tmp: _write_figure(tmp, d),
+    })
     return paths
 
 
-def _stems(videos: Sequence[str]) -> list[str]:
-    """Output names: each video's stem, numbered where two videos share one."""
-    stems = [Path(v.rstrip("/\\")).stem or "video" for v in videos]
-    seen: dict[str, int] = {}
-    out = []
-    for s in stems:
-        seen[s] = seen.get(s, 0) + 1
-        out.append(s if stems.count(s) == 1 else f"{s}-{seen[s]}")
-    return out
+def output_names(videos: Sequence[str]) -> list[str]:
+    """Unique, predictable output names: each video's stem; where stems are shared, the
+    file name (``clip.avi``, ``clip.mp4``); where those are shared too, the parent folder
+    joined on (``day1_clip.mp4``); and where a name is still taken, ``~2``, ``~3``..."""
+    paths = [Path(os.path.normpath(v)) for v in videos]
+    levels = [
+        [p.stem or "video" for p in paths],
+        [p.name or "video" for p in paths],
+        ["_".join(p.parts[-2:]) or "video" for p in paths],
+    ]
+    names: list[str] = []
+    taken: set[str] = set()  # case-folded: some file systems ignore case
+    for i in range(len(paths)):
+        name = next((lv[i] for lv in levels
+                     if [x.casefold() for x in lv].count(lv[i].casefold()) == 1), levels[-1][i])
+        base, k = name, 1
+        while name.casefold() in taken:
+            k += 1
+            name = f"{base}~{k}"
+        taken.add(name.casefold())
+        names.append(name)
+    return names
+
+
+def _check_out_folder(out: Path) -> None:
+    """Fail before any frame is processed if the output folder could not be written
+    (it is made only when the first result is written)."""
+    existing = out.absolute()
+    while not existing.exists():
+        existing = existing.parent
+    if not existing.is_dir():
+        what = "is a file" if existing == out.absolute() else f"is inside the file {existing}"
+        raise ValueError(f"output folder {out} {what}, not a folder")
+    if not os.access(existing, os.W_OK | os.X_OK):
+        raise ValueError(f"cannot write output folder {out}: permission denied on {existing}")
 
 
 def run(args: argparse.Namespace) -> int:
     """`lgmd-sim detect`: every video in turn; a bad one is reported and skipped (exit 2)."""
     names = parse_models(args.models)
+    out = Path(args.out) if args.out else None if args.json else Path("detect-out")
+    if out is not None:
+        _check_out_folder(out)
     failed = 0
-    for video, stem in zip(args.videos, _stems(args.videos), strict=True):
+    for video, stem in zip(args.videos, output_names(args.videos), strict=True):
         try:
-            d = detect_video(video, names, args.collision_frame,
-                             progress=False if args.no_progress else None)
-        except ValueError as exc:
+            clip = VideoReader(video)
+            if clip.frame_count is not None and args.collision_frame is not None:
+                check_collision_frame(args.collision_frame, clip.frame_count, video)
+            d = detect(clip, clip.fps, names, args.collision_frame, name=str(video),
+                       total=clip.frame_count,
+                       progress=False if args.no_progress else None)
+            paths = write_outputs(d, out, stem) if out is not None else {}
+        except (ValueError, OSError) as exc:
             print(f"lgmd-sim detect: error: {exc}", file=sys.stderr)
             failed += 1
             continue
-        paths = write_outputs(d, args.out, stem)
         if args.json:
             record = d.summary(series=True)
             record["outputs"] = {ext: str(p) for ext, p in paths.items()}

@@ -1,42 +1,152 @@
-"""Writing outputs so that nothing half-written is ever passed off as complete."""
+"""Writing outputs so that nothing half-written is ever passed off as complete.
+
+Every output is written to a hidden temporary beside it (``.NAME.PID-XXXX.partial.EXT``)
+and moved into place only when complete; a set of outputs (a video's CSV, JSON and
+figure) moves into place as a whole or not at all. An error names the output it concerns.
+A run killed outright (SIGKILL, a power cut) can leave temporaries behind: the next write
+of the same output removes those whose process is gone.
+"""
 
 from __future__ import annotations
 
 import contextlib
+import glob
 import os
+import re
+import shutil
 import tempfile
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from pathlib import Path
+
+__all__ = ["atomic_output", "atomic_outputs", "write_files", "write_text_atomic"]
+
+_PARTIAL = re.compile(r"\.(?P<pid>\d+)-[^.]+\.partial")
+
+
+def _temporary(target: Path) -> Path:
+    fd, name = tempfile.mkstemp(prefix=f".{target.name}.{os.getpid()}-",
+                                suffix=f".partial{target.suffix}", dir=target.parent)
+    os.close(fd)
+    return Path(name)
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:  # another user's process
+        return True
+    return True
+
+
+def remove_stale_partials(target: Path) -> None:
+    """Remove temporaries of `target` left by processes that no longer run."""
+    pattern = f".{glob.escape(target.name)}.*.partial{glob.escape(target.suffix)}"
+    for stale in target.parent.glob(pattern):
+        match = _PARTIAL.match(stale.name[len(target.name) + 1:])
+        if match and not _alive(int(match["pid"])):
+            stale.unlink(missing_ok=True)
+
+
+def _named(exc: OSError, target: Path, verb: str = "write") -> OSError:
+    """The same error, saying which output it concerns."""
+    if exc.filename is not None and Path(exc.filename) == target:
+        return exc
+    return OSError(exc.errno, f"cannot {verb} {target}: {exc.strerror or exc}")
+
+
+def _commit(pairs: Sequence[tuple[Path, Path]]) -> None:
+    """Move each temporary onto its target: all of them, or (after a failure) none."""
+    done: list[tuple[Path, Path | None]] = []  # target, backup of its previous content
+    try:
+        for tmp, target in pairs:
+            backup = None
+            if target.is_file():  # keep the previous content reachable until all moved
+                backup = _temporary(target)
+                try:
+                    _link_or_copy(target, backup)
+                except OSError:
+                    backup.unlink(missing_ok=True)
+                    raise
+            try:
+                os.replace(tmp, target)
+            except OSError as exc:
+                if backup is not None:
+                    backup.unlink(missing_ok=True)
+                raise _named(exc, target, "replace") from exc
+            done.append((target, backup))
+    except BaseException:
+        for target, backup in reversed(done):
+            if backup is None:
+                target.unlink(missing_ok=True)
+            else:
+                os.replace(backup, target)
+        raise
+    for _target, backup in done:
+        if backup is not None:
+            backup.unlink(missing_ok=True)
+
+
+def _link_or_copy(src: Path, dst: Path) -> None:
+    dst.unlink()
+    try:
+        os.link(src, dst)
+    except OSError:  # a file system without hard links
+        shutil.copy2(src, dst)
+
+
+@contextlib.contextmanager
+def atomic_outputs(paths: Sequence[str | os.PathLike]) -> Iterator[list[Path]]:
+    """Yield temporary paths beside `paths`; move them all into place if the block succeeds.
+
+    On any error (a full disk, an interrupted run, a target that cannot be replaced) the
+    temporaries are removed and every target keeps its previous content, or stays absent.
+    """
+    targets = [Path(p) for p in paths]
+    temps: list[Path] = []
+    try:
+        for target in targets:
+            target.parent.mkdir(parents=True, exist_ok=True)
+            remove_stale_partials(target)
+            temps.append(_temporary(target))
+        yield temps
+        mask = _umask()
+        for tmp in temps:
+            os.chmod(tmp, 0o666 & ~mask)  # mkstemp makes it private; outputs are not
+        _commit(list(zip(temps, targets, strict=True)))
+    finally:
+        for tmp in temps:
+            tmp.unlink(missing_ok=True)
 
 
 @contextlib.contextmanager
 def atomic_output(path: str | os.PathLike) -> Iterator[Path]:
-    """Yield a temporary path beside `path`; move it into place only if the block succeeds.
+    """`atomic_outputs` for one file; an error while writing it names the file."""
+    with atomic_outputs([path]) as (tmp,):
+        try:
+            yield tmp
+        except OSError as exc:
+            raise _named(exc, Path(path)) from exc
 
-    On any error (a full disk, an interrupted run) the temporary file is removed and
-    `path` keeps its previous content, or stays absent.
-    """
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=f".partial{path.suffix}",
-                               dir=path.parent)
-    os.close(fd)
-    tmp_path = Path(tmp)
-    try:
-        yield tmp_path
-        os.chmod(tmp_path, 0o666 & ~_umask())  # mkstemp makes it private; outputs are not
-        os.replace(tmp_path, path)
-    finally:
-        tmp_path.unlink(missing_ok=True)
+
+def write_files(writers: Mapping[str | os.PathLike, Callable[[Path], None]]) -> None:
+    """Write a set of files, each by its writer (called with a temporary path): the set
+    moves into place as a whole, or not at all; an error names the file it concerns."""
+    with atomic_outputs(list(writers)) as temps:
+        for (target, write), tmp in zip(writers.items(), temps, strict=True):
+            try:
+                write(tmp)
+            except OSError as exc:
+                raise _named(exc, Path(target)) from exc
+
+
+def write_text_atomic(path: str | os.PathLike, text: str) -> None:
+    """Write `text` to `path` atomically."""
+    write_files({path: lambda tmp: tmp.write_text(text)})
 
 
 def _umask() -> int:
     mask = os.umask(0)
     os.umask(mask)
     return mask
-
-
-def write_text_atomic(path: str | os.PathLike, text: str) -> None:
-    """Write `text` to `path` atomically."""
-    with atomic_output(path) as tmp:
-        tmp.write_text(text)

@@ -56,6 +56,14 @@ def int_at_least(lo: int) -> Check:
     return check
 
 
+def int_in_range(lo: int, hi: int) -> Check:
+    def check(v: Any) -> str | None:
+        ok = isinstance(v, int | np.integer) and not isinstance(v, bool) and lo <= v <= hi
+        return None if ok else f"must be an integer in [{lo}, {hi}]"
+
+    return check
+
+
 def one_of(*choices: Any) -> Check:
     def check(v: Any) -> str | None:
         return None if v in choices else f"must be one of {', '.join(map(repr, choices))}"
@@ -63,12 +71,17 @@ def one_of(*choices: Any) -> Check:
     return check
 
 
-def tuple_of(check: Check, length: int | None = None) -> Check:
-    """Check every element of a sequence parameter (and its length, when given)."""
+def tuple_of(check: Check, length: int | None = None, *, min_length: int = 0,
+             max_length: int | None = None) -> Check:
+    """Check every element of a sequence parameter, and its length (exactly `length`, or
+    between `min_length` and `max_length`)."""
+    lo, hi = (length, length) if length is not None else (min_length, max_length)
 
     def check_all(v: Any) -> str | None:
-        if not isinstance(v, tuple | list) or (length is not None and len(v) != length):
-            return f"must be a sequence of {length or 'one or more'} values"
+        if not isinstance(v, tuple | list) or len(v) < lo or (hi is not None and len(v) > hi):
+            count = (f"{lo} " if lo == hi else f"{lo} to {hi} " if hi is not None
+                     else f"{lo} or more " if lo else "")
+            return f"must be a sequence of {count}values"
         errors = [e for e in map(check, v) if e]
         return f"every element {errors[0]}" if errors else None
 

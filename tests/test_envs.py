@@ -135,7 +135,7 @@ def test_collision_terminates_with_penalty_and_goal_rewards_progress():
         if terminated:
             break
     assert terminated and not truncated and info["collision"]
-    assert info["first_collision_frame"] == info["frame"] and not info["goal_reached"]
+    assert info["first_collision_frame"] == info["frame_index"] and not info["goal_reached"]
     assert rewards[-1] < -9.0 and all(0 < r < 0.1 for r in rewards[5:-2])
     env.close()
 
@@ -247,7 +247,7 @@ def test_async_vector_env_each_worker_with_its_own_context():
         obs, _reward, _term, _trunc, info = envs.step(np.zeros((2, 2), np.float32))
     assert obs["frame"].shape == (2, 64, 64, 3)
     assert not np.array_equal(obs["frame"][0], obs["frame"][1])  # seeds 0 and 1
-    assert info["frame"].tolist() == [3, 3]
+    assert info["frame_index"].tolist() == [3, 3]
     envs.close()
     first.step([0.0, 0.0])  # the parent renders on after the fork
     first.close()

@@ -5,14 +5,17 @@
 >>> obs, info = env.reset(seed=0)      # obs: {"frame", "proprio", "goal"}; info: ground truth
 >>> obs, reward, terminated, truncated, info = env.step(env.action_space.sample())
 
+Scenarios of your own: ``register_catalogue("my_envs/")`` (or the ``LGMD_SIM_ENVS``
+environment variable) registers every TOML file of a folder, as envs/ does.
+
 `JitterEnv` (and MuJoCo) are imported on first use; the catalogue is not.
 """
 
 from typing import Any
 
-from lgmd_sim.envs.catalogue import register_all, scenario, scenarios
+from lgmd_sim.envs.catalogue import register_all, register_catalogue, scenario, scenarios
 
-__all__ = ["JitterEnv", "register_all", "scenario", "scenarios"]
+__all__ = ["JitterEnv", "register_all", "register_catalogue", "scenario", "scenarios"]
 
 
 def __getattr__(name: str) -> Any:

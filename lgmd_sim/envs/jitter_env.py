@@ -34,11 +34,12 @@ class JitterEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
       squared action norm.
     - Terminated on a collision (if ``terminate_on_collision``) or on reaching the goal;
       truncated after ``time_limit * fps`` steps.
-    - ``info``: the ground truth of the frame (see `JitterWorld`): time, frame, carrier
+    - ``info``: the ground truth of the frame (see `JitterWorld`): time, frame_index, carrier
       and camera pose, camera angular and linear velocity (camera frame: x right, y up,
       z backwards), the most threatening obstacle's index, distance, bearing, closing
       speed and time to collision, collision flag and first collision frame, SSIM with
-      the previous frame, and goal distance and bearing.
+      the previous frame, goal distance and bearing, ``goal_reached`` and its alias
+      ``is_success`` (the key stable-baselines3 logs as the success rate).
 
     Args:
         scenario: a catalogue scenario name (envs/<name>.toml) or None for the defaults.
@@ -77,21 +78,32 @@ class JitterEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         self._scale = np.array([self.params.max_speed, self.params.max_turn])
         self._steps = 0
         self._goal_distance = 0.0
+        self._needs_reset = True
+        self._closed = False
 
     # -- Gymnasium API -------------------------------------------------------------------
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None
               ) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+        self._check_open()
+        if options:
+            raise ValueError(f"unknown reset option(s) {', '.join(map(repr, options))}: "
+                             "JitterEnv.reset takes none")
         super().reset(seed=seed)
         # The episode's world seed comes from the env's generator: reset(seed=s) fixes
         # every later episode too, as Gymnasium specifies.
         self.world.reset(seed=int(self.np_random.integers(2**63)))
         self._steps = 0
         self._goal_distance = self.world.truth.get("goal_distance", 0.0)
-        return self._observation(), dict(self.world.truth)
+        self._needs_reset = False
+        return self._observation(), {**self.world.truth, "goal_reached": False,
+                                     "is_success": False}
 
     def step(self, action: np.ndarray) -> tuple[dict[str, np.ndarray], float, bool, bool,
                                                  dict[str, Any]]:
+        self._check_open()
+        if self._needs_reset:
+            raise gym.error.ResetNeeded("call reset() before step()")
         a = np.asarray(action, dtype=np.float64)
         if a.shape != (2,):
             raise ValueError(f"action must have shape (2,), got {a.shape}")
@@ -112,11 +124,11 @@ class JitterEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
             reached = truth["goal_distance"] < p.goal_radius
         terminated = reached or (p.terminate_on_collision and truth["collision"])
         truncated = not terminated and self._steps >= p.max_steps
-        info = dict(truth)
-        info["goal_reached"] = reached
+        info = {**truth, "goal_reached": reached, "is_success": reached}
         return self._observation(), reward, terminated, truncated, info
 
     def render(self) -> np.ndarray | None:
+        self._check_open()
         if self.render_mode != "rgb_array":
             return None
         if self.params.render_camera == "chase":
@@ -125,8 +137,13 @@ class JitterEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
 
     def close(self) -> None:
         self.world.close()
+        self._closed = True
 
     # -- helpers -------------------------------------------------------------------------
+
+    def _check_open(self) -> None:
+        if self._closed:
+            raise gym.error.ClosedEnvironmentError("the environment is closed")
 
     def _observation(self) -> dict[str, np.ndarray]:
         w = self.world

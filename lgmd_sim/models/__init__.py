@@ -52,7 +52,7 @@ def make(
         **params: parameter overrides, each checked (see the model's ``Params``).
     """
     cls = model_class(name)
-    preset = preset or next(iter(cls.presets))
+    preset = next(iter(cls.presets)) if preset is None else preset
     if preset not in cls.presets:
         raise ValueError(f"unknown preset {preset!r} for model {name!r}; available: "
                          f"{', '.join(cls.presets)}")

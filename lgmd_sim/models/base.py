@@ -96,7 +96,10 @@ class LGMDModel(ABC):
             return
         if not self.batched:
             raise ValueError("reset(streams=...) needs a batched model (n_streams=N)")
-        idx = np.asarray(streams, dtype=np.intp).reshape(-1)
+        idx = np.asarray(streams).reshape(-1)
+        if idx.size and not np.issubdtype(idx.dtype, np.integer):  # 0.7 or True is no index
+            raise ValueError(f"stream indices must be integers, got {np.asarray(streams)!r}")
+        idx = idx.astype(np.intp)
         if idx.size and (idx.min() < 0 or idx.max() >= self._n):
             raise ValueError(f"stream index out of range 0..{self._n - 1}: {idx.tolist()}")
         if self.frame_shape is not None and idx.size:

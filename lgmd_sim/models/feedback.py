@@ -37,7 +37,17 @@ from lgmd_sim.models.kernels import (
     staggered_arrays,
     vconv,
 )
-from lgmd_sim.params import finite, int_at_least, non_negative, one_of, param, positive, tuple_of
+from lgmd_sim.params import (
+    finite,
+    in_range,
+    int_at_least,
+    int_in_range,
+    non_negative,
+    one_of,
+    param,
+    positive,
+    tuple_of,
+)
 
 __all__ = [
     "TABLE_1",
@@ -50,6 +60,10 @@ __all__ = [
 
 #: Highest B-spline order accepted; beyond it the spline is a near-Gaussian bump anyway.
 MAX_SPLINE_ORDER = 8
+#: Bounds that keep memory and time sane: Gaussians of sigma 20 px already span 121 px;
+#: phi(j) of Eq. 12 is below float32 resolution from j = 3 on; T = 120 frames is 4 s at
+#: 30 fps (D keeps T maps); more than 8 spline terms were never asked for.
+MAX_SIGMA, MAX_DELAY_TAPS, MAX_TV_WINDOW, MAX_TERMS = 20.0, 8, 120, 8
 
 
 def _spline_order(v: Any) -> str | None:
@@ -68,11 +82,11 @@ class FeedbackParams(ModelParams):
     beta2: float = param(0.003, "paper Table 1 (Eq. 7); Sec. 4.1.1 says -0.01", check=finite,
                          doc="feedback coefficient of the OFF channel")
     feedback_gain: float = param(
-        1.0, "ours: 1 is the paper's literal loop (paper-notes 2)", check=non_negative,
+        1.0, "ours: 1 is the paper's literal loop (docs/models.md, choice 2)", check=non_negative,
         doc="multiplies beta1 and beta2: the loop's gain (0 opens the loop)")
-    sigma1: float = param(0.1, "paper Table 1 (Eq. 8, 14)", check=positive,
+    sigma1: float = param(0.1, "paper Table 1 (Eq. 8, 14)", check=in_range(1e-6, MAX_SIGMA),
                           doc="s.d. of the excitation Gaussian, pixels")
-    sigma2: float = param(0.3, "paper Table 1 (Eq. 10, 15)", check=positive,
+    sigma2: float = param(0.3, "paper Table 1 (Eq. 10, 15)", check=in_range(1e-6, MAX_SIGMA),
                           doc="s.d. of the inhibition Gaussian, pixels")
     alpha: float = param(0.1, "paper Table 1 (Eq. 13, 16)", check=non_negative,
                          doc="inhibition coefficient")
@@ -83,28 +97,33 @@ class FeedbackParams(ModelParams):
     rho: float = param(1.0, "paper Table 1 (Eq. 19)", check=positive,
                        doc="scale of D in the spline's argument")
     eta: tuple[float, ...] = param(
-        (100.0, 300.0), "paper Table 1 (Eq. 19); one spline term per value (paper-notes 3)",
-        check=tuple_of(finite), doc="translation of each spline term (centre eta_i K)")
+        (100.0, 300.0),
+        "paper Table 1 (Eq. 19); one spline term per value (docs/models.md, choice 3)",
+        check=tuple_of(finite, max_length=MAX_TERMS),
+        doc="translation of each spline term (centre eta_i K)")
     zeta: tuple[float, ...] = param(
-        (0.5, 1.0), "paper Table 1 (Eq. 19); pairs with eta (paper-notes 3)",
-        check=tuple_of(finite), doc="weight of each spline term")
+        (0.5, 1.0), "paper Table 1 (Eq. 19); pairs with eta (docs/models.md, choice 3)",
+        check=tuple_of(finite, max_length=MAX_TERMS), doc="weight of each spline term")
     spline_order: int = param(
-        4, "ours: cubic, the usual choice (paper-notes 5); the paper leaves m open",
+        4, "ours: cubic, the usual choice; the paper leaves m open (docs/models.md, choice 4)",
         check=_spline_order, doc="order m of the cardinal B-spline N_m (4: cubic)")
     k_mode: str = param(
-        "constant", "ours (paper-notes 4): Eq. 19 calls K an integer",
+        "constant", "ours (docs/models.md, choice 5): Eq. 19 calls K an integer",
         check=one_of("constant", "potential"),
         doc="K of Eq. 19: the integer k, or the previous frame's membrane potential")
-    k: int = param(1, "ours (paper-notes 4): K = 1 centres the terms at eta",
+    k: int = param(1, "ours (docs/models.md, choice 5): K = 1 centres the terms at eta",
                    check=int_at_least(0), doc="K when k_mode is 'constant'")
     delay_taps: int = param(
-        2, "ours (paper-notes 6): phi(3)/phi(1) = 1.2e-11, below float32 resolution",
-        check=int_at_least(1), doc="frames of delayed inhibition (delays 1..delay_taps)")
+        2, "ours (docs/models.md, choice 6): phi(3)/phi(1) = 1.2e-11, below float32 "
+        "resolution",
+        check=int_in_range(1, MAX_DELAY_TAPS),
+        doc="frames of delayed inhibition (delays 1..delay_taps)")
     tv_window: int = param(
-        5, "ours (paper-notes 5, 7): 1/6 s at 30 fps, see docs/models.md",
-        check=int_at_least(1), doc="T of Eq. 18: frames of |dS/dt| summed into D")
+        5, "ours (docs/models.md, choice 8): 1/6 s at 30 fps",
+        check=int_in_range(1, MAX_TV_WINDOW), doc="T of Eq. 18: frames of |dS/dt| summed into D")
     mu: float = param(
-        3.0, "ours (paper-notes 5): the synthetic approaches cross 0.8 in their last 10%, "
+        3.0, "ours (docs/models.md, choice 9): the synthetic approaches cross 0.8 in their last "
+        "10%, "
         "receding and translating objects stay below 0.68 (docs/models.md)", check=positive,
         doc="scale of the sigmoid of Eq. 20: potential 0.8 at a mean S per pixel of 1.39 mu")
 

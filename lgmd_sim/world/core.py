@@ -208,7 +208,7 @@ class JitterWorld:
         forward, left = -cam_mat[:, 2], -cam_mat[:, 0]  # the camera looks along its -z
         truth: dict[str, Any] = {
             "time": float(d.time),
-            "frame": self.frame_index,
+            "frame_index": self.frame_index,
             "carrier_pos": d.xpos[sc.carrier_body].copy(),
             "carrier_quat": d.xquat[sc.carrier_body].copy(),
             "camera_pos": cam_pos,

@@ -23,10 +23,9 @@ from typing import Any
 
 from lgmd_sim.params import (
     CheckedParams,
-    finite,
     in_range,
     int_at_least,
-    non_negative,
+    int_in_range,
     one_of,
     optional,
     param,
@@ -41,6 +40,8 @@ ROUGHNESS_PER_JITTER = 0.008
 SHAKE_PER_JITTER = 1.1
 #: Hand-held / tripod shake: RMS translation (m) per unit of jitter.
 SHIFT_PER_JITTER = 0.006
+#: Strongest jitter accepted: 5 is a violent shake, far past the paper's jitter streams.
+MAX_JITTER = 5.0
 
 #: Named frame sizes (height, width).
 RESOLUTIONS: dict[str, tuple[int, int]] = {
@@ -55,6 +56,11 @@ MIN_SIDE = 16
 
 #: Most terrain tiles (each two heightfields) a world may have: 40 x 40 m at 0.1 m cells.
 MAX_TILES = 400
+#: Most static obstacles and scenery objects: far beyond any scenario, still built in
+#: well under a second (MuJoCo fails outright near 2000 obstacles).
+MAX_OBSTACLES, MAX_SCENERY = 200, 500
+#: Farthest distance (m) of anything placed by parameter: the goal, the obstacle field.
+MAX_DISTANCE = 1000.0
 CARRIERS = ("robot", "handheld", "tripod")
 OBSTACLE_KINDS = ("box", "cylinder", "wall", "balloon")
 MOVERS = ("none", "balloon", "ball", "swing", "vehicle")
@@ -74,7 +80,7 @@ def resolution_check(v: Any) -> str | None:
 
 
 def kinds_check(v: Any) -> str | None:
-    error = tuple_of(one_of(*OBSTACLE_KINDS))(v)
+    error = tuple_of(one_of(*OBSTACLE_KINDS), min_length=1)(v)
     return f"must list kinds among {', '.join(OBSTACLE_KINDS)}" if error else None
 
 
@@ -89,11 +95,12 @@ class SceneParams(CheckedParams):
     carrier: str = param("robot", DESIGN, check=one_of(*CARRIERS),
                          doc="what carries the camera: robot, handheld or tripod")
     jitter: float = param(1.0, "common jitter scale (see lgmd_sim.world.params)",
-                          check=non_negative,
+                          check=in_range(0.0, MAX_JITTER),
                           doc="0 steady, 1 typical rough ground / hand-held, larger stronger")
     roughness: float | None = param(
         None, f"jitter x {ROUGHNESS_PER_JITTER} m for the robot carrier, else 0",
-        check=optional(non_negative), doc="terrain RMS height (m); 0 is flat ground")
+        check=optional(in_range(0.0, MAX_JITTER * ROUGHNESS_PER_JITTER)),
+        doc="terrain RMS height (m); 0 is flat ground")
     terrain_scale: float = param(0.5, DESIGN, check=in_range(0.05, 50.0),
                                  doc="spatial scale of the terrain bumps (m)")
     terrain_cell: float = param(
@@ -105,7 +112,8 @@ class SceneParams(CheckedParams):
             "whole drawing tiles of 20 cells")
     shake: float | None = param(
         None, f"jitter x {SHAKE_PER_JITTER} deg for handheld and tripod carriers, else 0",
-        check=optional(non_negative), doc="RMS rotation of the camera shake (degrees)")
+        check=optional(in_range(0.0, MAX_JITTER * SHAKE_PER_JITTER)),
+        doc="RMS rotation of the camera shake (degrees)")
     shake_band: tuple[float, float] = param(
         (0.8, 7.0), "hand tremor and gait sway lie within about 1 to 8 Hz",
         check=tuple_of(in_range(0.05, 14.0), 2), doc="frequency band of the shake (Hz)")
@@ -127,22 +135,24 @@ class SceneParams(CheckedParams):
     fps: float = param(30.0, "paper Sec. 4.1.2: 30 frames per second", check=in_range(1, 1000),
                        doc="camera frame rate; one env step per frame")
     substeps: int = param(8, "design: 4.2 ms physics steps at 30 fps",
-                          check=int_at_least(1), doc="physics steps per frame")
+                          check=int_in_range(1, 1000), doc="physics steps per frame")
     shadows: bool = param(False, "software GL: shadows cost more than the whole frame",
                           check=one_of(True, False), doc="render shadows")
     multisample: int = param(0, "software GL: no multisampling",
-                             check=int_at_least(0), doc="multisample anti-aliasing samples")
+                             check=int_in_range(0, 16),
+                             doc="multisample anti-aliasing samples")
     render_camera: str = param("camera", DESIGN, check=one_of("camera", "chase"),
                                doc="what render() shows: the carrier's camera or a chase view")
     # -- obstacles ---------------------------------------------------------------------------
-    n_obstacles: int = param(0, DESIGN, check=int_at_least(0), doc="static obstacles")
+    n_obstacles: int = param(0, DESIGN, check=int_in_range(0, MAX_OBSTACLES),
+                             doc="static obstacles")
     obstacle_kinds: tuple[str, ...] = param(
         ("box", "cylinder"), DESIGN, check=kinds_check,
         doc=f"kinds of the static obstacles, cycled: {', '.join(OBSTACLE_KINDS)}")
     obstacle_field: tuple[float, float, float] = param(
-        (2.0, 8.0, 2.5), DESIGN, check=tuple_of(finite, 3),
+        (2.0, 8.0, 2.5), DESIGN, check=tuple_of(in_range(-MAX_DISTANCE, MAX_DISTANCE), 3),
         doc="static obstacles lie at x in [x0, x1], |y| <= half-width (m)")
-    obstacle_ahead: float = param(0.0, DESIGN, check=non_negative,
+    obstacle_ahead: float = param(0.0, DESIGN, check=in_range(0.0, MAX_DISTANCE),
                                   doc="put the first obstacle this far straight ahead (0: no)")
     mover: str = param("none", DESIGN, check=one_of(*MOVERS),
                        doc=f"moving object: {', '.join(MOVERS)}")
@@ -150,16 +160,16 @@ class SceneParams(CheckedParams):
                                   doc="start distance of the moving object (m)")
     mover_speed: float = param(2.0, DESIGN, check=in_range(0.05, 50.0),
                                doc="approach speed of the moving object (m/s)")
-    miss_distance: float = param(0.0, DESIGN, check=non_negative,
+    miss_distance: float = param(0.0, DESIGN, check=in_range(0.0, 100.0),
                                  doc="closest surface gap the mover is aimed at (0: collide)")
     mover_spread: float = param(15.0, DESIGN, check=in_range(0.0, 90.0),
                                 doc="seeded spread of the mover's approach direction (deg)")
     aim_lead_speed: float = param(
-        0.0, DESIGN, check=non_negative,
+        0.0, DESIGN, check=in_range(0.0, 50.0),
         doc="carrier speed (m/s) assumed when aiming the mover at a moving camera")
-    scenery: int = param(16, DESIGN, check=int_at_least(0),
+    scenery: int = param(16, DESIGN, check=int_in_range(0, MAX_SCENERY),
                          doc="background trees and buildings (not obstacles)")
-    goal_distance: float = param(0.0, DESIGN, check=non_negative,
+    goal_distance: float = param(0.0, DESIGN, check=in_range(0.0, MAX_DISTANCE),
                                  doc="goal this far straight ahead (m); 0: no goal")
     goal_radius: float = param(0.5, DESIGN, check=positive, doc="goal reached within (m)")
     # -- lighting ----------------------------------------------------------------------------

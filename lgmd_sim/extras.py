@@ -1,0 +1,29 @@
+"""Optional dependencies ("extras"): a clear error naming the extra when one is missing.
+
+>>> from lgmd_sim.extras import require
+>>> sb3 = require("stable_baselines3", "rl")   # the module, or MissingExtra
+"""
+
+from __future__ import annotations
+
+from importlib import import_module
+from types import ModuleType
+
+#: What each extra of the package brings (the README lists the same).
+EXTRAS = {
+    "rl": "stable-baselines3 and PyTorch (CPU build): training and evaluating policies",
+    "dev": "pytest and ruff: the test suite and the linter",
+}
+
+
+class MissingExtra(ImportError):
+    """An optional dependency is not installed; the message says which extra brings it."""
+
+
+def require(module: str, extra: str) -> ModuleType:
+    """Import `module`, or raise MissingExtra naming the extra to install."""
+    try:
+        return import_module(module)
+    except ImportError as exc:
+        raise MissingExtra(f"this needs {module.split('.')[0]}, which comes with the "
+                           f"'{extra}' extra: pip install 'lgmd-sim[{extra}]'") from exc
