@@ -5,7 +5,9 @@ computes the per-pixel layers into small line buffers (which stay in L1 cache), 
 them horizontally (`hconv`) into a ring of ``2R + 1`` rows, and finishes row ``y - R``
 by filtering that ring vertically (`vconv`).
 Whole-frame intermediates never reach memory; only the state a model keeps between
-frames does. Borders are replicated (OpenCV's ``BORDER_REPLICATE``) in both directions.
+frames does. `fill_borders`, `ring_slot` and `vconv` replicate borders (OpenCV's
+``BORDER_REPLICATE``); `fill_borders_as` and `border_row` apply any of the rules in
+`BORDERS` (the published baselines differ in it).
 
 Conventions: rows are 1-D float32 arrays, and every loop over x runs over 1-D row views
 (indexing a 3-D or 4-D array inside such a loop stops LLVM from vectorising it: 4x
@@ -25,13 +27,20 @@ import numpy as np
 from numba import njit
 
 __all__ = [
+    "BORDERS",
     "JIT",
+    "REFLECT",
+    "REPLICATE",
     "TAP_FLOOR",
+    "ZERO",
+    "border_row",
     "fill_borders",
+    "fill_borders_as",
     "gaussian_taps",
     "hconv",
     "ordered_sum",
     "ring_slot",
+    "row_index",
     "staggered_arrays",
     "vconv",
 ]
@@ -43,6 +52,14 @@ JIT = {"cache": True, "fastmath": True, "nogil": True}
 
 #: Relative size below which a filter tap is dropped: float32's unit roundoff, 2^-24.
 TAP_FLOOR = 2.0**-24
+
+#: Border rules for cells outside the frame, as kernel arguments: replicate the edge cell
+#: (OpenCV's BORDER_REPLICATE; a clamped index), reflect about it without repeating it
+#: (BORDER_REFLECT_101, OpenCV's default: column -1 is column 1), or read zeros (MATLAB's
+#: conv2 'same').
+REPLICATE, REFLECT, ZERO = 0, 1, 2
+#: The rules by name, as parameters give them.
+BORDERS = {"replicate": REPLICATE, "reflect": REFLECT, "zero": ZERO}
 
 
 def gaussian_taps(sigma: float) -> tuple[np.float32, ...]:
@@ -100,6 +117,44 @@ def fill_borders(padded: np.ndarray, r: int, width: int) -> None:
     for i in range(r):
         padded[i] = first
         padded[r + width + i] = last
+
+
+@njit(**JIT)
+def fill_borders_as(padded: np.ndarray, r: int, width: int, border: int) -> None:
+    """Fill the ``r`` cells each side of ``padded[r:r + width]`` by a border rule."""
+    zero = np.float32(0.0)
+    for i in range(r):
+        left = padded[r + border_row(-1 - i, width, border)] if border != ZERO else zero
+        right = padded[r + border_row(width + i, width, border)] if border != ZERO else zero
+        padded[r - 1 - i] = left
+        padded[r + width + i] = right
+
+
+@njit(**JIT)
+def border_row(row: int, height: int, border: int) -> int:
+    """The row (or column) inside 0..height-1 that stands for ``row`` under a border rule.
+
+    -1 for a cell outside the frame under `ZERO` (the caller reads zeros there).
+    """
+    if 0 <= row < height:
+        return row
+    if border == ZERO:
+        return -1
+    if border == REFLECT:
+        row = -row if row < 0 else 2 * (height - 1) - row
+    return min(max(row, 0), height - 1)
+
+
+@njit(**JIT)
+def row_index(row: int, n_rows: int, height: int, border: int) -> int:
+    """Where image row ``row`` of a frame of ``height`` rows is, under a border rule, in
+    an array of ``n_rows + 1`` rows: row i at ``i % n_rows`` (the whole frame, or a ring
+    holding the rows near ``row``), and zeros at ``n_rows`` for a cell outside the frame
+    under `ZERO`. (An index, not a row: a function returning an array view costs a
+    reference count update per call.)
+    """
+    r = border_row(row, height, border)
+    return r % n_rows if r >= 0 else n_rows
 
 
 @njit(**JIT)

@@ -1,20 +1,27 @@
 """LGMD1: the classic LGMD of Yue & Rind (2006) with the G layer and feed-forward inhibition.
 
-Layers, per frame t (grey levels 0..255), as the group's published code does them
-(docs/models.md, "Baselines"):
+Layers, per frame t (grey levels 0..255), with the switches that tell the published
+implementations apart (docs/models.md, "Baselines"):
 
-- P = L(t) - L(t-1), 0 on the first frame of a stream; E = P.
+- P = L(t) - L(t-1) (0 on the first frame of a stream), plus ``persistence`` of the last
+  two P (pLGMD); E = P.
 - I = E(t-1) convolved with the 3x3 kernel (``inhibition_near`` at the 4 neighbours,
   ``inhibition_diagonal`` at the diagonals, 0 at the centre): one frame of delay.
-- S = E - w_i I, zeroed where |S| < t_s and (``coincidence``) where E I <= 0.
-- G = S Ce / w with Ce the 3x3 mean of S and w = delta_c + max|Ce| / c_w, zeroed where
-  G c_de < t_de.
-- K = 1 / (1 + exp(-sum|G| / (n_cells c_sig))), set to its resting value 0.5 while the
-  feed-forward inhibition (mean |P(t-1)| >= t_ffi) is on. K is the reported potential.
+- S = E - w_i I; optionally zeroed where S < t_s (``t_s_rule``: S or |S|) and
+  (``coincidence``) where E I <= 0.
+- ``g_layer``: G = S Ce / w with Ce the 3x3 mean of S and w = delta_c + max|Ce| / c_w,
+  zeroed where G c_de < t_de; K = sigmoid(sum|G| / (n_cells c_sig)). Without it (as in
+  LGMDSingle.cs) K = sigmoid(sum S / (n_cells c_sig)).
+- K is set to its resting value 0.5 while the feed-forward inhibition (mean |P(t-1)| >=
+  t_ffi) is on. K is the reported potential.
+- ``border``: how 3x3 neighbourhoods read outside the frame.
 
-This module also holds the G layer and the sigmoid shared by LGMD2 and the F(ON)/F(OFF)
-LGMDs. `lgmd_sim.models.reference.baselines` has the per-equation float64 version this
-one is tested against.
+Presets: ``published`` (the default) is XuelongSun/InsectInspiredNavigation_PI-LGMD's
+model; ``lgmd-single`` and ``plgmd`` are the other two published implementations,
+``v0.1`` this project's first reading. This module also holds what LGMD2 and the F(ON) /
+F(OFF) LGMDs share: the G layer, the sigmoid, border rules and luminance persistence.
+`lgmd_sim.models.reference.baselines` has the per-equation float64 version this one is
+tested against, `lgmd_sim.models.reference.published` ports of the published code.
 """
 
 from __future__ import annotations
@@ -26,9 +33,16 @@ import numpy as np
 from numba import njit
 
 from lgmd_sim.models.base import LGMDModel, ModelParams
+from lgmd_sim.models.kernels import (
+    BORDERS,
+    REFLECT,
+    TAP_FLOOR,
+    fill_borders_as,
+    row_index,
+    staggered_arrays,
+)
 from lgmd_sim.models.kernels import JIT as _JIT
-from lgmd_sim.models.kernels import fill_borders, ring_slot, staggered_arrays
-from lgmd_sim.params import non_negative, param, positive
+from lgmd_sim.params import non_negative, one_of, optional, param, positive, tuple_of
 
 #: The shared kernel options without fused multiply-add contraction: a loop LLVM vectorises
 #: falls back to scalar code when its runtime alias check fails, which depends on where
@@ -37,63 +51,133 @@ from lgmd_sim.params import non_negative, param, positive
 #: so always the same path and order) for the same reason.
 JIT = {**_JIT, "fastmath": {"nnan", "ninf", "nsz", "arcp", "afn", "reassoc"}}
 
-__all__ = ["LGMD1", "GLayerParams", "LGMD1Params", "sigmoid_potential"]
+__all__ = [
+    "LGMD1",
+    "SOURCES",
+    "BaselineParams",
+    "LGMD1Params",
+    "border_code",
+    "persistence_weights",
+    "sigmoid_potential",
+]
 
 #: Stands in for the layer maps when none are asked for.
 _NO_MAP = np.empty((0, 0, 0), np.float32)
 
-_G_SOURCE = (
-    "Yue & Rind 2006 G layer, as in fuqinbing/pLGMD LGMD.m and "
-    "XuelongSun/InsectInspiredNavigation_PI-LGMD simulations/models.py (same value in "
-    "fuqinbing/LGMD2-open-source lgmd2OpenSource.cs and Ryannnice/"
-    "Supplementary_Materials_FFI_ON_OFF optimized_LGMD.py)"
-)
+#: The published implementations the baselines reproduce: repository, file and the commit
+#: read (docs/models.md, "Baselines", lists the full commit ids).
+SOURCES = {
+    "pi-lgmd": "XuelongSun/InsectInspiredNavigation_PI-LGMD simulations/models.py @176e097 "
+               "(LobulaGiantMotionDetectorModel.run)",
+    "lgmd-single": "fuqinbing/LGMD-Plus-and-GAs-Open-Source code/LGMDSingle.cs @0dacd1f",
+    "plgmd": "fuqinbing/pLGMD LGMD.m @7158bb3",
+    "lgmd2": "fuqinbing/LGMD2-open-source lgmd2OpenSource.cs @11e4be5",
+    "olgmd": "Ryannnice/Supplementary_Materials_FFI_ON_OFF Core_of_Source_Code/"
+             "Computer_oLGMD_Python/optimized_LGMD.py @dca3097",
+}
+_PI, _SINGLE, _PLGMD = SOURCES["pi-lgmd"], SOURCES["lgmd-single"], SOURCES["plgmd"]
+_ALL_G = f"{_PI}; {SOURCES['lgmd2']}; {SOURCES['olgmd']}"
 
 
 def _boolean(v: Any) -> str | None:
     return None if isinstance(v, bool | np.bool_) else "must be True or False"
 
 
-@dataclass(frozen=True)
-class GLayerParams(ModelParams):
-    """The G layer and the sigmoid, common to LGMD1, LGMD2 and the F(ON)/F(OFF) LGMDs."""
+#: Values of the ``border`` parameter: the kernel rules, and "interior" (S is only computed
+#: away from the frame's edge, zero on a 1-pixel border; the G layer's Ce reflects).
+BORDER_RULES = (*BORDERS, "interior")
+PERSISTENCE = ("none", "constant", "decaying")
+_BORDER_DOC = (
+    "cells outside the frame in 3x3 neighbourhoods: 'replicate' the edge (C#), 'reflect' "
+    "(OpenCV's default, BORDER_REFLECT_101), 'zero' (MATLAB conv2 'same'), or 'interior' "
+    "(S zero on a 1-pixel border, Ce reflected)")
 
-    delta_c: float = param(0.01, _G_SOURCE, check=positive,
+
+def border_code(border: str) -> tuple[int, bool]:
+    """The kernels' border rule of a ``border`` parameter, and whether S is interior-only."""
+    return (REFLECT, True) if border == "interior" else (BORDERS[border], False)
+
+
+@dataclass(frozen=True)
+class BaselineParams(ModelParams):
+    """What LGMD1, LGMD2 and the F(ON)/F(OFF) LGMDs share: G layer, sigmoid, borders, P."""
+
+    delta_c: float = param(0.01, _ALL_G, check=positive,
                            doc="Delta_c in the G layer's scale w = delta_c + max|Ce| / c_w")
-    c_w: float = param(4.0, _G_SOURCE, check=positive,
-                       doc="C_w in w = delta_c + max|Ce| / c_w")
-    c_de: float = param(0.5, _G_SOURCE, check=positive,
+    c_w: float = param(4.0, _ALL_G, check=positive, doc="C_w in w = delta_c + max|Ce| / c_w")
+    c_de: float = param(0.5, _ALL_G + f" (0.15 in {_PLGMD})", check=positive,
                         doc="C_de: G is zeroed where G * c_de < t_de")
-    t_de: float = param(15.0, _G_SOURCE, check=non_negative,
+    t_de: float = param(15.0, _ALL_G, check=non_negative,
                         doc="T_de: G is zeroed where G * c_de < t_de")
-    c_sig: float = param(
-        1.0, "LGMDSingle.cs, PI-LGMD models.py, pLGMD LGMD.m; lgmd2OpenSource.cs (Csig = 1)",
-        check=positive, doc="C_sig: the potential is sigmoid(sum G / (n_cells * c_sig))")
+    c_sig: float = param(1.0, f"{_PI}; {_SINGLE}; {_PLGMD}; {SOURCES['lgmd2']} (C_sig = 1)",
+                         check=positive,
+                         doc="C_sig: the potential is sigmoid(sum G / (n_cells * c_sig))")
+    border: str = param("replicate", f"{SOURCES['lgmd2']}, {_SINGLE}: indices clamped",
+                        check=one_of(*BORDER_RULES), doc=_BORDER_DOC)
+    persistence: str = param(
+        "none", f"{_PI}, {_SINGLE}, {SOURCES['lgmd2']}: P(t) = L(t) - L(t-1)",
+        check=one_of(*PERSISTENCE),
+        doc="luminance persistence P(t) = L(t) - L(t-1) + c1 P(t-1) + c2 P(t-2): 'none' "
+            "(c = 0), 'constant' (c = persistence_weights, pLGMD), 'decaying' (c_j = "
+            "1 / (1 + exp(k + 1 - j)) at a stream's frame k = 0, 1, ..., the oLGMD)")
+    persistence_weights: tuple[float, float] = param(
+        (0.5, 0.5), f"{_PLGMD} (p1 = p2 = 1 / (1 + exp(0)))",
+        check=tuple_of(non_negative, 2), doc="(c1, c2) of persistence 'constant'")
+
+
+def persistence_weights(
+    mode: str, weights: tuple[float, float], frame_index: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Per stream (c1, c2) float32 at each stream's frame index, and whether to run it.
+
+    'decaying' weights below `TAP_FLOOR` become 0 (from a stream's 17th frame): they could
+    not change P by 2e-5 grey levels. Since they only fall, a stream whose weights are 0
+    needs its older P no more ("run" is False: the kernels skip that work).
+    """
+    n = len(frame_index)
+    if mode == "none":
+        return np.zeros((n, 2), np.float32), np.zeros(n, bool)
+    if mode == "constant":
+        return np.tile(np.asarray(weights, np.float32), (n, 1)), np.full(n, any(weights))
+    k = frame_index.astype(np.float64)[:, None] + 1.0 - np.array([1.0, 2.0])
+    c = 1.0 / (1.0 + np.exp(np.minimum(k, 700.0)))
+    c[c < TAP_FLOOR] = 0.0
+    return c.astype(np.float32), (c > 0).any(axis=1)
 
 
 @dataclass(frozen=True)
-class LGMD1Params(GLayerParams):
-    """Parameters of LGMD1; defaults from the group's published code (baselines.md)."""
+class LGMD1Params(BaselineParams):
+    """Parameters of LGMD1; defaults: the PI-LGMD model (preset ``published``)."""
 
-    w_i: float = param(0.6, "fuqinbing/LGMD-Plus-and-GAs-Open-Source LGMDSingle.cs "
-                       "(0.4 in PI-LGMD models.py, 0.3 in pLGMD LGMD.m)", check=non_negative,
-                       doc="W_I: weight of the inhibition in S = E - W_I I")
-    inhibition_near: float = param(0.25, "LGMDSingle.cs; PI-LGMD models.py; pLGMD LGMD.m",
-                                   check=non_negative,
+    w_i: float = param(0.4, f"{_PI} (i_w; 0.6 in {_SINGLE}, 0.3 in {_PLGMD})",
+                       check=non_negative, doc="W_I: weight of the inhibition in S = E - W_I I")
+    inhibition_near: float = param(0.25, f"{_PI}; {_SINGLE}; {_PLGMD}", check=non_negative,
                                    doc="inhibition kernel weight of the 4 nearest neighbours")
-    inhibition_diagonal: float = param(0.125, "LGMDSingle.cs; PI-LGMD models.py; pLGMD LGMD.m",
+    inhibition_diagonal: float = param(0.125, f"{_PI}; {_SINGLE}; {_PLGMD}",
                                        check=non_negative,
-                                       doc="inhibition kernel weight of the 4 diagonal neighbours")
-    t_s: float = param(30.0, "LGMDSingle.cs (Ts)", check=non_negative,
-                       doc="S is zeroed where |S| < t_s (ours: |S|, since S is signed)")
-    coincidence: bool = param(
-        True, "LGMDSingle.cs (zeroes S where E * I <= 0)", check=_boolean,
-        doc="zero S where E * I <= 0: excitation passes only next to same-sign excitation "
-            "of the previous frame")
-    t_ffi: float = param(10.0, "LGMDSingle.cs; PI-LGMD models.py; pLGMD LGMD.m (T_FFI)",
-                         check=non_negative,
-                         doc="feed-forward inhibition: the potential rests at 0.5 while "
-                             "mean |P(t-1)| >= t_ffi")
+                                       doc="inhibition kernel weight of the 4 diagonal "
+                                           "neighbours")
+    t_s: float | None = param(None, f"{_PI}, {_PLGMD}: no threshold (Ts = 30 in {_SINGLE})",
+                              check=optional(non_negative),
+                              doc="S threshold T_s (see t_s_rule); None: none")
+    t_s_rule: str = param("signed", f"{_SINGLE} (scellValue keeps E - I W_i >= Ts)",
+                          check=one_of("signed", "abs"),
+                          doc="'signed': S is zeroed where S < t_s (so every S < t_s, "
+                              "darkening included, is dropped); 'abs': where |S| < t_s")
+    coincidence: bool = param(False, f"{_PI}, {_PLGMD}: none (True in {_SINGLE}, which "
+                              "zeroes S where E * I <= 0)", check=_boolean,
+                              doc="zero S where E * I <= 0: excitation passes only next to "
+                                  "same-sign excitation of the previous frame")
+    t_ffi: float | None = param(
+        None, f"{_PI}: its FFI gates spikes only, never K; {_PLGMD}: none (10 in {_SINGLE})",
+        check=optional(non_negative),
+        doc="feed-forward inhibition: the potential rests at 0.5 while mean |P(t-1)| >= "
+            "t_ffi; None: no FFI")
+    g_layer: bool = param(True, f"{_PI}; {_PLGMD} (none in {_SINGLE}: K from sum S)",
+                          check=_boolean,
+                          doc="the G layer; without it K = sigmoid(sum S / (n_cells c_sig))")
+    border: str = param("reflect", f"{_PI} (cv2.filter2D's default border)",
+                        check=one_of(*BORDER_RULES), doc=_BORDER_DOC)
 
 
 def sigmoid_potential(g_sum: np.ndarray, n_cells: int, c_sig: float) -> np.ndarray:
@@ -105,6 +189,8 @@ def sigmoid_potential(g_sum: np.ndarray, n_cells: int, c_sig: float) -> np.ndarr
 # --- the G layer (shared) -----------------------------------------------------------------
 
 _NINTH = np.float32(1.0 / 9.0)
+#: A t_s that keeps every S (t_s = None), finite: the kernels assume no infinities.
+NO_THRESHOLD = np.float32(np.finfo(np.float32).min)
 
 
 @njit(**JIT)
@@ -153,14 +239,44 @@ def g_sum(q, ce_cols, delta_c, c_w, c_de, t_de, want, g_out):
     return total / w
 
 
+@njit(**JIT)
+def diff_row(fr, pr, out):
+    """One row of P = L(t) - L(t-1)."""
+    for x in range(out.shape[0]):
+        out[x] = np.float32(fr[x]) - np.float32(pr[x])
+
+
+@njit(**JIT)
+def persist_row(fr, pr, p1, p2, c1, c2, out):
+    """One row of P = L(t) - L(t-1) + c1 P(t-1) + c2 P(t-2) (luminance persistence)."""
+    for x in range(out.shape[0]):
+        out[x] = (np.float32(fr[x]) - np.float32(pr[x])) + (c1 * p1[x] + c2 * p2[x])
+
+
+@njit(**JIT)
+def finish_s_row(sr, y, height, width, interior, border):
+    """Zero S on the frame's 1-pixel border (``interior``), then fill the row's padding."""
+    zero = np.float32(0.0)
+    if interior:
+        if y == 0 or y == height - 1:
+            sr[:] = zero
+        else:
+            sr[1] = zero
+            sr[width] = zero
+    fill_borders_as(sr, 1, width, border)
+
+
 # --- LGMD1 --------------------------------------------------------------------------------
 
 
 @njit(**JIT)
-def _lgmd1_frames(frames, prev, e_prev, w_i, k_near, k_diag, t_s, coincidence,
-                  delta_c, c_w, c_de, t_de, s_ring, p_ring, vsum, q, ce_cols,
-                  want, l_p, l_s, l_g, g_total, abs_p_total):
-    """One frame per stream; E(t-1) in ``e_prev`` (padded) is replaced by E(t) = P(t).
+def _lgmd1_frames(frames, prev, e_prev, p_older, persist_w, persist_on, w_i, k_near, k_diag,
+                  t_s, ts_sign, coincidence, g_layer, border, interior, delta_c, c_w, c_de,
+                  t_de, s_ring, p_ring, vsum, q, ce_cols, want, l_p, l_s, l_g, g_total,
+                  abs_p_total):
+    """One frame per stream; E(t-1) in ``e_prev`` (rows padded by a column each side, and
+    a row of zeros after the last) is replaced by E(t) = P(t), and P(t-2) in ``p_older``
+    by P(t-1) where persistence runs. ``s_ring`` holds 3 rows of S and a zero row.
 
     Row pipeline: S of row y needs E(t-1) of rows y-1..y+1, so E(t) of row y-1 is written
     back one row late; G of row y-1 follows once S of row y is in the ring.
@@ -172,44 +288,64 @@ def _lgmd1_frames(frames, prev, e_prev, w_i, k_near, k_diag, t_s, coincidence,
         frame = frames[n]
         pv = prev[n]
         e = e_prev[n]
+        persist = persist_on[n]
+        c1 = persist_w[n, 0]
+        c2 = persist_w[n, 1]
         ce_cols[:] = zero
         abs_p = 0.0
+        s_total = 0.0
         for y in range(height + 1):
             if y < height:
                 fr = frame[y]
                 pr = pv[y]
                 pl = p_ring[y % 2]
-                a = e[y]  # E(t-1) rows y-1, y, y+1 (padded rows y, y+1, y+2)
-                b = e[y + 1]
-                c = e[y + 2]
+                b = e[y]  # E(t-1) = P(t-1) of rows y-1, y, y+1
+                a = e[row_index(y - 1, height, height, border)]
+                c = e[row_index(y + 1, height, height, border)]
+                if persist:
+                    persist_row(fr, pr, b[1:width + 1], p_older[n, y], c1, c2, pl)
+                else:
+                    diff_row(fr, pr, pl)
+                for x in range(width):
+                    pr[x] = fr[x]
                 sr = s_ring[y % 3]
                 for x in range(width):
-                    p = np.float32(fr[x]) - np.float32(pr[x])  # P = E
-                    pr[x] = fr[x]
-                    pl[x] = p
+                    p = pl[x]  # = E
                     inh = k_near * (a[x + 1] + c[x + 1] + b[x] + b[x + 2]) + k_diag * (
                         a[x] + a[x + 2] + c[x] + c[x + 2])  # I = E(t-1) * w_I
                     s = p - w_i * inh  # S = E - W_I I
-                    keep = (abs(s) >= t_s) & ((p * inh > zero) | use_all)
+                    # ts_sign -1 compares |S| with t_s, +1 S itself
+                    keep = (max(s, ts_sign * s) >= t_s) & ((p * inh > zero) | use_all)
                     sr[x + 1] = s if keep else zero
-                fill_borders(sr, 1, width)
+                finish_s_row(sr, y, height, width, interior, border)
                 acc = zero
                 for x in range(width):
                     acc += abs(pl[x])
                 abs_p += acc
+                if not g_layer:
+                    acc = zero
+                    for x in range(width):
+                        acc += sr[x + 1]
+                    s_total += acc
                 if want:
                     l_p[n, y] = pl
                     l_s[n, y] = sr[1:width + 1]
             if y >= 1:
-                er = e[y]  # E(t) of row y-1: its old value is no longer read
+                er = e[y - 1]  # E(t) of row y-1: its old value is no longer read
+                if persist:
+                    p_older[n, y - 1] = er[1:width + 1]
                 er[1:width + 1] = p_ring[(y - 1) % 2]
-                fill_borders(er, 1, width)
-                g_row(s_ring[ring_slot(y - 2, height, 3)], s_ring[(y - 1) % 3],
-                      s_ring[ring_slot(y, height, 3)], vsum, q[y - 1], ce_cols)
-        e[0] = e[1]  # replicated top and bottom borders
-        e[height + 1] = e[height]
-        g_total[n] = g_sum(q, ce_cols, delta_c, c_w, c_de, t_de, want,
-                           l_g[n] if want else q)  # q: a typed stand-in, not written
+                fill_borders_as(er, 1, width, border)
+                if g_layer:
+                    g_row(s_ring[row_index(y - 2, 3, height, border)], s_ring[(y - 1) % 3],
+                          s_ring[row_index(y, 3, height, border)], vsum, q[y - 1], ce_cols)
+        if g_layer:
+            g_total[n] = g_sum(q, ce_cols, delta_c, c_w, c_de, t_de, want,
+                               l_g[n] if want else q)  # q: a typed stand-in, not written
+        else:
+            g_total[n] = s_total
+            if want:
+                l_g[n] = zero
         abs_p_total[n] = abs_p
 
 
@@ -218,13 +354,21 @@ class LGMD1(LGMDModel):
 
     The reported potential is K, the sigmoid membrane potential, held at its resting value
     0.5 while the feed-forward inhibition is on. The published spike and collision outputs
-    (K >= 0.78, 5 frames in a row) are not modelled: the project's metrics work on K.
+    are not modelled: the project's metrics work on K.
     """
 
     name: ClassVar[str] = "lgmd1"
     Params: ClassVar[type[ModelParams]] = LGMD1Params
     layer_names: ClassVar[tuple[str, ...]] = ("P", "S", "G")
-    presets: ClassVar[dict[str, dict[str, Any]]] = {"published": {}}
+    presets: ClassVar[dict[str, dict[str, Any]]] = {
+        "published": {},  # PI-LGMD's LobulaGiantMotionDetectorModel.run
+        "lgmd-single": {"w_i": 0.6, "t_s": 30.0, "t_s_rule": "signed", "coincidence": True,
+                        "t_ffi": 10.0, "g_layer": False, "border": "replicate"},
+        "plgmd": {"w_i": 0.3, "c_de": 0.15, "persistence": "constant", "border": "zero"},
+        # this project's first reading: LGMDSingle.cs with the G layer and |S| >= Ts
+        "v0.1": {"w_i": 0.6, "t_s": 30.0, "t_s_rule": "abs", "coincidence": True,
+                 "t_ffi": 10.0, "border": "replicate"},
+    }
 
     params: LGMD1Params
 
@@ -233,14 +377,19 @@ class LGMD1(LGMDModel):
         self._prev = np.zeros((n, height, width), np.uint8)
         self._fresh = np.ones(n, bool)
         self._mean_abs_p = np.zeros(n)
+        self._frame_index = np.zeros(n, np.int64)
+        older = (n, height, width) if self.params.persistence != "none" else (1, 1, 1)
         # Staggered (`staggered_arrays`): allocated apart, some instances ran 2.5x slower.
-        self._e, self._s_ring, self._p_ring, self._vsum, self._q, self._ce_cols = (
-            staggered_arrays([(n, height + 2, width + 2), (3, width + 2), (2, width),
+        self._e, self._p_older, self._s_ring, self._p_ring, self._vsum, self._q, self._ce_cols = (
+            staggered_arrays([(n, height + 1, width + 2), older, (4, width + 2), (2, width),
                               (width + 2,), (height, width), (width,)]))
 
     def _reset_streams(self, idx: np.ndarray) -> None:
         self._e[idx] = 0.0
+        if self._p_older.shape[0] == self._n:
+            self._p_older[idx] = 0.0
         self._mean_abs_p[idx] = 0.0
+        self._frame_index[idx] = 0
         self._fresh[idx] = True
 
     def _step(self, grey: np.ndarray, layers: dict[str, np.ndarray] | None) -> np.ndarray:
@@ -248,17 +397,25 @@ class LGMD1(LGMDModel):
         p = self.params
         f32 = np.float32
         n, height, width = grey.shape
+        border, interior = border_code(p.border)
+        weights, persist = persistence_weights(p.persistence, p.persistence_weights,
+                                               self._frame_index)
         maps = [layers[k] for k in self.layer_names] if layers else [_NO_MAP] * 3
         g_total = np.empty(n)
         abs_p = np.empty(n)
         _lgmd1_frames(
-            grey, self._prev, self._e, f32(p.w_i), f32(p.inhibition_near),
-            f32(p.inhibition_diagonal), f32(p.t_s), bool(p.coincidence), p.delta_c, p.c_w,
-            p.c_de, p.t_de, self._s_ring, self._p_ring, self._vsum, self._q, self._ce_cols,
+            grey, self._prev, self._e, self._p_older, weights, persist, f32(p.w_i),
+            f32(p.inhibition_near), f32(p.inhibition_diagonal),
+            NO_THRESHOLD if p.t_s is None else f32(p.t_s),
+            f32(1.0 if p.t_s_rule == "signed" else -1.0), bool(p.coincidence),
+            bool(p.g_layer), border, interior, p.delta_c, p.c_w, p.c_de, p.t_de,
+            self._s_ring, self._p_ring, self._vsum, self._q, self._ce_cols,
             layers is not None, *maps, g_total, abs_p,
         )
+        self._frame_index += 1
         potential = sigmoid_potential(g_total, height * width, p.c_sig)
-        potential[self._mean_abs_p >= p.t_ffi] = 0.5  # FFI from mean |P(t-1)|
+        if p.t_ffi is not None:
+            potential[self._mean_abs_p >= p.t_ffi] = 0.5  # FFI from mean |P(t-1)|
         self._mean_abs_p = abs_p / (height * width)
         return potential
 
@@ -275,3 +432,4 @@ def take_first_frames(grey: np.ndarray, prev: np.ndarray, fresh: np.ndarray) -> 
         prev[fresh] = grey[fresh]
         fresh[:] = False
     return prev
+

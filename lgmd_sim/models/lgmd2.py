@@ -1,20 +1,28 @@
 """LGMD2 (Fu, Hu, Peng, Yue 2018/2019): ON/OFF channels, adaptive delayed inhibition, SFA.
 
-Layers, per frame t (grey levels 0..255), as lgmd2OpenSource.cs does them (docs/models.md,
-"Baselines"):
+Layers, per frame t (grey levels 0..255), with the switches that tell the published
+implementations apart (docs/models.md, "Baselines"):
 
-- P = L(t) - L(t-1), 0 on the first frame of a stream; PM = mean |P| low-passed with
-  ``tau_pm``; W_on = max(w_on_min, PM / t_pm), W_off = max(w_off_min, PM / t_pm).
+- P = L(t) - L(t-1), 0 on the first frame of a stream (plus ``persistence``).
 - ON = [P]+ + carry ON(t-1), OFF = [-P]+ + carry OFF(t-1).
-- Delayed inhibition: each channel feeds three first-order low-passes (the centre, near
-  and diagonal delays; coefficient dt / (dt + tau)); I = the 3x3 sum of the low-passes
-  of the previous frames weighted by the centre / near / diagonal weights.
-- S_on = [ON - W_on I_on]+, S_off = [OFF - W_off I_off]+, S = S_on + S_off + S_on S_off.
-- G layer and sigmoid as in LGMD1 (`lgmd_sim.models.lgmd1`), over sum G.
-- Spike-frequency adaptation (SFA) of the sigmoid output K: the reported potential.
+- PM: the mean activity, from the whole field (mean |P|) and per channel (mean ON, mean
+  OFF), each filtered with ``tau_pm`` (``pm_filter``: a recursive low-pass, or a two-tap
+  filter of this frame's and the last frame's mean). W_on = max(w_on_min, PM / t_pm),
+  W_off = max(w_off_min, PM / t_pm), from the whole-field or each channel's PM
+  (``pm_weights``).
+- Delayed inhibition: for each channel and each of the centre, near and diagonal cells a
+  delayed copy with coefficient a = dt / (dt + tau): ``inhibition_filter`` "two-frame"
+  mixes the current and the previous frame, a X(t) + (1 - a) X(t-1) (the published
+  code); "low-pass" low-passes the previous frames only. I = the 3x3 sum of the delayed
+  copies weighted by the centre / near / diagonal weights.
+- S_on = [ON - W_on I_on]+, S_off = [OFF - W_off I_off]+, S = S_on + S_off +
+  onoff_product S_on S_off; a channel's S is gated off (``ffi_channels``) while its PM is
+  below ``ffi_gate``.
+- G layer and sigmoid as in LGMD1 (`lgmd_sim.models.lgmd1`), over sum G: K. A global FFI
+  (``global_ffi_base``) sets K to 0.5 when PM_on + PM_off jumps.
+- Spike-frequency adaptation (SFA) of K: the reported potential.
 
-`LGMD2` also serves the F(ON)/F(OFF) LGMDs (`lgmd_sim.models.ffi`), which add a
-polarity-specific gate through the `_gates` hook.
+The F(ON)/F(OFF) LGMDs (`lgmd_sim.models.ffi`) are this model with the oLGMD's values.
 """
 
 from __future__ import annotations
@@ -26,64 +34,155 @@ import numpy as np
 from numba import njit
 
 from lgmd_sim.models.base import LGMDModel, ModelParams
-from lgmd_sim.models.kernels import fill_borders, ring_slot, staggered_arrays
+from lgmd_sim.models.kernels import fill_borders_as, row_index, staggered_arrays
 from lgmd_sim.models.lgmd1 import (
     _NO_MAP,
     JIT,
-    GLayerParams,
+    SOURCES,
+    BaselineParams,
+    border_code,
+    diff_row,
+    finish_s_row,
     g_row,
     g_sum,
+    persist_row,
+    persistence_weights,
     sigmoid_potential,
     take_first_frames,
 )
-from lgmd_sim.params import finite, in_range, non_negative, param, positive, tuple_of
+from lgmd_sim.params import (
+    finite,
+    in_range,
+    non_negative,
+    one_of,
+    optional,
+    param,
+    positive,
+    tuple_of,
+)
 
-__all__ = ["LGMD2", "LGMD2Params", "low_pass_coefficient"]
+__all__ = ["LGMD2", "LGMD2Params", "frame_interval", "low_pass_coefficient",
+           "spike_frequency_adaptation"]
 
-_SRC = "fuqinbing/LGMD2-open-source lgmd2OpenSource.cs"
-_SHARED = f"{_SRC}; the same in Ryannnice/Supplementary_Materials_FFI_ON_OFF optimized_LGMD.py"
+_SRC = SOURCES["lgmd2"]
+_OL = SOURCES["olgmd"]
+_SHARED = f"{_SRC}; the same in {_OL}"
+
+
+def _boolean(v: Any) -> str | None:
+    return None if isinstance(v, bool | np.bool_) else "must be True or False"
 
 
 @dataclass(frozen=True)
-class LGMD2Params(GLayerParams):
-    """Parameters of LGMD2; defaults from lgmd2OpenSource.cs (baselines.md)."""
+class LGMD2Params(BaselineParams):
+    """Parameters of LGMD2; defaults: lgmd2OpenSource.cs (preset ``published``)."""
 
-    fps: float = param(30.0, "baselines.md: the published code assumes 30 fps; paper Sec. "
-                       "4.1.2 (30 fps)", check=positive,
+    fps: float = param(30.0, "paper Sec. 4.1.2 (30 fps); the fps lgmd2OpenSource.cs is built "
+                       "with", check=positive,
                        doc="frame rate that turns the time constants into per-frame "
-                           "coefficients")
-    carry: float = param(0.1, _SHARED, check=in_range(0.0, 1.0),
+                           "coefficients (see dt)")
+    dt: float | None = param(None, f"{_SRC}: time_interval from fps (53 ms fixed in {_OL})",
+                             check=optional(positive),
+                             doc="frame interval (ms) the time constants are applied with; "
+                                 "None: from fps (see dt_integer)")
+    dt_integer: bool = param(True, f"{_SRC}: time_interval = 1000 / fps in C# integer "
+                             "arithmetic (33 ms at 30 fps)", check=_boolean,
+                             doc="with dt None: dt = 1000 // fps whole milliseconds (True) "
+                                 "or 1000 / fps (False)")
+    carry: float = param(0.1, f"{_SHARED} (dc; a1)", check=in_range(0.0, 1.0),
                          doc="part of the previous ON / OFF value carried over")
-    tau_pm: float = param(90.0, _SRC, check=non_negative,
-                          doc="time constant (ms) of the low-pass of mean |P| (PM)")
-    t_pm: float = param(8.0, _SRC, check=positive,
+    tau_pm: float = param(90.0, f"{_SRC} (tau_PM; 10 in {_OL})", check=non_negative,
+                          doc="time constant (ms) of the PM filter")
+    pm_filter: str = param("low-pass", f"{_SRC}: pm = LowpassFilter(mean, pm(t-1))",
+                           check=one_of("low-pass", "two-tap"),
+                           doc="'low-pass': PM(t) = PM(t-1) + a (m(t) - PM(t-1)); "
+                               "'two-tap': PM(t) = a m(t) + (1 - a) m(t-1) (the oLGMD); "
+                               "a = dt / (dt + tau_pm), m the frame's mean")
+    pm_weights: str = param("whole-field", f"{_SRC}: W_i_on and W_i_off from mean |P|",
+                            check=one_of("whole-field", "per-channel"),
+                            doc="W_on and W_off from the PM of mean |P| ('whole-field') or "
+                                "W_on from PM_on (mean ON), W_off from PM_off (mean OFF)")
+    pm_off_uses_on_mean: bool = param(
+        False, f"ours: off; True is {_OL} as written (PM_ff = a4 * pmon + ...), a bug",
+        check=_boolean,
+        doc="the current term of PM_off takes the mean of ON instead of OFF")
+    t_pm: float = param(8.0, f"{_SRC} (Tpm; 6 in {_OL})", check=positive,
                         doc="T_pm: W = max(w_min, PM / t_pm)")
-    w_on_min: float = param(1.0, _SRC, check=non_negative,
+    w_on_min: float = param(1.0, f"{_SHARED} (W_i_on_base; w3)", check=non_negative,
                             doc="smallest inhibition weight of the ON channel")
-    w_off_min: float = param(0.5, _SRC, check=non_negative,
+    w_off_min: float = param(0.5, f"{_SRC} (W_i_off_base; 0.3 in {_OL})", check=non_negative,
                              doc="smallest inhibition weight of the OFF channel")
     on_weights: tuple[float, float, float] = param(
-        (2.0, 0.5, 0.25), _SHARED, check=tuple_of(non_negative, 3),
+        (2.0, 0.5, 0.25), f"{_SHARED} (Conv_ON; W1_kernel)", check=tuple_of(non_negative, 3),
         doc="ON inhibition kernel: (centre, each near, each diagonal) weight")
     on_delays: tuple[float, float, float] = param(
-        (15.0, 30.0, 45.0), _SHARED, check=tuple_of(non_negative, 3),
-        doc="ON inhibition delays (ms): (centre, near, diagonal) low-pass time constants")
+        (15.0, 30.0, 45.0), f"{_SHARED} (tau_ON; t3, t2, t1)", check=tuple_of(non_negative, 3),
+        doc="ON inhibition delays (ms): (centre, near, diagonal) time constants")
     off_weights: tuple[float, float, float] = param(
-        (1.0, 0.25, 0.125), _SHARED, check=tuple_of(non_negative, 3),
+        (1.0, 0.25, 0.125), f"{_SHARED} (Conv_OFF; W2_kernel)", check=tuple_of(non_negative, 3),
         doc="OFF inhibition kernel: (centre, each near, each diagonal) weight")
     off_delays: tuple[float, float, float] = param(
-        (60.0, 120.0, 180.0), _SHARED, check=tuple_of(non_negative, 3),
-        doc="OFF inhibition delays (ms): (centre, near, diagonal) low-pass time constants")
-    t_sfa: float = param(0.003, _SRC, check=finite,
+        (60.0, 120.0, 180.0), f"{_SHARED} (tau_OFF; t6, t5, t4)",
+        check=tuple_of(non_negative, 3),
+        doc="OFF inhibition delays (ms): (centre, near, diagonal) time constants")
+    inhibition_filter: str = param(
+        "two-frame", f"{_SHARED}: LowpassFilter(X(t), X(t-1)) inside the convolution",
+        check=one_of("two-frame", "low-pass"),
+        doc="'two-frame': each delayed copy is a X(t) + (1 - a) X(t-1) of the current and "
+            "previous frame; 'low-pass': X(t-1), X(t-2)... low-passed (ours, v0.1)")
+    onoff_product: float = param(1.0, f"{_SRC} (W_onoff; o3 = 0 in {_OL})", check=finite,
+                                 doc="coefficient of S_on * S_off in S")
+    ffi_channels: str = param(
+        "none", f"{_SRC}: no FFI (both channels in {_OL})",
+        check=one_of("none", "on", "off", "both"),
+        doc="channels whose S is gated off while their PM (PM_on, PM_off) is below ffi_gate")
+    ffi_gate: float = param(1.15, f"{_OL} (oon, ooff)", check=non_negative,
+                            doc="a gated channel's S passes only while its PM >= ffi_gate")
+    ffi_gates_history: bool = param(
+        True, f"{_OL}: E = P_on / P_off is only set while the gate is open",
+        check=_boolean,
+        doc="a gated-off channel also feeds nothing (E = 0) to the next frame's inhibition "
+            "(False: the gate zeroes S only; v0.1)")
+    global_ffi_base: float | None = param(
+        None, f"{_SRC}: none (10 in {_OL}: AIM(t) >= 10 + 0.02 AIM(t-1))",
+        check=optional(non_negative),
+        doc="global FFI: K is set to 0.5 (before SFA) while PM_on + PM_off >= "
+            "global_ffi_base + global_ffi_gain * (its previous value); None: off")
+    global_ffi_gain: float = param(0.02, _OL, check=non_negative,
+                                   doc="see global_ffi_base")
+    t_sfa: float = param(0.003, f"{_SRC} (Tsfa; 0.002 in {_OL})", check=finite,
                          doc="SFA: a rise of K by at most t_sfa counts as no rise (adapt)")
-    tau_sfa: float = param(800.0, _SHARED, check=non_negative,
-                           doc="SFA time constant (ms) of the adapted potential's decay")
+    tau_sfa: float = param(800.0, f"{_SHARED} (tau_sfa; a6 = 800 / (800 + t))",
+                           check=non_negative,
+                           doc="SFA time constant (ms): decay = tau / (tau + dt) per frame")
+    sfa_rise: str = param("decay", f"{_SHARED}: SFA_HPF returns hp_sfa * K on a rise",
+                          check=one_of("decay", "follow"),
+                          doc="where K rose by more than t_sfa the adapted potential is "
+                              "decay * K ('decay') or K ('follow', ours, v0.1)")
 
 
-def low_pass_coefficient(tau_ms: float, fps: float) -> float:
-    """First-order low-pass coefficient dt / (dt + tau) of a delay tau at a frame rate."""
-    dt = 1000.0 / fps
-    return dt / (dt + tau_ms)
+def frame_interval(p: LGMD2Params) -> float:
+    """The frame interval dt (ms) the time constants are applied with."""
+    if p.dt is not None:
+        return float(p.dt)
+    return float(1000.0 // p.fps) if p.dt_integer else 1000.0 / p.fps
+
+
+def low_pass_coefficient(tau_ms: float, dt_ms: float) -> float:
+    """First-order coefficient dt / (dt + tau) of a delay tau at a frame interval dt."""
+    return dt_ms / (dt_ms + tau_ms)
+
+
+def spike_frequency_adaptation(
+    k: np.ndarray, k_prev: np.ndarray, adapted: np.ndarray, t_sfa: float, decay: float,
+    follow: bool,
+) -> np.ndarray:
+    """SFA: where K rose by more than t_sfa the adapted value is K (``follow``) or decay K;
+    elsewhere it takes the change of K and decays by ``decay`` = tau / (tau + dt) per
+    frame; floor 0.5."""
+    dk = k - k_prev
+    rise = k if follow else decay * k
+    return np.maximum(np.where(dk <= t_sfa, decay * (adapted + dk), rise), 0.5)
 
 
 class LGMD2(LGMDModel):
@@ -96,49 +195,72 @@ class LGMD2(LGMDModel):
     name: ClassVar[str] = "lgmd2"
     Params: ClassVar[type[ModelParams]] = LGMD2Params
     layer_names: ClassVar[tuple[str, ...]] = ("P", "ON", "OFF", "S", "G")
-    presets: ClassVar[dict[str, dict[str, Any]]] = {"published": {}}
+    presets: ClassVar[dict[str, dict[str, Any]]] = {
+        "published": {},  # lgmd2OpenSource.cs
+        # this project's first reading: low-passed previous frames, SFA following K
+        "v0.1": {"dt_integer": False, "inhibition_filter": "low-pass", "sfa_rise": "follow"},
+    }
 
     params: LGMD2Params
 
     def __init__(self, params: ModelParams | None = None, *, n_streams: int | None = None):
         super().__init__(params, n_streams=n_streams)
         p = self.params
-        f32 = np.float32
+        dt = frame_interval(p)
         self._alphas = np.array(
-            [low_pass_coefficient(t, p.fps) for t in (*p.on_delays, *p.off_delays)], f32)
-        self._weights = np.array([*p.on_weights, *p.off_weights], f32)
-        self._a_pm = low_pass_coefficient(p.tau_pm, p.fps)
-        self._a_sfa = 1.0 - low_pass_coefficient(p.tau_sfa, p.fps)  # tau / (tau + dt)
+            [low_pass_coefficient(t, dt) for t in (*p.on_delays, *p.off_delays)], np.float32)
+        self._weights = np.array([*p.on_weights, *p.off_weights], np.float32)
+        self._a_pm = low_pass_coefficient(p.tau_pm, dt)
+        self._decay_sfa = 1.0 - low_pass_coefficient(p.tau_sfa, dt)  # tau / (tau + dt)
+        self._border, self._interior = border_code(p.border)
+        self._gated = np.array([p.ffi_channels in ("on", "both"),
+                                p.ffi_channels in ("off", "both")])
 
     # -- state -------------------------------------------------------------------------
 
     def _allocate(self, n: int, height: int, width: int) -> None:
+        p = self.params
         self._prev = np.zeros((n, height, width), np.uint8)
         self._fresh = np.ones(n, bool)
-        # ON, OFF, the low-passes (padded, replicated borders: ON centre, near, diagonal;
-        # OFF the same) and the scratch lines, staggered (`staggered_arrays`): allocated
-        # apart, they shared page offsets and ran 2x slower.
-        self._on, self._off, self._lp, self._s_ring, self._vsum, self._q, self._ce_cols = (
-            staggered_arrays([(n, height, width), (n, height, width),
-                              (n, 6, height + 2, width + 2), (3, width + 2), (width + 2,),
-                              (height, width), (width,)]))
-        # Per stream: PM, PM_on, PM_off, mean ON, mean OFF; K and the adapted K (SFA).
-        self._pm = np.zeros((n, 5))
+        # State: ON, OFF; the low-passes (ON centre, near, diagonal; OFF the same) where
+        # inhibition_filter is "low-pass" (else a 3-row ring of the current mix, scratch);
+        # P(t-1), P(t-2) where persistence runs. Rows of the low-passes, the ring and the S
+        # ring are padded by a column each side and followed by a row of zeros (a border
+        # row under border "zero"). Staggered (`staggered_arrays`): allocated apart, they
+        # shared page offsets and ran 2x slower.
+        low_pass = p.inhibition_filter == "low-pass"
+        hist = (n, 2, height, width) if p.persistence != "none" else (1, 2, 1, 1)
+        (self._on, self._off, self._lp, self._mix, self._p_hist, self._s_ring, self._lines,
+         self._vsum, self._q, self._ce_cols) = staggered_arrays([
+            (n, height, width), (n, height, width),
+            (n, 6, height + 1, width + 2) if low_pass else (1, 6, 1, width + 2),
+            (6, 4, width + 2), hist, (4, width + 2), (3, width), (width + 2,),
+            (height, width), (width,)])
+        # Per stream: the last frame's means (|P|, ON, OFF), the PM filters' outputs
+        # (PM, PM_on, PM_off), PM_on + PM_off, the gates' history factors (ON, OFF);
+        # K and the adapted K (SFA).
+        self._m_prev = np.zeros((n, 3))
+        self._pm = np.zeros((n, 3))
+        self._aim = np.zeros(n)
+        self._hist = np.ones((n, 2), np.float32)
+        self._frame_index = np.zeros(n, np.int64)
         self._k = np.full(n, 0.5)
         self._adapted = np.full(n, 0.5)
 
     def _reset_streams(self, idx: np.ndarray) -> None:
         self._fresh[idx] = True
-        for state in (self._on, self._off, self._lp, self._pm):
+        for state in (self._on, self._off, self._m_prev, self._pm, self._aim):
             state[idx] = 0.0
+        if self._lp.shape[0] == self._n:
+            self._lp[idx] = 0.0
+        if self._p_hist.shape[0] == self._n:
+            self._p_hist[idx] = 0.0
+        self._hist[idx] = 1.0
+        self._frame_index[idx] = 0
         self._k[idx] = 0.5
         self._adapted[idx] = 0.5
 
     # -- one frame ---------------------------------------------------------------------
-
-    def _gates(self, pm_on: np.ndarray, pm_off: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Per stream, 1 where the ON / OFF channel's S passes, 0 where it is gated off."""
-        return np.ones_like(pm_on), np.ones_like(pm_off)
 
     def _step(self, grey: np.ndarray, layers: dict[str, np.ndarray] | None) -> np.ndarray:
         self._prev = take_first_frames(grey, self._prev, self._fresh)
@@ -146,61 +268,80 @@ class LGMD2(LGMDModel):
         f32 = np.float32
         n, height, width = grey.shape
         n_cells = height * width
+        weights, persist = persistence_weights(p.persistence, p.persistence_weights,
+                                               self._frame_index)
         sums = np.empty((n, 2))
-        _rectified_sums(grey, self._prev, sums)
-        # Means of ON(t) and OFF(t) follow from the sums, since ON(t) = [P]+ + carry ON(t-1).
-        means = np.column_stack([(sums[:, 0] + sums[:, 1]), sums[:, 0], sums[:, 1]]) / n_cells
-        means[:, 1:] += p.carry * self._pm[:, 3:5]
-        self._pm[:, 3:5] = means[:, 1:]
-        self._pm[:, :3] += self._a_pm * (means - self._pm[:, :3])  # PM, PM_on, PM_off
-        pm = self._pm[:, 0]
-        w_on = np.maximum(p.w_on_min, pm / p.t_pm).astype(f32)
-        w_off = np.maximum(p.w_off_min, pm / p.t_pm).astype(f32)
-        gate_on, gate_off = self._gates(self._pm[:, 1], self._pm[:, 2])
+        _rectified_sums(grey, self._prev, self._p_hist, weights, persist, self._lines[0], sums)
+        # Means of |P|, ON(t), OFF(t); those of ON and OFF follow from the sums, since
+        # ON(t) = [P]+ + carry ON(t-1).
+        m = np.column_stack([sums[:, 0] + sums[:, 1], sums[:, 0], sums[:, 1]]) / n_cells
+        m[:, 1:] += p.carry * self._m_prev[:, 1:]
+        current = m.copy()
+        if p.pm_off_uses_on_mean:
+            current[:, 2] = m[:, 1]
+        a = self._a_pm
+        if p.pm_filter == "two-tap":
+            self._pm = a * current + (1.0 - a) * self._m_prev
+        else:
+            self._pm = self._pm + a * (current - self._pm)
+        self._m_prev = m
+        pm = self._pm
+        per_channel = p.pm_weights == "per-channel"
+        w_on = np.maximum(p.w_on_min, pm[:, 1 if per_channel else 0] / p.t_pm).astype(f32)
+        w_off = np.maximum(p.w_off_min, pm[:, 2 if per_channel else 0] / p.t_pm).astype(f32)
+        gates = np.where(self._gated, pm[:, 1:] >= p.ffi_gate, True).astype(f32)
+        hist = gates if p.ffi_gates_history else np.ones_like(gates)
         maps = [layers[k] for k in self.layer_names] if layers else [_NO_MAP] * 5
         g_total = np.empty(n)
         _onoff_frames(
-            grey, self._prev, self._on, self._off, self._lp, w_on, w_off,
-            gate_on.astype(f32), gate_off.astype(f32), f32(p.carry), self._weights,
-            self._alphas, p.delta_c, p.c_w, p.c_de, p.t_de, self._s_ring, self._vsum,
-            self._q, self._ce_cols, layers is not None, *maps, g_total,
+            grey, self._prev, self._on, self._off, self._lp, self._mix, self._p_hist,
+            weights, persist, w_on, w_off, gates, hist, self._hist, f32(p.carry),
+            self._weights, self._alphas, p.inhibition_filter == "two-frame",
+            f32(p.onoff_product), self._border, self._interior, p.delta_c, p.c_w, p.c_de,
+            p.t_de, self._s_ring, self._lines, self._vsum, self._q, self._ce_cols,
+            layers is not None, *maps, g_total,
         )
+        self._hist = hist
+        self._frame_index += 1
         k = sigmoid_potential(g_total, n_cells, p.c_sig)
+        if p.global_ffi_base is not None:
+            aim = pm[:, 1] + pm[:, 2]
+            k[aim >= p.global_ffi_base + p.global_ffi_gain * self._aim] = 0.5
+            self._aim = aim
         self._adapted = spike_frequency_adaptation(
-            k, self._k, self._adapted, p.t_sfa, self._a_sfa)
+            k, self._k, self._adapted, p.t_sfa, self._decay_sfa, p.sfa_rise == "follow")
         self._k = k
         return self._adapted.copy()
-
-
-def spike_frequency_adaptation(
-    k: np.ndarray, k_prev: np.ndarray, adapted: np.ndarray, t_sfa: float, decay: float
-) -> np.ndarray:
-    """SFA: where K rose by more than t_sfa the adapted value follows K; elsewhere it takes
-    the change of K and decays by ``decay`` = tau / (tau + dt) per frame; floor 0.5."""
-    dk = k - k_prev
-    return np.maximum(np.where(dk <= t_sfa, decay * (adapted + dk), k), 0.5)
 
 
 # --- kernels ------------------------------------------------------------------------------
 
 
 @njit(**JIT)
-def _rectified_sums(frames, prev, out):
-    """out[n] = (sum [P]+, sum [-P]+) of stream n's frame difference P."""
+def _p_row(frames, prev, p_hist, n, y, c1, c2, persist, out):
+    """Row y of stream n's P into ``out`` (P(t-1), P(t-2) from ``p_hist`` where persisting)."""
+    if persist:
+        persist_row(frames[n, y], prev[n, y], p_hist[n, 0, y], p_hist[n, 1, y], c1, c2, out)
+    else:
+        diff_row(frames[n, y], prev[n, y], out)
+
+
+@njit(**JIT)
+def _rectified_sums(frames, prev, p_hist, persist_w, persist_on, line, out):
+    """out[n] = (sum [P]+, sum [-P]+) of stream n's P (nothing is written back)."""
     n_streams, height, width = frames.shape
     zero = np.float32(0.0)
     for n in range(n_streams):
         pos = 0.0
         neg = 0.0
         for y in range(height):
-            fr = frames[n, y]
-            pr = prev[n, y]
+            _p_row(frames, prev, p_hist, n, y, persist_w[n, 0], persist_w[n, 1],
+                   persist_on[n], line)
             acc_pos = zero
             acc_neg = zero
             for x in range(width):
-                p = np.float32(fr[x]) - np.float32(pr[x])
-                acc_pos += max(p, zero)
-                acc_neg += max(-p, zero)
+                acc_pos += max(line[x], zero)
+                acc_neg += max(-line[x], zero)
             pos += acc_pos
             neg += acc_neg
         out[n, 0] = pos
@@ -210,7 +351,7 @@ def _rectified_sums(frames, prev, out):
 @njit(**JIT)
 def _inhibition(c1, n0, n1, n2, d0, d2, wc, wn, wd, x):
     """I at column x: the 3x3 kernel over the centre (c), near (n) and diagonal (d)
-    low-passes, given as padded rows (index 0, 1, 2: rows y-1, y, y+1)."""
+    delayed copies, given as padded rows (index 0, 1, 2: rows y-1, y, y+1)."""
     return wc * c1[x + 1] + wn * (n0[x + 1] + n2[x + 1] + n1[x] + n1[x + 2]) + wd * (
         d0[x] + d0[x + 2] + d2[x] + d2[x + 2])
 
@@ -223,80 +364,136 @@ _FLUSH = np.float32(1e-6)
 
 
 @njit(**JIT)
-def _low_pass_row(lp_row, source, alpha):
-    """One padded row of a first-order low-pass: lp += alpha (source - lp); borders filled."""
+def _low_pass_row(lp_row, source, alpha, gain, border):
+    """One padded row of a first-order low-pass: lp += alpha (gain source - lp)."""
     width = source.shape[0]
     zero = np.float32(0.0)
     for x in range(width):
-        v = lp_row[x + 1] + alpha * (source[x] - lp_row[x + 1])
+        v = lp_row[x + 1] + alpha * (gain * source[x] - lp_row[x + 1])
         lp_row[x + 1] = v if v >= _FLUSH else zero
-    fill_borders(lp_row, 1, width)
+    fill_borders_as(lp_row, 1, width, border)
 
 
 @njit(**JIT)
-def _onoff_frames(frames, prev, on, off, lp, w_on, w_off, gate_on, gate_off, carry,
-                  weights, alphas, delta_c, c_w, c_de, t_de, s_ring, vsum, q, ce_cols,
+def _channel_row(p, channel, carry, sign):
+    """One row of ON = [P]+ + carry ON(t-1) (sign 1) or OFF = [-P]+ + carry OFF(t-1) (-1).
+
+    A loop of its own: with more arrays written in one loop, LLVM leaves it scalar.
+    """
+    zero = np.float32(0.0)
+    for x in range(p.shape[0]):
+        v = max(sign * p[x], zero) + carry * channel[x]
+        channel[x] = v if v >= _FLUSH else zero
+
+
+@njit(**JIT)
+def _mix_row(out, current, previous, a, b, border):
+    """One padded row of a two-frame delayed copy: out = a X(t) + b X(t-1)."""
+    width = current.shape[0]
+    for x in range(width):
+        out[x + 1] = a * current[x] + b * previous[x]
+    fill_borders_as(out, 1, width, border)
+
+
+@njit(**JIT)
+def _onoff_frames(frames, prev, on, off, lp, mix, p_hist, persist_w, persist_on, w_on, w_off,
+                  gates, hist_now, hist_prev, carry, weights, alphas, two_frame, onoff, border,
+                  interior, delta_c, c_w, c_de, t_de, s_ring, lines, vsum, q, ce_cols,
                   want, l_p, l_on, l_off, l_s, l_g, g_total):
     """One frame per stream of the ON/OFF models, up to sum G.
 
-    The low-passes hold the previous frames' ON / OFF (delay of at least one frame): S of
-    row y reads rows y-1..y+1 of them, so row y-1 is advanced to ON(t) / OFF(t) one row
-    late. G of row y-1 follows once S of row y is in the ring.
+    Row pipeline: row y's P, ON and OFF (and, "two-frame", its delayed copies, into the
+    3-row ring ``mix``); then S of row y-1, whose inhibition reads the delayed copies of
+    rows y-2..y; then G of row y-2. "Low-pass": the low-passes ``lp`` hold the previous
+    frames (delay of at least one frame), and row y-2 is advanced to ON(t) / OFF(t) once
+    S of row y-1 has read it.
     """
     n_streams, height, width = frames.shape
     zero = np.float32(0.0)
+    one = np.float32(1.0)
     wc_on, wn_on, wd_on = weights[0], weights[1], weights[2]
     wc_off, wn_off, wd_off = weights[3], weights[4], weights[5]
+    pl, old_on, old_off = lines[0], lines[1], lines[2]
     for n in range(n_streams):
         won = w_on[n]
         woff = w_off[n]
-        g_on = gate_on[n]
-        g_off = gate_off[n]
+        g_on = gates[n, 0]
+        g_off = gates[n, 1]
+        persist = persist_on[n]
+        c1 = persist_w[n, 0]
+        c2 = persist_w[n, 1]
+        delayed = mix if two_frame else lp[n]
+        n_rows = delayed.shape[1] - 1  # image rows it holds; then a zero row
         ce_cols[:] = zero
-        for y in range(height + 1):
-            if y < height:
+        for y in range(height + 2):
+            if y < height:  # P, ON, OFF of row y
                 fr = frames[n, y]
                 pr = prev[n, y]
                 onr = on[n, y]
                 offr = off[n, y]
-                if want:
-                    for x in range(width):
-                        l_p[n, y, x] = np.float32(fr[x]) - np.float32(pr[x])
-                ln = lp[n]
-                c_on, n0_on, n1_on, n2_on = ln[0, y + 1], ln[1, y], ln[1, y + 1], ln[1, y + 2]
-                d0_on, d2_on = ln[2, y], ln[2, y + 2]
-                c_of, n0_of, n1_of, n2_of = ln[3, y + 1], ln[4, y], ln[4, y + 1], ln[4, y + 2]
-                d0_of, d2_of = ln[5, y], ln[5, y + 2]
-                sr = s_ring[y % 3]
+                _p_row(frames, prev, p_hist, n, y, c1, c2, persist, pl)
+                if persist:  # P(t-2) <- P(t-1) <- P(t)
+                    p_hist[n, 1, y] = p_hist[n, 0, y]
+                    p_hist[n, 0, y] = pl
                 for x in range(width):
-                    p = np.float32(fr[x]) - np.float32(pr[x])
                     pr[x] = fr[x]
-                    vo = max(p, zero) + carry * onr[x]  # ON
-                    vo = vo if vo >= _FLUSH else zero
-                    onr[x] = vo
-                    vf = max(-p, zero) + carry * offr[x]  # OFF
-                    vf = vf if vf >= _FLUSH else zero
-                    offr[x] = vf
+                if two_frame:  # the last frame's values, for the mix
+                    old_on[:] = onr
+                    old_off[:] = offr
+                _channel_row(pl, onr, carry, one)  # ON
+                _channel_row(pl, offr, carry, -one)  # OFF
+                if two_frame:  # a E(t) + (1 - a) E(t-1), E = the channel while its gate passes
+                    slot = y % 3
+                    for k in range(3):
+                        a_on = alphas[k]
+                        a_off = alphas[k + 3]
+                        _mix_row(mix[k, slot], onr, old_on, a_on * hist_now[n, 0],
+                                 (one - a_on) * hist_prev[n, 0], border)
+                        _mix_row(mix[k + 3, slot], offr, old_off, a_off * hist_now[n, 1],
+                                 (one - a_off) * hist_prev[n, 1], border)
+                if want:
+                    l_p[n, y] = pl
+                    l_on[n, y] = onr
+                    l_off[n, y] = offr
+            if 1 <= y <= height:  # S of row r
+                r = y - 1
+                above = row_index(r - 1, n_rows, height, border)
+                here = r % n_rows
+                below = row_index(r + 1, n_rows, height, border)
+                c_on = delayed[0, here]
+                n0_on, n1_on, n2_on = delayed[1, above], delayed[1, here], delayed[1, below]
+                d0_on, d2_on = delayed[2, above], delayed[2, below]
+                c_of = delayed[3, here]
+                n0_of, n1_of, n2_of = delayed[4, above], delayed[4, here], delayed[4, below]
+                d0_of, d2_of = delayed[5, above], delayed[5, below]
+                onr = on[n, r]
+                offr = off[n, r]
+                sr = s_ring[r % 3]
+                for x in range(width):
                     i_on = _inhibition(c_on, n0_on, n1_on, n2_on, d0_on, d2_on, wc_on, wn_on,
                                        wd_on, x)
                     i_off = _inhibition(c_of, n0_of, n1_of, n2_of, d0_of, d2_of, wc_off, wn_off,
                                         wd_off, x)
-                    s_on = max(vo - won * i_on, zero) * g_on  # S_on = [ON - W_on I_on]+
-                    s_off = max(vf - woff * i_off, zero) * g_off  # S_off = [OFF - W_off I_off]+
-                    sr[x + 1] = s_on + s_off + s_on * s_off
-                fill_borders(sr, 1, width)
+                    s_on = max(onr[x] - won * i_on, zero) * g_on  # S_on = [ON - W_on I_on]+
+                    s_off = max(offr[x] - woff * i_off, zero) * g_off  # [OFF - W_off I_off]+
+                    sr[x + 1] = s_on + s_off + onoff * (s_on * s_off)
+                finish_s_row(sr, r, height, width, interior, border)
                 if want:
-                    l_on[n, y] = onr
-                    l_off[n, y] = offr
-                    l_s[n, y] = sr[1:width + 1]
-            if y >= 1:
-                for k in range(3):
-                    _low_pass_row(lp[n, k, y], on[n, y - 1], alphas[k])
-                    _low_pass_row(lp[n, k + 3, y], off[n, y - 1], alphas[k + 3])
-                g_row(s_ring[ring_slot(y - 2, height, 3)], s_ring[(y - 1) % 3],
-                      s_ring[ring_slot(y, height, 3)], vsum, q[y - 1], ce_cols)
-        for k in range(6):  # replicated top and bottom borders
-            lp[n, k, 0] = lp[n, k, 1]
-            lp[n, k, height + 1] = lp[n, k, height]
+                    l_s[n, r] = sr[1:width + 1]
+                if not two_frame and r >= 1:
+                    _advance_low_passes(lp, on, off, alphas, hist_now, n, r - 1, border)
+            if y >= 2:
+                g_row(s_ring[row_index(y - 3, 3, height, border)], s_ring[(y - 2) % 3],
+                      s_ring[row_index(y - 1, 3, height, border)], vsum, q[y - 2], ce_cols)
+        if not two_frame:
+            _advance_low_passes(lp, on, off, alphas, hist_now, n, height - 1, border)
         g_total[n] = g_sum(q, ce_cols, delta_c, c_w, c_de, t_de, want,
                            l_g[n] if want else q)
+
+
+@njit(**JIT)
+def _advance_low_passes(lp, on, off, alphas, hist_now, n, row, border):
+    """Row ``row`` of stream n's six low-passes takes in ON(t) / OFF(t) (their E)."""
+    for k in range(3):
+        _low_pass_row(lp[n, k, row], on[n, row], alphas[k], hist_now[n, 0], border)
+        _low_pass_row(lp[n, k + 3, row], off[n, row], alphas[k + 3], hist_now[n, 1], border)
