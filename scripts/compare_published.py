@@ -5,7 +5,8 @@ For every preset that reproduces a published file (`lgmd_sim.models.reference.pu
 .ORACLES), and for this project's first reading (preset ``v0.1``) against the same file:
 on synthetic looming squares and simulated jitter clips, the correlation and the largest
 difference of the membrane potentials, and the first frame above the threshold (0.8) of
-each. Then the light/dark looming table of all five models at their defaults.
+each. Then the light/dark looming table of all five models at each of their presets (the
+first is the default), and their selectivity at their defaults.
 
     .venv/bin/python scripts/compare_published.py
 """
@@ -92,16 +93,15 @@ def main() -> None:
                       f"| {correlation(ours, theirs)} | {np.abs(ours - theirs).max():.2e} "
                       f"| {first_alarm(ours)} / {first_alarm(theirs)} |")
 
-    print(f"\n# Light and dark looming squares at {shape[0]}x{shape[1]}, each model at its "
-          "default preset (and v0.1): first frame above 0.8, peak potential")
+    print(f"\n# Light and dark looming squares at {shape[0]}x{shape[1]}, each model at each "
+          "preset (the first is the default): first frame above 0.8, peak potential")
     for contrast in (0.8, 0.3):
         print(f"\ncontrast {contrast} (collision at frame 50)\n")
         print("| model | preset | dark: first alarm | dark: peak | light: first alarm "
               "| light: peak |")
         print("|---|---|---:|---:|---:|---:|")
         for name in models.available():
-            presets = list(models.model_class(name).presets)
-            for preset in [presets[0], *(["v0.1"] if "v0.1" in presets else [])]:
+            for preset in models.model_class(name).presets:
                 cells = []
                 for polarity in ("dark", "light"):
                     k = potentials(name, stimuli.approaching(shape, polarity=polarity,
@@ -109,6 +109,22 @@ def main() -> None:
                                    preset=preset)
                     cells += [first_alarm(k), f"{k.max():.3f}"]
                 print(f"| {name} | {preset} | " + " | ".join(cells) + " |")
+
+    print(f"\n# Selectivity at {shape[0]}x{shape[1]}, contrast 0.3, each model at its default "
+          "preset: a 0.2 m square approaching from 3 m at 2 m/s (collision at frame 50), "
+          "receding from 1.5 to 3 m, translating at 3 m and 2 m/s\n")
+    print("| model | polarity | approach: first alarm | approach: peak | receding: peak "
+          "| translating: peak |")
+    print("|---|---|---:|---:|---:|---:|")
+    for name in models.available():
+        for polarity in ("dark", "light"):
+            kw = {"shape": shape, "contrast": 0.3, "polarity": polarity}
+            app = potentials(name, stimuli.approaching(**kw).frames)
+            rec = potentials(name, stimuli.receding(near_distance=1.5, end_distance=3.0,
+                                                    **kw).frames)
+            tra = potentials(name, stimuli.translating(distance=3.0, speed=2.0, **kw).frames)
+            print(f"| {name} | {polarity} | {first_alarm(app)} | {app.max():.3f} "
+                  f"| {rec.max():.3f} | {tra.max():.3f} |")
 
 
 if __name__ == "__main__":

@@ -125,24 +125,34 @@ class BaselineParams(ModelParams):
         check=tuple_of(non_negative, 2), doc="(c1, c2) of persistence 'constant'")
 
 
+def _decaying_weights() -> np.ndarray:
+    """(c1, c2) of 'decaying' persistence at a stream's frames k = 0, 1, ... while either
+    is above `TAP_FLOOR` (smaller ones are 0: they could not change P by 2e-5 grey
+    levels), then one row of zeros for every later frame."""
+    k = np.arange(64, dtype=np.float64)[:, None] + 1.0 - np.array([1.0, 2.0])
+    c = 1.0 / (1.0 + np.exp(k))
+    c[c < TAP_FLOOR] = 0.0
+    return c[: np.flatnonzero(c.any(axis=1))[-1] + 2].astype(np.float32)
+
+
+_DECAYING = _decaying_weights()
+
+
 def persistence_weights(
     mode: str, weights: tuple[float, float], frame_index: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray]:
     """Per stream (c1, c2) float32 at each stream's frame index, and whether to run it.
 
-    'decaying' weights below `TAP_FLOOR` become 0 (from a stream's 17th frame): they could
-    not change P by 2e-5 grey levels. Since they only fall, a stream whose weights are 0
-    needs its older P no more ("run" is False: the kernels skip that work).
+    'decaying' weights only fall, so a stream whose weights are 0 needs its older P no
+    more ("run" is False: the kernels skip that work).
     """
     n = len(frame_index)
     if mode == "none":
         return np.zeros((n, 2), np.float32), np.zeros(n, bool)
     if mode == "constant":
         return np.tile(np.asarray(weights, np.float32), (n, 1)), np.full(n, any(weights))
-    k = frame_index.astype(np.float64)[:, None] + 1.0 - np.array([1.0, 2.0])
-    c = 1.0 / (1.0 + np.exp(np.minimum(k, 700.0)))
-    c[c < TAP_FLOOR] = 0.0
-    return c.astype(np.float32), (c > 0).any(axis=1)
+    c = _DECAYING[np.minimum(frame_index, len(_DECAYING) - 1)]
+    return c, (c > 0).any(axis=1)
 
 
 @dataclass(frozen=True)
