@@ -38,6 +38,22 @@ def _non_negative_float(text: str) -> float:
     return value
 
 
+def _resolution(text: str) -> str | list[int]:
+    """A named frame size (paper, rl, small) or HEIGHTxWIDTH."""
+    from lgmd_sim.world.params import RESOLUTIONS, resolution_check
+
+    if text in RESOLUTIONS:
+        return text
+    try:
+        size = [int(v) for v in text.lower().split("x")]
+    except ValueError:
+        size = []
+    if len(size) != 2 or resolution_check(size):
+        raise argparse.ArgumentTypeError(
+            f"must be {', '.join(RESOLUTIONS)} or HEIGHTxWIDTH (e.g. 270x480), got {text!r}")
+    return size
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="lgmd-sim",
@@ -77,6 +93,27 @@ def build_parser() -> argparse.ArgumentParser:
                    "potential of every frame)")
     p.add_argument("--no-progress", action="store_true", help="hide the progress bar")
     p.set_defaults(run="lgmd_sim.detect:run")
+
+    p = sub.add_parser(
+        "record", help="record a scenario's camera stream as a video; print its collision frame",
+        description="Run one episode of SCENARIO (a name from `lgmd-sim envs`, e.g. "
+        "HandheldApproach) with the carrier driving straight at cruise speed (towards the goal "
+        "where there is one), write the camera stream to OUT and print the frame of first "
+        "collision, the label `lgmd-sim detect --collision-frame` takes.",
+    )
+    p.add_argument("scenario", metavar="SCENARIO", help="scenario name, e.g. HandheldApproach")
+    p.add_argument("out", metavar="OUT", help="video to write: .mkv or .avi (lossless FFV1) "
+                   "or .mp4 (MPEG-4, lossy)")
+    p.add_argument("--seed", type=_non_negative_int, default=0, help="episode seed (default 0)")
+    p.add_argument("--jitter", type=_non_negative_float, default=None,
+                   help="jitter level (default: the scenario's)")
+    p.add_argument("--resolution", type=_resolution, default="paper",
+                   help="paper (270x480, default), rl (120x160), small (64x64) or HxW")
+    p.add_argument("--cruise", type=float, default=1.0,
+                   help="forward action in [-1, 1], a fraction of the carrier's top speed "
+                   "(default 1)")
+    p.add_argument("--no-progress", action="store_true", help="hide the progress bar")
+    p.set_defaults(run="lgmd_sim.record:run")
 
     p = sub.add_parser(
         "models", help="list the LGMD models and their parameters with sources",

@@ -1,9 +1,11 @@
-"""Reading frames from a video file or a folder of images, as RGB uint8.
+"""Reading frames from a video file or a folder of images, and writing videos; RGB uint8.
 
->>> from lgmd_sim.video import VideoReader
+>>> from lgmd_sim.video import VideoReader, video_writer
 >>> clip = VideoReader("run.mp4")          # or a folder of frame0001.png, frame0002.png...
 >>> clip.fps, clip.frame_count
 >>> for rgb in clip: ...                   # (H, W, 3) uint8 frames, in order
+>>> with video_writer("out.mkv", fps=30, size=(270, 480)) as write:
+...     write(rgb)                         # lossless FFV1 in .mkv / .avi, MPEG-4 in .mp4
 
 Problems surface as a ValueError naming the file (and the frame, when a video stops
 decoding part-way), so ``lgmd-sim`` can report them in one line.
@@ -11,15 +13,19 @@ decoding part-way), so ``lgmd-sim`` can report them in one line.
 
 from __future__ import annotations
 
+import contextlib
 import os
 import re
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from pathlib import Path
 
 import cv2
 import numpy as np
 
-__all__ = ["DEFAULT_FOLDER_FPS", "IMAGE_SUFFIXES", "VideoReader", "natural_key"]
+from lgmd_sim.fileio import atomic_output
+
+__all__ = ["CODECS", "DEFAULT_FOLDER_FPS", "IMAGE_SUFFIXES", "VideoReader", "natural_key",
+           "video_writer"]
 
 #: Frame rate assumed for image folders and for videos that do not state one.
 DEFAULT_FOLDER_FPS = 30.0
@@ -27,6 +33,11 @@ DEFAULT_FOLDER_FPS = 30.0
 IMAGE_SUFFIXES = frozenset(
     {".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff", ".webp", ".ppm", ".pgm", ".pnm"}
 )
+
+#: Video codec per file suffix: FFV1 (lossless: frame differences stay exact) in Matroska
+#: and AVI; MPEG-4 Part 2 (lossy, small, plays everywhere) in MP4. All read back by OpenCV
+#: and FFmpeg.
+CODECS = {".mkv": "FFV1", ".avi": "FFV1", ".mp4": "mp4v"}
 
 # FFmpeg's own log lines ("moov atom not found"...) would precede our one-line error on a
 # corrupt file; silence them unless the user asks (OpenCV reads this at the first open).
@@ -128,3 +139,32 @@ class VideoReader:
         if self.frame_count is not None and n < self.frame_count:
             raise ValueError(f"cannot read video '{self.path}': decoding failed at frame {n} "
                              f"(the file states {self.frame_count} frames)")
+
+
+@contextlib.contextmanager
+def video_writer(path: str | os.PathLike, fps: float, size: tuple[int, int]
+                 ) -> Iterator[Callable[[np.ndarray], None]]:
+    """Yield a function that appends an RGB uint8 frame of `size` (height, width) to the
+    video `path`; the file appears only once the block completes (see `lgmd_sim.fileio`).
+    The codec follows the suffix (`CODECS`)."""
+    path = Path(path)
+    codec = CODECS.get(path.suffix.lower())
+    if codec is None:
+        raise ValueError(f"cannot write video '{path}': use a suffix among "
+                         f"{', '.join(CODECS)} (.mkv and .avi are lossless)")
+    height, width = size
+    with atomic_output(path) as tmp:
+        writer = cv2.VideoWriter(str(tmp), cv2.VideoWriter_fourcc(*codec), fps, (width, height))
+        if not writer.isOpened():
+            raise OSError(f"cannot write video '{path}': OpenCV has no {codec} encoder here")
+
+        def write(rgb: np.ndarray) -> None:
+            if rgb.shape != (height, width, 3) or rgb.dtype != np.uint8:
+                raise ValueError(f"video '{path}': frames must be ({height}, {width}, 3) uint8, "
+                                 f"got {rgb.shape} {rgb.dtype}")
+            writer.write(cv2.cvtColor(rgb, cv2.COLOR_RGB2BGR))
+
+        try:
+            yield write
+        finally:
+            writer.release()

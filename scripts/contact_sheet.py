@@ -17,6 +17,7 @@ import gymnasium as gym
 import numpy as np
 
 import lgmd_sim  # noqa: F401  (registers the scenarios)
+from lgmd_sim.controllers import Straight, rollout
 from lgmd_sim.envs.catalogue import scenarios
 from lgmd_sim.fileio import atomic_output
 
@@ -34,16 +35,9 @@ def label(img: np.ndarray, text: str) -> np.ndarray:
 
 def episode(env_id: str, seed: int, **overrides) -> tuple[list[np.ndarray], list[dict]]:
     env = gym.make(env_id, resolution="paper", **overrides)
-    obs, info = env.reset(seed=seed)
-    frames, infos = [obs["frame"]], [info]
-    done = False
-    while not done:
-        obs, _, terminated, truncated, info = env.step(np.array([1.0, 0.0]))
-        frames.append(obs["frame"])
-        infos.append(info)
-        done = terminated or truncated
+    steps = list(rollout(env, Straight(heading_gain=0.0), seed=seed))
     env.close()
-    return frames, infos
+    return [s.obs["frame"] for s in steps], [s.info for s in steps]
 
 
 def small(frame: np.ndarray) -> np.ndarray:

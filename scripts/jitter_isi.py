@@ -9,11 +9,13 @@ a Markdown table: the mean ISI, and the RMS camera angular speed (the jitter its
 from __future__ import annotations
 
 import argparse
+import itertools
 
 import gymnasium as gym
 import numpy as np
 
 import lgmd_sim  # noqa: F401  (registers the scenarios)
+from lgmd_sim.controllers import Straight, rollout
 from lgmd_sim.envs.catalogue import scenarios
 
 
@@ -23,14 +25,10 @@ def measure(env_id: str, jitter: float, seeds: int, steps: int, resolution: str
     isis, rates = [], []
     for seed in range(seeds):
         env = gym.make(env_id, resolution=resolution, jitter=jitter)
-        env.reset(seed=seed)
-        ssim, spin = [], []
-        for _ in range(steps):
-            _, _, terminated, truncated, info = env.step(np.array([1.0, 0.0]))
-            ssim.append(info["ssim"])
-            spin.append(np.linalg.norm(info["camera_angvel"]))
-            if terminated or truncated:
-                break
+        frames = itertools.islice(rollout(env, Straight(heading_gain=0.0), seed=seed),
+                                  1, steps + 1)  # the frames after the reset frame
+        ssim, spin = zip(*((s.info["ssim"], np.linalg.norm(s.info["camera_angvel"]))
+                           for s in frames), strict=True)
         env.close()
         isis.append(np.mean(ssim))
         rates.append(np.sqrt(np.mean(np.square(spin))))

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Set-up for a fresh machine, safe to re-run: system GL libraries for offscreen MuJoCo
 # rendering (if missing), a virtual environment in .venv, and lgmd-sim with its
-# dependencies (torch pinned to the CPU build by constraints.txt). Sourced by
+# dependencies with every extra (torch pinned to the CPU build by constraints.txt). Sourced by
 # scripts/demo.sh and scripts/test.sh.
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
@@ -28,7 +28,7 @@ if [ ! -f "$stamp" ] || [ "$(cat "$stamp")" != "$want" ]; then
   echo "setup: installing lgmd-sim and its dependencies into .venv" >&2
   log=".venv/pip-install.log"
   if ! .venv/bin/python -m pip install -q --disable-pip-version-check -c constraints.txt \
-      -e ".[dev]" >"$log" 2>&1; then
+      -e ".[all]" >"$log" 2>&1; then
     grep -v '^WARNING: Location' "$log" >&2
     echo "setup: pip install failed (full log: $log)" >&2
     exit 1

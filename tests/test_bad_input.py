@@ -364,8 +364,11 @@ def test_info_names_the_frame_index_and_reports_success():
     env.close()
 
 
-def test_version():
+def test_version(capsys):
+    from importlib.metadata import version
+
     with pytest.raises(SystemExit) as exc:
         cli.main(["--version"])
     assert exc.value.code == 0
-    assert lgmd_sim.__version__ == "0.1.0"
+    assert capsys.readouterr().out.strip() == f"lgmd-sim {lgmd_sim.__version__}"
+    assert version("lgmd-sim") == lgmd_sim.__version__  # one version, in lgmd_sim/__init__.py

@@ -13,7 +13,7 @@ def test_help_lists_every_subcommand(capsys):
         cli.main(["--help"])
     assert exc.value.code == 0
     out = capsys.readouterr().out
-    for command in ("detect", "models", "envs", "demo", "bench"):
+    for command in ("detect", "record", "models", "envs", "demo", "bench"):
         assert command in out
 
 
@@ -47,3 +47,32 @@ def test_bad_argument_exits_2(capsys):
 
 def test_every_model_is_listed():
     assert models.available() == ["feedback", "lgmd1", "lgmd2", "f_on", "f_off"]
+
+
+def test_a_missing_extra_is_a_one_line_error_naming_it(monkeypatch):
+    from lgmd_sim.extras import MissingExtra, require
+
+    monkeypatch.setitem(sys.modules, "stable_baselines3", None)  # as if not installed
+    with pytest.raises(MissingExtra, match=r"'rl' extra: pip install 'lgmd-sim\[rl\]'"):
+        require("stable_baselines3", "rl")
+    assert require("numpy", "rl").__name__ == "numpy"
+
+
+def test_record_refuses_a_bad_suffix_before_running(tmp_path, capsys):
+    assert cli.main(["record", "PassBy", str(tmp_path / "clip.mov"), "--no-progress"]) == 2
+    err = capsys.readouterr().err
+    assert "clip.mov" in err and ".mkv" in err and not list(tmp_path.iterdir())
+
+
+def test_record_writes_a_lossless_clip_with_its_collision_frame(tmp_path, capsys):
+    from lgmd_sim.video import VideoReader
+
+    out = tmp_path / "clip.mkv"
+    assert cli.main(["record", "StationaryApproach", str(out), "--resolution", "small",
+                     "--no-progress"]) == 0
+    printed = capsys.readouterr().out
+    frames = list(VideoReader(out))
+    assert f"wrote {out}: {len(frames)} frames at 30 fps, collision at frame " in printed
+    collision = int(printed.split("collision at frame ")[1].split()[0])
+    assert collision == len(frames) - 1  # the episode ends at the collision
+    assert f"lgmd-sim detect {out} --collision-frame {collision}" in printed

@@ -213,3 +213,14 @@ def test_video_reader(tmp_path, clip):
     colour.mkdir()
     cv2.imwrite(str(colour / "a.png"), red)
     assert next(iter(VideoReader(colour)))[0, 0].tolist() == [255, 0, 0]  # read as RGB
+
+
+def test_json_without_out_prints_and_writes_no_files(tmp_path, clip, capsys, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    video = _write_video(tmp_path / "a.mp4", clip.frames)
+    assert _detect(str(video), "--models", MODELS[0], "--json") == 0
+    record = json.loads(capsys.readouterr().out)
+    assert record["outputs"] == {} and record["frames"] == len(clip.frames)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.mp4"]  # no ./detect-out
+    assert _detect(str(video), "--models", MODELS[0]) == 0  # without --json: ./detect-out
+    assert (tmp_path / "detect-out" / "a.json").exists()
