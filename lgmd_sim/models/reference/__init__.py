@@ -3,6 +3,8 @@
 Each is written for clarity, in float64 on whole frames with explicit histories: the
 oracle the fast kernels are tested against, and the baseline of ``lgmd-sim bench
 models``. They share the fast models' parameters, presets and interface.
+`lgmd_sim.models.reference.published` holds something else: ports of the published
+baseline code itself, the oracles of the baselines' ``published`` presets.
 
 >>> from lgmd_sim.models.reference import make_reference
 >>> ref = make_reference("feedback", feedback_gain=100.0)
