@@ -6,7 +6,8 @@ Packages:
     lgmd_sim.stimuli     seeded synthetic stimuli (looming, receding, translating, jitter)
     lgmd_sim.world       the MuJoCo jitter world: terrain, robot, camera carriers, obstacles
     lgmd_sim.envs        Gymnasium environments, the scenario catalogue and wrappers
-    lgmd_sim.benchmarks  speed benchmarks
+    lgmd_sim.controllers what drives the camera's carrier; the episode loop
+    lgmd_sim.speed       speed benchmarks (`lgmd-sim speed`)
     lgmd_sim.cli         the `lgmd-sim` command
 
 Importing lgmd_sim registers every scenario of the catalogue as `lgmd_sim/<Name>-v0`.

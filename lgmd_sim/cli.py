@@ -147,12 +147,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(run="lgmd_sim.demo:run")
 
     p = sub.add_parser(
-        "bench", help="speed benchmarks (models, environments); print tables",
+        "speed", help="speed benchmarks (models, environments); print tables",
         description="Speed benchmarks. They print figures and ratios measured in one run; "
         "run them on a quiet machine.",
     )
-    bench = p.add_subparsers(dest="bench", required=True, metavar="WHAT")
-    b = bench.add_parser(
+    speed = p.add_subparsers(dest="what", required=True, metavar="WHAT")
+    b = speed.add_parser(
         "models", help="frames/s per model, streaming and batched, vs a reference",
         description="Frames per second of every LGMD model on one core, streaming and "
         "batched, and the ratio to a straightforward per-equation reference implementation "
@@ -163,8 +163,8 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--frames", type=_positive_int, default=300, help="frames timed per run")
     b.add_argument("--streams", type=_positive_int, default=8, help="streams in batched mode")
     b.add_argument("--markdown", action="store_true", help="print the table as Markdown")
-    b.set_defaults(run="lgmd_sim.benchmarks.models:run")
-    b = bench.add_parser(
+    b.set_defaults(run="lgmd_sim.speed.models:run")
+    b = speed.add_parser(
         "envs", help="environment steps/s per scenario vs a bare render loop",
         description="Environment steps per second per scenario at 120x160 and 270x480, the "
         "ratio to a bare render loop of the same scene, and the speed-up of two async "
@@ -172,7 +172,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     b.add_argument("--steps", type=_positive_int, default=200, help="steps timed per run")
     b.add_argument("--markdown", action="store_true", help="print the table as Markdown")
-    b.set_defaults(run="lgmd_sim.benchmarks.envs:run")
+    b.set_defaults(run="lgmd_sim.speed.envs:run")
     return parser
 
 

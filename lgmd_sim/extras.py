@@ -12,6 +12,8 @@ from types import ModuleType
 #: What each extra of the package brings (the README lists the same).
 EXTRAS = {
     "rl": "stable-baselines3 and PyTorch (CPU build): training and evaluating policies",
+    "ray": "Ray: benchmarks and dataset generation as tasks on a cluster (--ray)",
+    "data": "pyarrow: labelled datasets with per-frame labels in Parquet",
     "dev": "pytest and ruff: the test suite and the linter",
 }
 

@@ -13,7 +13,7 @@ def test_help_lists_every_subcommand(capsys):
         cli.main(["--help"])
     assert exc.value.code == 0
     out = capsys.readouterr().out
-    for command in ("detect", "record", "models", "envs", "demo", "bench"):
+    for command in ("detect", "record", "models", "envs", "demo", "speed"):
         assert command in out
 
 
@@ -41,7 +41,7 @@ def test_unknown_model_is_a_one_line_error(capsys):
 
 def test_bad_argument_exits_2(capsys):
     with pytest.raises(SystemExit) as exc:
-        cli.main(["bench", "models", "--frames", "0"])
+        cli.main(["speed", "models", "--frames", "0"])
     assert exc.value.code == 2
 
 

@@ -143,9 +143,9 @@ def test_batch_equals_separate_streams_with_a_reset(name, clip):
                 np.testing.assert_array_equal(out.layers[layer][i], ref.layers[layer])
 
 
-def test_bench_models_prints_every_model():
+def test_speed_models_prints_every_model():
     # in a subprocess: the benchmark pins its process to one core
-    cmd = [sys.executable, "-m", "lgmd_sim.cli", "bench", "models", "--height", "24",
+    cmd = [sys.executable, "-m", "lgmd_sim.cli", "speed", "models", "--height", "24",
            "--width", "32", "--frames", "4", "--streams", "2", "--markdown"]
     out = subprocess.run(cmd, capture_output=True, text=True, check=True, timeout=600).stdout
     rows = [line for line in out.splitlines() if line.startswith("| ")]

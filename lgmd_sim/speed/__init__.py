@@ -1,8 +1,8 @@
-"""Speed benchmarks behind ``lgmd-sim bench``: each prints figures measured in one run.
+"""Speed benchmarks behind ``lgmd-sim speed``: each prints figures measured in one run.
 
-- `lgmd_sim.benchmarks.models`: frames/s of every LGMD model on one core, streaming and
+- `lgmd_sim.speed.models`: frames/s of every LGMD model on one core, streaming and
   batched, against its per-equation reference implementation.
-- `lgmd_sim.benchmarks.envs`: environment steps/s against a bare render loop of the same
+- `lgmd_sim.speed.envs`: environment steps/s against a bare render loop of the same
   scene, and the scaling of async vector environments.
 """
 

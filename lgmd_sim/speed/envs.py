@@ -1,4 +1,4 @@
-"""`lgmd-sim bench envs`: environment steps per second against a bare render loop.
+"""`lgmd-sim speed envs`: environment steps per second against a bare render loop.
 
 For every scenario of the catalogue, at 120 x 160 and at the paper's 270 x 480:
 
@@ -21,7 +21,7 @@ import time
 
 import numpy as np
 
-from lgmd_sim.benchmarks import cpu_name, format_table
+from lgmd_sim.speed import cpu_name, format_table
 
 RESOLUTIONS = ((120, 160), (270, 480))
 #: Steps before timing starts (GL context, first frames, JIT caches).
@@ -100,7 +100,7 @@ def run(args: argparse.Namespace) -> int:
     single, scaling = measure(args.steps)
     from lgmd_sim.world.gl import BACKEND  # chosen by lgmd_sim.world when it loaded
 
-    print(f"# lgmd-sim bench envs: {args.steps} steps per run; CPU: {cpu_name()}, "
+    print(f"# lgmd-sim speed envs: {args.steps} steps per run; CPU: {cpu_name()}, "
           f"{os.cpu_count()} cores; MUJOCO_GL={BACKEND}")
     print(format_table(
         ["scenario", "size", "env steps/s", "bare renders/s", "step / render time"],

@@ -1,4 +1,4 @@
-"""`lgmd-sim bench models`: frames per second of every LGMD model on one core.
+"""`lgmd-sim speed models`: frames per second of every LGMD model on one core.
 
 For each model of `lgmd_sim.models.available()`: streaming frames/s (one stream, one
 frame per step), batched frames/s (N streams per step; frames counted over all streams),
@@ -20,7 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from lgmd_sim.benchmarks import cpu_name, format_table
+from lgmd_sim.speed import cpu_name, format_table
 
 __all__ = ["Row", "measure", "moving_texture", "run"]
 
@@ -147,7 +147,7 @@ def run(args: argparse.Namespace) -> int:
 
     where = _pin_to_one_core()
     frames = moving_texture(args.height, args.width, 64)
-    print(f"# lgmd-sim bench models: {args.height}x{args.width} uint8 frames, best of "
+    print(f"# lgmd-sim speed models: {args.height}x{args.width} uint8 frames, best of "
           f"{RUNS} runs of {args.frames} frames (references: one run), one core")
     print(f"# CPU: {cpu_name()}, {where}; Python {platform.python_version()}, "
           f"numpy {np.__version__}, numba {numba.__version__}")
