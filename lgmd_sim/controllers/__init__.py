@@ -4,12 +4,35 @@ One small interface: ``reset()`` at the start of an episode, ``act(obs, info) ->
 on every frame (the action for `JitterEnv.step`: (v, omega) in [-1, 1]). Each controller
 documents what it reads of the observation and of ``info`` (the ground truth).
 
->>> from lgmd_sim.controllers import Straight, rollout
->>> for step in rollout(env, Straight(), seed=0):
+>>> from lgmd_sim.controllers import make, rollout
+>>> for step in rollout(env, make("straight"), seed=0):
 ...     step.obs["frame"], step.info["threat_ttc"], step.action
 """
+
+from __future__ import annotations
+
+from importlib import import_module
+from typing import Any
 
 from lgmd_sim.controllers.base import Controller, Step, rollout
 from lgmd_sim.controllers.straight import Straight, StraightParams
 
-__all__ = ["Controller", "Step", "Straight", "StraightParams", "rollout"]
+__all__ = ["Controller", "Step", "Straight", "StraightParams", "available", "make", "rollout"]
+
+# name -> "module:class", imported on first use
+_REGISTRY: dict[str, str] = {
+    "straight": "lgmd_sim.controllers.straight:Straight",
+}
+
+
+def available() -> list[str]:
+    """The controller names `make` accepts."""
+    return list(_REGISTRY)
+
+
+def make(name: str, **params: Any) -> Controller:
+    """Build controller `name` with parameter overrides (each checked)."""
+    if name not in _REGISTRY:
+        raise ValueError(f"unknown controller {name!r}; available: {', '.join(_REGISTRY)}")
+    module, cls = _REGISTRY[name].split(":")
+    return getattr(import_module(module), cls)(**params)
