@@ -28,7 +28,7 @@ def test_wheel_carries_envs_assets_and_markers(wheel):
         if path.is_file():
             relative = path.relative_to(ROOT / "assets").as_posix()
             assert f"lgmd_sim/_data/assets/{relative}" in shipped_assets
-    assert {"lgmd_sim/cli.py", "lgmd_sim/py.typed"} <= set(names)
+    assert {"lgmd_sim/cli/__init__.py", "lgmd_sim/py.typed"} <= set(names)
     assert any(n.endswith(".dist-info/licenses/LICENSE") or n.endswith("/LICENSE")
                for n in names)
 

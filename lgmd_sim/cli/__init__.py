@@ -1,0 +1,65 @@
+"""The `lgmd-sim` command: one entry point, one subcommand per job.
+
+Each subcommand's arguments live in a module of this package (``lgmd_sim.cli.<command>``,
+with an ``add(subparsers)`` function); its implementation is imported only when it runs,
+so `--help` stays fast and `lgmd-sim detect` never loads MuJoCo. Errors a user can fix (a
+bad file, an unknown model, a bad value) print one line naming the thing and exit with
+status 2.
+"""
+
+from __future__ import annotations
+
+import argparse
+import signal
+import sys
+from collections.abc import Sequence
+from importlib import import_module
+
+from lgmd_sim import __version__
+from lgmd_sim.extras import MissingExtra
+
+#: The subcommands, in the order `--help` lists them.
+COMMANDS = ("demo", "detect", "record", "models", "envs", "speed")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="lgmd-sim",
+        description="A jitter-robot testbed for bio-inspired (LGMD) collision detection: "
+        "LGMD models, a MuJoCo jitter world with Gymnasium environments, and tools to run "
+        "the models on your own video.",
+    )
+    parser.add_argument("--version", action="version", version=f"lgmd-sim {__version__}")
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    for command in COMMANDS:
+        import_module(f"lgmd_sim.cli.{command}").add(sub)
+    return parser
+
+
+class Terminated(BaseException):
+    """SIGTERM, raised where the program is so that cleanup (partial files) runs."""
+
+
+def _terminate(signum: int, frame: object) -> None:
+    raise Terminated
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    module, func = args.run.split(":")
+    previous = signal.signal(signal.SIGTERM, _terminate)
+    try:
+        return int(getattr(import_module(module), func)(args) or 0)
+    except BrokenPipeError:  # output piped into e.g. `head`, which stopped reading
+        return 0
+    except (ValueError, OSError, MissingExtra) as exc:  # a user's input: say what, briefly
+        print(f"lgmd-sim {args.command}: error: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print(f"lgmd-sim {args.command}: interrupted", file=sys.stderr)
+        return 128 + signal.SIGINT
+    except Terminated:
+        print(f"lgmd-sim {args.command}: terminated", file=sys.stderr)
+        return 128 + signal.SIGTERM
+    finally:
+        signal.signal(signal.SIGTERM, previous)

@@ -1,0 +1,39 @@
+"""`lgmd-sim detect`: its command-line arguments (the implementation loads when it runs)."""
+
+from __future__ import annotations
+
+import argparse
+
+from lgmd_sim.cli.args import non_negative_int
+
+
+def add(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "detect",
+        help="run LGMD models over videos or image folders; write CSV, JSON and a figure",
+        description="Run LGMD models over every frame of each VIDEO (any file OpenCV can "
+        "open, or a folder of images read in name order). Per video, writes into --out a "
+        "per-frame CSV (membrane potential and alarm of each model, SSIM with the previous "
+        "frame), a summary JSON and a PNG figure in the paper's style.",
+    )
+    p.add_argument("videos", nargs="+", metavar="VIDEO", help="video file or image folder")
+    p.add_argument(
+        "--models", default="all",
+        help="'all' or a comma-separated list of: feedback, lgmd1, lgmd2, f_on, f_off "
+        "(default: all)",
+    )
+    p.add_argument(
+        "--collision-frame", type=non_negative_int, metavar="N",
+        help="labelled collision frame (0-based): marked in the figure, and used to score "
+        "hit, miss and lead time",
+    )
+    p.add_argument("--out", metavar="DIR",
+                   help="write <name>.csv, <name>.json and <name>.png per video into DIR "
+                   "(default: ./detect-out; with --json, files are written only when --out "
+                   "is given). <name> is the video's stem, or its file name where two "
+                   "videos share a stem")
+    p.add_argument("--json", action="store_true",
+                   help="print one JSON object per video to stdout (with the membrane "
+                   "potential of every frame)")
+    p.add_argument("--no-progress", action="store_true", help="hide the progress bar")
+    p.set_defaults(run="lgmd_sim.detect:run")

@@ -1,0 +1,30 @@
+"""`lgmd-sim models`: its command-line arguments (the implementation loads when it runs)."""
+
+from __future__ import annotations
+
+import argparse
+
+
+def add(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "models", help="list the LGMD models and their parameters with sources",
+        description="List the LGMD models, their presets and every parameter with its "
+        "default and where that default comes from.",
+    )
+    p.add_argument("name", nargs="?", help="show one model only")
+    p.set_defaults(run="lgmd_sim.cli.models:list_models")
+
+
+def list_models(args: argparse.Namespace) -> int:
+    """`lgmd-sim models`: every model, its presets and parameters with their sources."""
+    from lgmd_sim import models
+
+    names = [args.name] if args.name else models.available()
+    for name in names:
+        cls = models.model_class(name)
+        print(f"{name}: {cls.__doc__.strip().splitlines()[0]}")
+        print(f"  presets: {', '.join(cls.presets)} (default {next(iter(cls.presets))})")
+        for pname, default, source, _doc in cls.Params.describe():
+            print(f"  {pname} = {default!r}  [{source}]")
+        print()
+    return 0

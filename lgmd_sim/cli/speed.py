@@ -1,0 +1,37 @@
+"""`lgmd-sim speed`: its command-line arguments (the implementation loads when it runs)."""
+
+from __future__ import annotations
+
+import argparse
+
+from lgmd_sim.cli.args import positive_int
+
+
+def add(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "speed", help="speed benchmarks (models, environments); print tables",
+        description="Speed benchmarks. They print figures and ratios measured in one run; "
+        "run them on a quiet machine.",
+    )
+    speed = p.add_subparsers(dest="what", required=True, metavar="WHAT")
+    b = speed.add_parser(
+        "models", help="frames/s per model, streaming and batched, vs a reference",
+        description="Frames per second of every LGMD model on one core, streaming and "
+        "batched, and the ratio to a straightforward per-equation reference implementation "
+        "measured in the same run.",
+    )
+    b.add_argument("--height", type=positive_int, default=270)
+    b.add_argument("--width", type=positive_int, default=480)
+    b.add_argument("--frames", type=positive_int, default=300, help="frames timed per run")
+    b.add_argument("--streams", type=positive_int, default=8, help="streams in batched mode")
+    b.add_argument("--markdown", action="store_true", help="print the table as Markdown")
+    b.set_defaults(run="lgmd_sim.speed.models:run")
+    b = speed.add_parser(
+        "envs", help="environment steps/s per scenario vs a bare render loop",
+        description="Environment steps per second per scenario at 120x160 and 270x480, the "
+        "ratio to a bare render loop of the same scene, and the speed-up of two async "
+        "workers over one.",
+    )
+    b.add_argument("--steps", type=positive_int, default=200, help="steps timed per run")
+    b.add_argument("--markdown", action="store_true", help="print the table as Markdown")
+    b.set_defaults(run="lgmd_sim.speed.envs:run")
