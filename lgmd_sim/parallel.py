@@ -53,9 +53,11 @@ def _call(fn: Callable[..., Any], kwargs: Mapping[str, Any]) -> Any:
 
 
 class _Progress:
-    """A progress bar: jobs done, jobs per minute, time left."""
+    """A progress bar: jobs done, jobs per minute, time left; optionally items per second
+    (the frames of episodes), counted from each result."""
 
-    def __init__(self, total: int, desc: str, unit: str, enabled: bool | None) -> None:
+    def __init__(self, total: int, desc: str, unit: str, enabled: bool | None,
+                 item_unit: str | None = None) -> None:
         from tqdm import tqdm
 
         self.start = time.monotonic()
@@ -63,13 +65,18 @@ class _Progress:
                         leave=False, bar_format="{desc}: {n}/{total} " + unit + "s "
                         "|{bar}| {postfix}")
         self.unit = unit
+        self.item_unit = item_unit
+        self.items = 0
 
-    def advance(self) -> None:
+    def advance(self, items: int = 0) -> None:
         self.bar.update()
-        minutes = (time.monotonic() - self.start) / 60
-        rate = self.bar.n / minutes if minutes > 0 else 0.0
+        self.items += items
+        seconds = time.monotonic() - self.start
+        rate = 60 * self.bar.n / seconds if seconds > 0 else 0.0
         left = (self.bar.total - self.bar.n) / rate if rate > 0 else float("nan")
-        self.bar.set_postfix_str(f"{rate:.1f} {self.unit}s/min, {left:.1f} min left")
+        per_s = (f", {self.items / seconds:.0f} {self.item_unit}s/s"
+                 if self.item_unit and seconds > 0 else "")
+        self.bar.set_postfix_str(f"{rate:.1f} {self.unit}s/min{per_s}, {left:.1f} min left")
 
     def close(self) -> None:
         self.bar.close()
@@ -77,8 +84,8 @@ class _Progress:
 
 def run_jobs(jobs: Sequence[Job], on_result: Callable[[Job, Any], None], *,
              workers: int | None = None, ray_address: str | None = None,
-             progress: bool | None = None, desc: str = "running", unit: str = "episode"
-             ) -> None:
+             progress: bool | None = None, desc: str = "running", unit: str = "episode",
+             count: Callable[[Any], int] | None = None, item_unit: str = "frame") -> None:
     """Run every job; call ``on_result(job, result)`` here as each finishes.
 
     Args:
@@ -91,6 +98,8 @@ def run_jobs(jobs: Sequence[Job], on_result: Callable[[Job, Any], None], *,
             ``ray`` extra).
         progress: show a progress bar on stderr (None: only on a terminal).
         desc, unit: the progress bar's label and what a job is called.
+        count: the number of items (frames) in a result: the bar then shows items/s too.
+        item_unit: what an item is called.
 
     Raises:
         WorkerDied: a worker ended while running a job (the job is named); the results
@@ -104,22 +113,26 @@ def run_jobs(jobs: Sequence[Job], on_result: Callable[[Job, Any], None], *,
         raise ValueError(f"workers must be a positive integer, got {workers!r}")
     if not jobs:
         return
-    bar = _Progress(len(jobs), desc, unit, progress)
+    bar = _Progress(len(jobs), desc, unit, progress, item_unit if count else None)
+
+    def store(job: Job, result: Any) -> None:
+        on_result(job, result)
+        bar.advance(count(result) if count else 0)
+
     try:
         if ray_address is not None:
-            _run_on_ray(jobs, on_result, ray_address, bar)
+            _run_on_ray(jobs, store, ray_address)
         elif (workers or default_workers()) == 1 or len(jobs) == 1:
             for job in jobs:
-                on_result(job, _call(job.fn, job.kwargs))
-                bar.advance()
+                store(job, _call(job.fn, job.kwargs))
         else:
-            _run_on_pool(jobs, on_result, min(workers or default_workers(), len(jobs)), bar)
+            _run_on_pool(jobs, store, min(workers or default_workers(), len(jobs)))
     finally:
         bar.close()
 
 
-def _run_on_pool(jobs: Sequence[Job], on_result: Callable[[Job, Any], None], workers: int,
-                 bar: _Progress) -> None:
+def _run_on_pool(jobs: Sequence[Job], on_result: Callable[[Job, Any], None], workers: int
+                 ) -> None:
     # Fresh interpreters (spawn): a fork would copy this process's threads and GL state.
     pool = ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn"))
     pending: dict[Future, Job] = {}
@@ -137,7 +150,6 @@ def _run_on_pool(jobs: Sequence[Job], on_result: Callable[[Job, Any], None], wor
                                      f"while running one of: {lost}") from future.exception()
                 job = pending.pop(future)
                 on_result(job, future.result())
-                bar.advance()
     finally:
         for future in pending:
             future.cancel()
@@ -155,8 +167,8 @@ def _shutdown(pool: ProcessPoolExecutor) -> None:
         process.join(5)
 
 
-def _run_on_ray(jobs: Sequence[Job], on_result: Callable[[Job, Any], None], address: str,
-                bar: _Progress) -> None:
+def _run_on_ray(jobs: Sequence[Job], on_result: Callable[[Job, Any], None], address: str
+                ) -> None:
     from lgmd_sim.extras import require
 
     ray = require("ray", "ray")
@@ -176,7 +188,6 @@ def _run_on_ray(jobs: Sequence[Job], on_result: Callable[[Job, Any], None], addr
             except ray.exceptions.WorkerCrashedError as exc:
                 raise WorkerDied(f"a Ray worker died while running {job.key}") from exc
             on_result(job, result)
-            bar.advance()
     except BaseException:
         for ref in pending:
             ray.cancel(ref, force=True)
