@@ -61,7 +61,8 @@ class _Progress:
         from tqdm import tqdm
 
         self.start = time.monotonic()
-        self.bar = tqdm(total=total, desc=desc, file=sys.stderr, disable=enabled is False,
+        self.bar = tqdm(total=total, desc=desc, file=sys.stderr,
+                        disable=None if enabled is None else not enabled,
                         leave=False, bar_format="{desc}: {n}/{total} " + unit + "s "
                         "|{bar}| {postfix}")
         self.unit = unit

@@ -1,0 +1,63 @@
+"""`lgmd-sim dataset`: its command-line arguments (the implementation loads when it runs)."""
+
+from __future__ import annotations
+
+import argparse
+
+from lgmd_sim.cli.args import non_negative_int, positive_int, resolution
+
+
+def add(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "dataset", help="generate and verify labelled jitter datasets",
+        description="Labelled jitter datasets: camera frames stored losslessly with the "
+        "world's exact ground truth on every frame, in a LeRobot-like layout "
+        "(see docs/datasets.md). Needs the 'data' extra (pyarrow).",
+    )
+    what = p.add_subparsers(dest="what", required=True, metavar="WHAT")
+    g = what.add_parser(
+        "generate", help="generate (or resume) a dataset",
+        description="Run EPISODES episodes of every scenario at every jitter level and store "
+        "them in --out. Re-running the same command resumes an interrupted run; the same "
+        "command gives byte-identical files whatever the number of workers, and on Ray.",
+    )
+    g.add_argument("--scenarios", default="all",
+                   help="comma-separated scenario names, or all (default)")
+    g.add_argument("--jitter", default="0,1,2",
+                   help="comma-separated jitter levels (default 0,1,2)")
+    g.add_argument("--episodes", type=positive_int, default=10,
+                   help="episodes per scenario and jitter level (default 10)")
+    g.add_argument("--out", required=True, metavar="DIR", help="the dataset folder")
+    g.add_argument("--resolution", type=resolution, default="paper",
+                   help="paper (270x480, default), rl (120x160), small (64x64) or HxW")
+    g.add_argument("--controller", default="straight",
+                   help="what drives the carrier: a name from lgmd_sim.controllers "
+                   "(default straight)")
+    g.add_argument("--models", default="none",
+                   help="LGMD models whose potential and alarm join the labels: none "
+                   "(default), all, or a comma-separated list")
+    g.add_argument("--noise", default="",
+                   help="noise variants, comma-separated, e.g. "
+                   "gaussian:0.005,saltpepper:0.005 (join noises of one variant with +); "
+                   "derived from the clean frames on loading, not stored")
+    g.add_argument("--video", choices=("lossless", "lossy"), default="lossless",
+                   help="lossless: FFV1 in .avi (default); lossy: MPEG-4 in .mp4")
+    g.add_argument("--seed", type=non_negative_int, default=0,
+                   help="first episode seed (default 0)")
+    g.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
+                   help="an environment parameter for every scenario, e.g. time_limit=2 or "
+                   "miss_distance=0.5 (repeatable; see lgmd-sim envs NAME)")
+    g.add_argument("--workers", type=positive_int, default=None,
+                   help="local worker processes (default: every core)")
+    g.add_argument("--ray", metavar="ADDRESS", default=None,
+                   help="run the episodes as Ray tasks: auto, HOST:PORT, or local (needs "
+                   "the 'ray' extra)")
+    g.add_argument("--no-progress", action="store_true", help="hide the progress bar")
+    g.set_defaults(run="lgmd_sim.data.generate:run")
+    v = what.add_parser(
+        "verify", help="check a dataset: counts, checksums, label consistency",
+        description="Check that the dataset in DIR is complete and consistent; print each "
+        "problem on a line and exit with status 1 if there is any.",
+    )
+    v.add_argument("path", metavar="DIR", help="the dataset folder")
+    v.set_defaults(run="lgmd_sim.data.verify:run")

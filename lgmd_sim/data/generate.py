@@ -1,0 +1,537 @@
+"""`lgmd-sim dataset generate`: labelled jitter datasets, resumable and reproducible.
+
+Every episode is one job (`make_episode`, run by `lgmd_sim.parallel.run_jobs` in this
+process, on a local pool or as Ray tasks): it drives a scenario with a controller, encodes
+the camera frames and builds the per-frame labels, and hands both back as bytes. Only
+this process writes into the dataset folder, so the folder's state never depends on who
+ran a job (a Ray cluster needs no shared file system), and:
+
+- each episode is written atomically, its video first and its data file (the labels,
+  carrying the episode's metadata) last: an episode is complete when its data file
+  exists, names its video's SHA-256, and the video matches;
+- ``meta/config.json`` is written before any episode; re-running the same command
+  resumes (complete episodes kept, partial ones removed and redone); another
+  configuration into the same folder is refused, naming the difference;
+- the manifest (``meta/info.json`` last, with the episode table, the task table, the
+  card and the contact sheet) is written when every episode is complete.
+
+Episodes depend only on (scenario, parameters, seed, controller, models, noise), so the
+same command gives byte-identical files whatever the number of workers; the facts of a
+run (wall time, workers, the command as typed) go to ``meta/runs.jsonl`` alone.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import errno
+import io
+import json
+import math
+import sys
+import tempfile
+import time
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from lgmd_sim.data import layout
+from lgmd_sim.data.manifest import write_manifest
+from lgmd_sim.fileio import remove_stale_partials, write_files, write_text_atomic
+from lgmd_sim.parallel import Job, WorkerDied, run_jobs
+
+__all__ = ["EpisodeResult", "EpisodeSpec", "GenerateConfig", "Summary", "generate",
+           "make_episode", "run"]
+
+#: Options that have their own flag, so cannot be given with --set.
+_OWN_FLAGS = {"jitter": "--jitter", "resolution": "--resolution"}
+
+
+@dataclass(frozen=True)
+class GenerateConfig:
+    """What a dataset holds: every option of ``dataset generate`` that shapes its files.
+
+    Attributes:
+        scenarios: catalogue scenario names.
+        jitter: jitter levels; every scenario is run at each.
+        episodes: episodes per (scenario, jitter), seeded ``seed``, ``seed + 1``, ...
+            (the same seeds at every jitter level: paired worlds).
+        resolution: a preset name or (height, width).
+        controller: a name of `lgmd_sim.controllers.available()`.
+        models: LGMD models whose potential and alarm join the labels.
+        noise: noise variants, each "kind:level" or several joined by "+".
+        video: "lossless" (FFV1 in AVI) or "lossy" (MPEG-4 in MP4).
+        seed: the first episode seed.
+        overrides: further environment parameters, for every scenario.
+    """
+
+    scenarios: tuple[str, ...]
+    jitter: tuple[float, ...]
+    episodes: int
+    resolution: str | tuple[int, int] = "paper"
+    controller: str = "straight"
+    models: tuple[str, ...] = ()
+    noise: tuple[str, ...] = ()
+    video: str = "lossless"
+    seed: int = 0
+    overrides: Mapping[str, Any] = field(default_factory=dict)
+
+    def as_json(self) -> dict[str, Any]:
+        """The configuration as stored in meta/config.json (with the package version)."""
+        from lgmd_sim import __version__
+
+        out = dataclasses.asdict(self)
+        out["resolution"] = self.resolution if isinstance(self.resolution, str) else list(
+            self.resolution)
+        out["overrides"] = dict(self.overrides)
+        out["version"] = __version__
+        return json.loads(json.dumps(out))  # tuples as lists, as read back
+
+    def command(self) -> str:
+        """The command that makes this dataset (``DIR``: its folder)."""
+        res = self.resolution if isinstance(self.resolution, str) else "x".join(
+            map(str, self.resolution))
+        parts = ["lgmd-sim dataset generate", f"--scenarios {','.join(self.scenarios)}",
+                 f"--jitter {','.join(f'{j:g}' for j in self.jitter)}",
+                 f"--episodes {self.episodes}", f"--resolution {res}",
+                 f"--controller {self.controller}"]
+        if self.models:
+            parts.append(f"--models {','.join(self.models)}")
+        if self.noise:
+            parts.append(f"--noise {','.join(self.noise)}")
+        if self.video != "lossless":
+            parts.append(f"--video {self.video}")
+        if self.seed:
+            parts.append(f"--seed {self.seed}")
+        parts += [f"--set {k}={json.dumps(v)}" for k, v in sorted(self.overrides.items())]
+        return " ".join([*parts, "--out DIR"])
+
+    def env_overrides(self, jitter: float) -> dict[str, Any]:
+        return {**self.overrides, "jitter": jitter, "resolution": self.resolution}
+
+    def specs(self) -> list[EpisodeSpec]:
+        """Every episode, in episode-index order: scenario, then jitter, then seed."""
+        specs = []
+        for task, name in enumerate(self.scenarios):
+            for jitter in self.jitter:
+                for i in range(self.episodes):
+                    specs.append(EpisodeSpec(len(specs), name, task, jitter, self.seed + i,
+                                             self.env_overrides(jitter), self.controller,
+                                             self.models, self.noise, self.video))
+        return specs
+
+
+@dataclass(frozen=True)
+class EpisodeSpec:
+    """One episode to make: everything `make_episode` needs."""
+
+    index: int
+    scenario: str
+    task_index: int
+    jitter: float
+    seed: int
+    overrides: Mapping[str, Any]
+    controller: str
+    models: tuple[str, ...]
+    noise: tuple[str, ...]
+    video: str
+
+    @property
+    def key(self) -> str:
+        return f"episode {self.index} ({self.scenario}, jitter {self.jitter:g}, seed {self.seed})"
+
+
+@dataclass(frozen=True)
+class EpisodeResult:
+    """A made episode: its encoded video, its data file (Parquet) and its metadata."""
+
+    video: bytes
+    data: bytes
+    meta: dict[str, Any]
+
+
+@dataclass(frozen=True)
+class Summary:
+    """What a `generate` call did."""
+
+    path: Path
+    episodes: int
+    frames: int
+    made: int
+    kept: int
+    seconds: float
+
+
+def validate(config: GenerateConfig) -> None:
+    """Check every option before any episode runs; a bad one raises a one-line ValueError
+    naming it."""
+    from lgmd_sim import controllers, noise
+    from lgmd_sim.detect import parse_models
+    from lgmd_sim.envs.catalogue import params_for, scenario
+    from lgmd_sim.world.params import MAX_JITTER
+
+    if not config.scenarios:
+        raise ValueError("no scenarios given")
+    for name in config.scenarios:
+        scenario(name)
+    if len(set(config.scenarios)) != len(config.scenarios):
+        raise ValueError(f"--scenarios: a scenario is given twice: {','.join(config.scenarios)}")
+    if not config.jitter:
+        raise ValueError("no jitter levels given")
+    for j in config.jitter:
+        if not (isinstance(j, int | float) and 0 <= j <= MAX_JITTER):
+            raise ValueError(f"--jitter: {j!r} is out of range: levels are numbers in "
+                             f"[0, {MAX_JITTER:g}]")
+    if len(set(config.jitter)) != len(config.jitter):
+        raise ValueError("--jitter: a level is given twice")
+    if not (isinstance(config.episodes, int) and config.episodes >= 1):
+        raise ValueError(f"--episodes must be at least 1, got {config.episodes!r}")
+    if not (isinstance(config.seed, int) and config.seed >= 0):
+        raise ValueError(f"--seed must be a non-negative integer, got {config.seed!r}")
+    if config.controller not in controllers.available():
+        raise ValueError(f"unknown controller {config.controller!r}; available: "
+                         f"{', '.join(controllers.available())}")
+    if config.models:
+        parse_models(list(config.models))
+    for variant in config.noise:
+        if not noise.parse(variant.replace("+", ",")):
+            raise ValueError(f"--noise: empty noise variant in {','.join(config.noise)}")
+    if len(set(config.noise)) != len(config.noise):
+        raise ValueError("--noise: a variant is given twice")
+    if config.video not in layout.VIDEO_FORMATS:
+        raise ValueError(f"--video must be one of {', '.join(layout.VIDEO_FORMATS)}, got "
+                         f"{config.video!r}")
+    for key in config.overrides:
+        if key in _OWN_FLAGS:
+            raise ValueError(f"--set {key}: use {_OWN_FLAGS[key]} instead")
+    rates = set()
+    for name in config.scenarios:
+        for j in config.jitter:
+            rates.add(params_for(name, config.env_overrides(j)).fps)
+    if len(rates) > 1:
+        raise ValueError(f"the scenarios run at different frame rates ({sorted(rates)}); a "
+                         "dataset has one: set it with --set fps=...")
+
+
+# --- one episode (runs in a worker) -------------------------------------------------------
+
+
+def make_episode(spec: EpisodeSpec) -> EpisodeResult:
+    """Run one episode and encode it: its video, its labels as a Parquet file, its
+    metadata. Depends on `spec` only (the same bytes wherever it runs)."""
+    import gymnasium as gym
+
+    from lgmd_sim import __version__, controllers, models, noise
+    from lgmd_sim.controllers import rollout
+    from lgmd_sim.envs.catalogue import scenario
+    from lgmd_sim.frames import to_grey
+    from lgmd_sim.video import video_writer
+
+    suffix, codec, _lossless = layout.VIDEO_FORMATS[spec.video]
+    variants = {v: noise.parse(v.replace("+", ",")) for v in spec.noise}
+    built = {v: {m: models.make(m) for m in spec.models} for v in [None, *variants]}
+    controller = controllers.make(spec.controller)
+    env = gym.make(scenario(spec.scenario).env_id, **spec.overrides)
+    columns: dict[str, list] = {name: [] for name in layout.label_schema(spec.models,
+                                                                         spec.noise).names}
+    nan3 = np.full(3, np.nan, np.float32)
+    try:
+        params = env.unwrapped.params
+        with tempfile.TemporaryDirectory(prefix="lgmd-sim-episode-") as tmp:
+            video = Path(tmp) / f"episode{suffix}"
+            with video_writer(video, params.fps, params.size) as write:
+                for step in rollout(env, controller, seed=spec.seed):
+                    rgb = step.obs["frame"]
+                    if rgb.shape[-1] == 1:  # a grey scenario (frame="grey")
+                        rgb = rgb.repeat(3, axis=-1)
+                    write(rgb)
+                    _append_labels(columns, spec, step, params.fps, nan3)
+                    for variant, by_model in built.items():
+                        seen = rgb if variant is None else noise.apply(
+                            rgb, variants[variant], spec.seed, step.index)
+                        grey = to_grey(seen)
+                        for name, model in by_model.items():
+                            out = model.step(grey)
+                            potential, alarm = layout.model_columns(name, variant)
+                            columns[potential].append(out.potential)
+                            columns[alarm].append(out.alarm)
+            video_bytes = video.read_bytes()
+        env_params = dataclasses.asdict(params)
+    finally:
+        env.close()
+    meta = _episode_meta(spec, columns, params.fps, params.size)
+    meta.update(
+        version=__version__, video_codec=codec, video_sha256=_sha256_bytes(video_bytes),
+        config={"env": env_params, "controller": {
+            "name": spec.controller, "params": dataclasses.asdict(controller.params)},
+            "models": {m: dataclasses.asdict(built[None][m].params) for m in spec.models},
+            "noise": list(spec.noise)})
+    return EpisodeResult(video_bytes, _parquet_bytes(columns, spec, meta), meta)
+
+
+def _append_labels(columns: dict[str, list], spec: EpisodeSpec, step: Any, fps: float,
+                   nan3: np.ndarray) -> None:
+    info, obs = step.info, step.obs
+    columns["episode_index"].append(spec.index)
+    columns["frame_index"].append(step.index)
+    columns["timestamp"].append(step.index / fps)
+    columns["task_index"].append(spec.task_index)
+    for name in ("time", "carrier_pos", "carrier_quat", "camera_pos", "camera_quat",
+                 "camera_angvel", "camera_linvel", "threat_index", "threat_distance",
+                 "threat_bearing", "threat_closing_speed", "threat_ttc", "collision",
+                 "first_collision_frame", "ssim", "goal_reached"):
+        columns[name].append(info[name])
+    columns["goal_distance"].append(info.get("goal_distance", math.nan))
+    columns["goal_bearing"].append(info.get("goal_bearing", math.nan))
+    columns["observation.state"].append(obs["proprio"])
+    columns["observation.goal"].append(obs.get("goal", nan3))
+    columns["action"].append(np.full(2, np.nan, np.float32) if step.action is None
+                             else step.action)
+    columns["reward"].append(step.reward)
+    columns["terminated"].append(step.terminated)
+    columns["truncated"].append(step.truncated)
+
+
+def _episode_meta(spec: EpisodeSpec, columns: Mapping[str, list], fps: float,
+                  size: tuple[int, int]) -> dict[str, Any]:
+    """Outcome, collision frame, closest approach and ISI of an episode's labels."""
+    length = len(columns["frame_index"])
+    hits = np.flatnonzero(columns["collision"])
+    collision = int(hits[0]) if hits.size else None
+    distance = np.asarray(columns["threat_distance"], np.float64)
+    finite = np.isfinite(distance)
+    closest = float(distance[finite].min()) if finite.any() else None
+    closest_frame = int(np.flatnonzero(finite)[distance[finite].argmin()]) if finite.any() \
+        else None
+    if collision is not None:
+        outcome = "collision"
+    elif closest is not None and closest < layout.NEAR_MISS_DISTANCE:
+        outcome = "near_miss"
+    else:
+        outcome = "clear"
+    ssim = np.asarray(columns["ssim"][1:], np.float64)
+    return {
+        "episode_index": spec.index, "scenario": spec.scenario, "task_index": spec.task_index,
+        "jitter": spec.jitter, "seed": spec.seed, "length": length, "fps": fps,
+        "resolution": list(size), "collision_frame": collision, "outcome": outcome,
+        "near_miss": outcome == "near_miss", "closest_approach": closest,
+        "closest_approach_frame": closest_frame,
+        "goal_reached": bool(any(columns["goal_reached"])),
+        "isi": float(ssim.mean()) if ssim.size else None,
+    }
+
+
+def _parquet_bytes(columns: Mapping[str, list], spec: EpisodeSpec, meta: Mapping[str, Any]
+                   ) -> bytes:
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    schema = layout.label_schema(spec.models, spec.noise)
+    table = pa.table({name: pa.array(columns[name], type=schema.field(name).type)
+                      for name in schema.names}, schema=schema)
+    table = table.replace_schema_metadata({layout.EPISODE_KEY: json.dumps(meta, sort_keys=True)})
+    buf = io.BytesIO()
+    pq.write_table(table, buf, compression="zstd")
+    return buf.getvalue()
+
+
+def _sha256_bytes(data: bytes) -> str:
+    import hashlib
+
+    return hashlib.sha256(data).hexdigest()
+
+
+# --- the folder ---------------------------------------------------------------------------
+
+
+def _prepare(out: Path, config: GenerateConfig) -> None:
+    """Make `out` or check it holds this configuration's dataset; write meta/config.json."""
+    if out.exists() and not out.is_dir():
+        raise ValueError(f"output folder {out} is a file, not a folder")
+    wanted = config.as_json()
+    config_file = out / layout.CONFIG
+    if config_file.is_file():
+        try:
+            held = json.loads(config_file.read_text())
+        except (OSError, ValueError) as exc:
+            raise ValueError(f"{config_file}: unreadable ({exc}); use another folder") from None
+        diff = [k for k in sorted(set(wanted) | set(held)) if wanted.get(k) != held.get(k)]
+        if diff:
+            k = diff[0]
+            raise ValueError(f"{out} holds a dataset made with another configuration: {k} is "
+                             f"{_show(held.get(k))} there, {_show(wanted.get(k))} here; use "
+                             "another folder, or the options it was made with")
+        return
+    if out.is_dir() and any(out.iterdir()):
+        raise ValueError(f"output folder {out} is not empty and holds no lgmd-sim dataset "
+                         f"(no {layout.CONFIG}); use a new or empty folder")
+    write_text_atomic(config_file, layout.canonical_json(wanted))
+
+
+def _show(value: Any) -> str:
+    if isinstance(value, list):
+        return ",".join(f"{v:g}" if isinstance(v, float) else str(v) for v in value) or "none"
+    return json.dumps(value)
+
+
+def _complete(out: Path, spec: EpisodeSpec) -> dict[str, Any] | None:
+    """The metadata of episode `spec` if it is complete on disk, else None."""
+    import pyarrow.parquet as pq
+
+    data, video = out / layout.data_path(spec.index), out / layout.video_path(spec.index,
+                                                                             spec.video)
+    if not (data.is_file() and video.is_file()):
+        return None
+    try:
+        kv = pq.read_metadata(data).metadata or {}
+        meta = json.loads(kv[layout.EPISODE_KEY])
+    except (OSError, ValueError, KeyError):
+        return None
+    same = (meta.get("episode_index"), meta.get("scenario"), meta.get("jitter"),
+            meta.get("seed")) == (spec.index, spec.scenario, spec.jitter, spec.seed)
+    if not same or layout.sha256(video) != meta.get("video_sha256"):
+        return None
+    return meta
+
+
+def _store(out: Path, spec: EpisodeSpec, result: EpisodeResult) -> None:
+    """Write an episode: video first, its data file (the mark of completion) last."""
+    write_files({
+        out / layout.video_path(spec.index, spec.video): lambda tmp: tmp.write_bytes(
+            result.video),
+        out / layout.data_path(spec.index): lambda tmp: tmp.write_bytes(result.data),
+    })
+
+
+def generate(config: GenerateConfig, out: str | Path, *, workers: int | None = None,
+             ray_address: str | None = None, progress: bool | None = None,
+             argv: Sequence[str] | None = None) -> Summary:
+    """Generate (or resume) the dataset of `config` in folder `out`.
+
+    Args:
+        config: what the dataset holds.
+        out: the dataset folder: new, empty, or holding this configuration's dataset.
+        workers: local worker processes (default: every core; 1: in this process).
+        ray_address: run the episodes as Ray tasks ("local", "auto" or "HOST:PORT").
+        progress: show a progress bar (None: only on a terminal).
+        argv: the command as typed, for the run log.
+
+    Raises:
+        ValueError: a bad option or a folder holding something else (one line).
+        OSError: a full disk or another write error, naming the folder; the complete
+            episodes are kept (the same call resumes).
+        WorkerDied: a worker died; the episodes it ran are redone by the same call.
+    """
+    from lgmd_sim.extras import require
+
+    require("pyarrow", "data")
+    if ray_address is not None:
+        require("ray", "ray")
+    validate(config)
+    out = Path(out)
+    start = time.monotonic()
+    specs = config.specs()
+    metas: dict[int, dict[str, Any]] = {}
+    try:
+        _prepare(out, config)
+        todo = []
+        for spec in specs:
+            for path in (layout.data_path(spec.index), layout.video_path(spec.index, spec.video)):
+                remove_stale_partials(out / path)
+            meta = _complete(out, spec)
+            if meta is None:
+                for path in (layout.data_path(spec.index),
+                             layout.video_path(spec.index, spec.video)):
+                    (out / path).unlink(missing_ok=True)  # a partial episode: redo it
+                todo.append(spec)
+            else:
+                metas[spec.index] = meta
+        kept = len(metas)
+
+        def store(job: Job, result: EpisodeResult) -> None:
+            _store(out, job.kwargs["spec"], result)
+            metas[job.kwargs["spec"].index] = result.meta
+
+        run_jobs([Job(s.key, make_episode, {"spec": s}) for s in todo], store,
+                 workers=workers, ray_address=ray_address, progress=progress,
+                 desc=f"dataset {out.name}", count=lambda r: r.meta["length"])
+        write_manifest(out, config, [metas[s.index] for s in specs])
+        seconds = time.monotonic() - start
+        frames = sum(m["length"] for m in metas.values())
+        summary = Summary(out, len(specs), frames, len(specs) - kept, kept, seconds)
+        _log_run(out, summary, workers, ray_address, argv)
+        return summary
+    except OSError as exc:
+        if exc.errno in (errno.ENOSPC, errno.EDQUOT):
+            raise OSError(f"no space left on the device of {out}: "
+                          f"{len(metas)} complete episodes are kept; free space and run the "
+                          "same command again to resume") from None
+        raise
+
+
+def _log_run(out: Path, s: Summary, workers: int | None, ray_address: str | None,
+             argv: Sequence[str] | None) -> None:
+    """Append this run's facts to meta/runs.jsonl (not part of the dataset's identity)."""
+    import datetime
+
+    from lgmd_sim.parallel import default_workers
+
+    path = out / layout.RUNS
+    previous = path.read_text() if path.is_file() else ""
+    record = {"finished": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
+              "seconds": round(s.seconds, 2), "episodes_made": s.made, "episodes_kept": s.kept,
+              "frames": s.frames, "workers": workers or default_workers(), "ray": ray_address,
+              "argv": list(argv) if argv is not None else None}
+    write_text_atomic(path, previous + json.dumps(record) + "\n")
+
+
+# --- the command --------------------------------------------------------------------------
+
+
+def config_from_args(args: argparse.Namespace) -> GenerateConfig:
+    """A `GenerateConfig` from ``dataset generate``'s arguments."""
+    from lgmd_sim import noise
+    from lgmd_sim.detect import parse_models
+    from lgmd_sim.envs.catalogue import scenarios
+
+    names = list(scenarios()) if args.scenarios == "all" else [
+        s.strip() for s in args.scenarios.split(",") if s.strip()]
+    jitter = []
+    for text in args.jitter.split(","):
+        try:
+            jitter.append(float(text))
+        except ValueError:
+            raise ValueError(f"--jitter: {text.strip()!r} is not a number") from None
+    models = [] if args.models in ("", "none") else parse_models(args.models)
+    variants = ["+".join(map(str, noise.parse(v.replace("+", ","))))
+                for v in args.noise.split(",")] if args.noise else []
+    overrides: dict[str, Any] = {}
+    for item in args.set:
+        key, sep, value = item.partition("=")
+        if not sep or not key.strip():
+            raise ValueError(f"--set {item!r}: write NAME=VALUE, e.g. time_limit=2")
+        try:
+            overrides[key.strip()] = json.loads(value)
+        except ValueError:
+            overrides[key.strip()] = value
+    res = args.resolution if isinstance(args.resolution, str) else tuple(args.resolution)
+    return GenerateConfig(tuple(names), tuple(jitter), args.episodes, res, args.controller,
+                          tuple(models), tuple(variants), args.video, args.seed, overrides)
+
+
+def run(args: argparse.Namespace) -> int:
+    """`lgmd-sim dataset generate`."""
+    config = config_from_args(args)
+    try:
+        s = generate(config, args.out, workers=args.workers, ray_address=args.ray,
+                     progress=False if args.no_progress else None, argv=sys.argv)
+    except WorkerDied as exc:
+        print(f"lgmd-sim dataset: error: {exc}; the complete episodes are kept in {args.out}: "
+              "run the same command again to resume", file=sys.stderr)
+        return 1
+    print(f"{s.path}: {s.episodes} episodes, {s.frames} frames ({s.made} made, {s.kept} "
+          f"kept) in {s.seconds:.1f} s; check it with: lgmd-sim dataset verify {s.path}")
+    return 0

@@ -1,0 +1,195 @@
+"""Where everything of a dataset lives, and the per-frame label schema.
+
+The layout follows the LeRobot dataset v3 conventions where they fit (see docs/datasets.md)::
+
+    DIR/README.md                                         the dataset card
+    DIR/meta/info.json                                    fps, feature schema, totals, paths
+    DIR/meta/config.json                                  the generation configuration
+    DIR/meta/tasks.parquet                                one task per scenario
+    DIR/meta/episodes/chunk-000/file-000.parquet          one row per episode
+    DIR/meta/contact_sheet.png                            a frame per scenario and jitter
+    DIR/meta/runs.jsonl                                   run log (not part of the identity)
+    DIR/data/chunk-000/file-000.parquet                   labels of episode 0, a row a frame
+    DIR/videos/observation.images.camera/chunk-000/file-000.avi   its frames (FFV1)
+
+Episode ``i`` is file ``i % CHUNK_SIZE`` of chunk ``i // CHUNK_SIZE``: one file per episode,
+so that each episode is written (and resumed) on its own.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+#: The LeRobot format version whose layout this one follows.
+CODEBASE_VERSION = "v3.0"
+#: Episode files per chunk folder (LeRobot's default).
+CHUNK_SIZE = 1000
+#: The camera stream's feature name, as LeRobot names camera streams.
+VIDEO_KEY = "observation.images.camera"
+DATA_PATH = "data/chunk-{chunk_index:03d}/file-{file_index:03d}.parquet"
+VIDEO_PATH = "videos/{video_key}/chunk-{chunk_index:03d}/file-{file_index:03d}{suffix}"
+INFO = "meta/info.json"
+CONFIG = "meta/config.json"
+TASKS = "meta/tasks.parquet"
+EPISODES = "meta/episodes/chunk-000/file-000.parquet"
+CONTACT_SHEET = "meta/contact_sheet.png"
+CARD = "README.md"
+#: Facts of each run (wall time, workers, the command as typed): excluded from the
+#: dataset's identity, the checksums and `verify`.
+RUNS = "meta/runs.jsonl"
+#: Key of the episode's metadata (JSON) in its data file's Parquet key-value metadata.
+EPISODE_KEY = b"lgmd_sim.episode"
+
+#: Frame storage: file suffix, codec (as recorded in info.json) and whether lossless.
+#: FFV1 in AVI: exact RGB round trip and byte-identical files from run to run (FFmpeg's
+#: Matroska muxer writes a random segment id, so .mkv files differ every time).
+VIDEO_FORMATS: dict[str, tuple[str, str, bool]] = {
+    "lossless": (".avi", "ffv1", True),
+    "lossy": (".mp4", "mpeg4", False),
+}
+
+#: A run with no collision whose closest approach is within this distance (m) of the
+#: carrier is a near miss; farther, the episode is "clear".
+NEAR_MISS_DISTANCE = 2.0
+OUTCOMES = ("collision", "near_miss", "clear")
+
+#: Names of the vector label columns' components.
+VECTOR_NAMES: dict[str, list[str]] = {
+    "carrier_pos": ["x", "y", "z"],
+    "carrier_quat": ["w", "x", "y", "z"],
+    "camera_pos": ["x", "y", "z"],
+    "camera_quat": ["w", "x", "y", "z"],
+    "camera_angvel": ["x", "y", "z"],
+    "camera_linvel": ["x", "y", "z"],
+    "observation.state": ["wheel_left", "wheel_right", "gyro_x", "gyro_y", "gyro_z",
+                          "accel_x", "accel_y", "accel_z"],
+    "observation.goal": ["distance", "sin_bearing", "cos_bearing"],
+    "action": ["v", "omega"],
+}
+
+#: Every per-frame column but the models', in order: (name, type, meaning). Types are
+#: pyarrow type names ("float64", "float32[3]" for a fixed-size list).
+COLUMNS: list[tuple[str, str, str]] = [
+    ("episode_index", "int64", "the episode"),
+    ("frame_index", "int64", "the frame within its episode, from 0"),
+    ("timestamp", "float32", "frame_index / fps (s), as LeRobot"),
+    ("task_index", "int64", "the scenario (meta/tasks.parquet)"),
+    ("time", "float64", "simulated time (s)"),
+    ("carrier_pos", "float64[3]", "carrier position (m, world frame)"),
+    ("carrier_quat", "float64[4]", "carrier orientation (quaternion w, x, y, z)"),
+    ("camera_pos", "float64[3]", "camera position (m, world frame)"),
+    ("camera_quat", "float64[4]", "camera orientation (quaternion w, x, y, z)"),
+    ("camera_angvel", "float64[3]", "camera angular velocity (rad/s, camera frame: x right, "
+     "y up, z backwards)"),
+    ("camera_linvel", "float64[3]", "camera linear velocity (m/s, camera frame)"),
+    ("threat_index", "int64", "the most threatening obstacle (-1: none)"),
+    ("threat_distance", "float64", "its surface distance from the carrier (m)"),
+    ("threat_bearing", "float64", "its bearing from the camera heading (rad, left +)"),
+    ("threat_closing_speed", "float64", "its closing speed (m/s, approaching +)"),
+    ("threat_ttc", "float64", "its time to collision (s; inf when not closing)"),
+    ("collision", "bool", "the carrier touches an obstacle on this frame"),
+    ("first_collision_frame", "int64", "the first collision frame so far (-1: none yet)"),
+    ("ssim", "float64", "SSIM with the previous frame (NaN on frame 0)"),
+    ("goal_distance", "float64", "distance to the goal (m; NaN without a goal)"),
+    ("goal_bearing", "float64", "bearing of the goal (rad; NaN without a goal)"),
+    ("goal_reached", "bool", "the goal is reached on this frame"),
+    ("observation.state", "float32[8]", "proprioception: wheel speeds (rad/s), gyro "
+     "(rad/s), accelerometer (m/s^2)"),
+    ("observation.goal", "float32[3]", "goal observation (NaN without a goal)"),
+    ("action", "float32[2]", "the controller's action (v, omega) on seeing this frame "
+     "(NaN on the last frame)"),
+    ("reward", "float64", "reward of the step that led to this frame (0 on frame 0)"),
+    ("terminated", "bool", "the episode ended at this frame (collision or goal)"),
+    ("truncated", "bool", "the episode was cut at this frame (time limit)"),
+]
+
+
+def model_columns(model: str, variant: str | None = None) -> tuple[str, str]:
+    """The potential and alarm columns of a model on the clean frames or a noise variant."""
+    tail = "" if variant is None else f"[{variant}]"
+    return f"{model}.potential{tail}", f"{model}.alarm{tail}"
+
+
+def label_schema(models: Sequence[str], variants: Sequence[str]):  # -> pyarrow.Schema
+    """The per-frame schema: `COLUMNS`, then each model's potential and alarm on the clean
+    frames and on each noise variant."""
+    import pyarrow as pa
+
+    fields = [pa.field(name, _arrow_type(kind)) for name, kind, _doc in COLUMNS]
+    for variant in [None, *variants]:
+        for model in models:
+            potential, alarm = model_columns(model, variant)
+            fields += [pa.field(potential, pa.float64()), pa.field(alarm, pa.bool_())]
+    return pa.schema(fields)
+
+
+def _arrow_type(kind: str):
+    import pyarrow as pa
+
+    base, _, size = kind.partition("[")
+    scalar = {"int64": pa.int64(), "float32": pa.float32(), "float64": pa.float64(),
+              "bool": pa.bool_()}[base]
+    return pa.list_(scalar, int(size[:-1])) if size else scalar
+
+
+def features(models: Sequence[str], variants: Sequence[str], size: Sequence[int],
+             fps: float, video_format: str) -> dict[str, dict[str, Any]]:
+    """info.json's feature schema, in LeRobot's form (dtype, shape, names)."""
+    suffix, codec, lossless = VIDEO_FORMATS[video_format]
+    h, w = size
+    out: dict[str, dict[str, Any]] = {VIDEO_KEY: {
+        "dtype": "video", "shape": [h, w, 3], "names": ["height", "width", "channels"],
+        "info": {"video.height": h, "video.width": w, "video.codec": codec,
+                 "video.pix_fmt": "bgr0" if lossless else "yuv420p", "video.fps": fps,
+                 "video.channels": 3, "video.is_depth_map": False, "video.lossless": lossless,
+                 "video.container": suffix[1:], "has_audio": False}}}
+    for name, kind, doc in COLUMNS:
+        base, _, n = kind.partition("[")
+        out[name] = {"dtype": "bool" if base == "bool" else base,
+                     "shape": [int(n[:-1]) if n else 1], "names": VECTOR_NAMES.get(name),
+                     "doc": doc}
+    for variant in [None, *variants]:
+        for model in models:
+            potential, alarm = model_columns(model, variant)
+            on = "clean frames" if variant is None else f"frames with noise {variant}"
+            out[potential] = {"dtype": "float64", "shape": [1], "names": None,
+                              "doc": f"{model} membrane potential on the {on}"}
+            out[alarm] = {"dtype": "bool", "shape": [1], "names": None,
+                          "doc": f"{model} alarm (potential above its threshold) on the {on}"}
+    return out
+
+
+def data_path(episode: int) -> str:
+    chunk, file = divmod(episode, CHUNK_SIZE)
+    return DATA_PATH.format(chunk_index=chunk, file_index=file)
+
+
+def video_path(episode: int, video_format: str) -> str:
+    chunk, file = divmod(episode, CHUNK_SIZE)
+    return VIDEO_PATH.format(video_key=VIDEO_KEY, chunk_index=chunk, file_index=file,
+                             suffix=VIDEO_FORMATS[video_format][0])
+
+
+def sha256(path: str | os.PathLike) -> str:
+    """The SHA-256 of a file, in hex."""
+    digest = hashlib.sha256()
+    with open(path, "rb") as f:
+        while block := f.read(1 << 20):
+            digest.update(block)
+    return digest.hexdigest()
+
+
+def canonical_json(value: Any) -> str:
+    """JSON with sorted keys and a final newline: the same bytes for the same value."""
+    return json.dumps(value, indent=2, sort_keys=True, allow_nan=False) + "\n"
+
+
+def is_dataset(path: str | os.PathLike) -> bool:
+    """Whether `path` is a dataset folder (it has meta/info.json or meta/config.json)."""
+    p = Path(path)
+    return (p / INFO).is_file() or (p / CONFIG).is_file()
