@@ -340,12 +340,17 @@ def run(args: argparse.Namespace) -> int:
     if out is not None:
         _check_out_folder(out)
     failed = 0
-    for video, stem in zip(args.videos, output_names(args.videos), strict=True):
+    from lgmd_sim.data import detect_inputs  # a dataset (or DIR:N) becomes its episodes
+
+    inputs = detect_inputs(args.videos)  # (name, video file, labelled collision frame)
+    for (video, source, labelled), stem in zip(inputs, output_names([i[0] for i in inputs]),
+                                               strict=True):
+        collision_frame = labelled if args.collision_frame is None else args.collision_frame
         try:
-            clip = VideoReader(video)
-            if clip.frame_count is not None and args.collision_frame is not None:
-                check_collision_frame(args.collision_frame, clip.frame_count, video)
-            d = detect(clip, clip.fps, names, args.collision_frame, name=str(video),
+            clip = VideoReader(source)
+            if clip.frame_count is not None and collision_frame is not None:
+                check_collision_frame(collision_frame, clip.frame_count, video)
+            d = detect(clip, clip.fps, names, collision_frame, name=str(video),
                        total=clip.frame_count,
                        progress=False if args.no_progress else None)
             paths = write_outputs(d, out, stem) if out is not None else {}
