@@ -46,10 +46,10 @@ def _tile(rgb: np.ndarray, label: str) -> np.ndarray:
     size = (TILE_WIDTH, round(h * TILE_WIDTH / w))
     tile = cv2.resize(rgb, size, interpolation=cv2.INTER_AREA if w > TILE_WIDTH
                       else cv2.INTER_NEAREST)
-    for colour, thickness in (((0, 0, 0), 3), ((255, 255, 255), 1)):
-        cv2.putText(tile, label, (4, 14), cv2.FONT_HERSHEY_SIMPLEX, 0.4, colour, thickness,
-                    cv2.LINE_AA)
-    return tile
+    banner = np.zeros((18, TILE_WIDTH, 3), np.uint8)  # the label on black, above the frame
+    cv2.putText(banner, label, (4, 13), cv2.FONT_HERSHEY_SIMPLEX, 0.4, (255, 255, 255), 1,
+                cv2.LINE_AA)
+    return np.vstack([banner, tile])
 
 
 def contact_sheet(out: Path, config: Any, metas: Sequence[Mapping[str, Any]]) -> bytes:
