@@ -266,22 +266,3 @@ def test_sb3_subproc_vec_env():
     assert obs["frame"].shape == (2, 64, 64, 3) and len(infos) == 2
     assert obs["frame"].max() > 0
     venv.close()
-
-
-
-def test_lgmd_and_frame_wrappers():
-    from lgmd_sim.envs.wrappers import FrameObservation, LGMDObservation
-
-    env = LGMDObservation(make(name="StationaryApproach", mover_distance=3.0), model="feedback")
-    obs, info = env.reset(seed=0)
-    assert obs["lgmd"].shape == (1,) and info["lgmd_potential"] == pytest.approx(0.5)
-    assert env.observation_space.contains(obs)
-    potentials = [env.step([0.0, 0.0])[4]["lgmd_potential"] for _ in range(40)]
-    assert max(potentials) > 0.5  # the approaching balloon excites it
-    env.reset(seed=0)  # a new stream: back to rest
-    assert env.step([0.0, 0.0])[4]["lgmd_potential"] == pytest.approx(potentials[0])
-    env.close()
-    frames = FrameObservation(make(name="PassBy"))
-    obs, _ = frames.reset(seed=0)
-    assert isinstance(obs, np.ndarray) and frames.observation_space.contains(obs)
-    frames.close()
