@@ -24,6 +24,7 @@ from typing import Any
 import numpy as np
 
 from lgmd_sim import metrics, models
+from lgmd_sim import noise as noise_lib
 from lgmd_sim.fileio import write_files
 from lgmd_sim.frames import to_grey
 from lgmd_sim.models.base import LGMDModel
@@ -88,6 +89,8 @@ class Detection:
         isi: ISI (Eq. 21), the mean of ``ssim[1:]``.
         collision_frame: the labelled collision frame, or None.
         models: model name -> its `ModelTrace`, in the order asked for.
+        noise: the noise the frames were corrupted with ("kind:level,..."), or None.
+        noise_seed: the noise's seed, or None without noise.
     """
 
     video: str
@@ -97,6 +100,8 @@ class Detection:
     isi: float
     collision_frame: int | None
     models: Mapping[str, ModelTrace]
+    noise: str | None = None
+    noise_seed: int | None = None
 
     def summary(self, series: bool = False) -> dict[str, Any]:
         """JSON-ready summary (the ``--json`` record); see `ModelTrace.summary`."""
@@ -106,6 +111,8 @@ class Detection:
             "fps": self.fps,
             "isi": self.isi,
             "collision_frame": self.collision_frame,
+            "noise": self.noise,
+            "noise_seed": self.noise_seed,
             "models": {name: t.summary(series) for name, t in self.models.items()},
         }
 
@@ -150,6 +157,8 @@ def detect(
     total: int | None = None,
     progress: bool | None = False,
     window_s: float = 1.0,
+    noise: str | Sequence[noise_lib.Noise] | None = None,
+    noise_seed: int = 0,
 ) -> Detection:
     """Run models over a clip, frame by frame, and compute the clip's metrics.
 
@@ -163,12 +172,18 @@ def detect(
         total: number of frames if known (for the progress bar).
         progress: show a progress bar on stderr (None: only on a terminal).
         window_s: tolerance window of the event metrics, seconds before the collision.
+        noise: corrupt every frame (uint8) before the models and the SSIM see it:
+            "kind:level,..." or a list of `lgmd_sim.noise.Noise` (see `lgmd_sim.noise`).
+        noise_seed: the noise's seed; frame t's noise depends only on it and t.
     """
     from tqdm import tqdm
 
     if not (math.isfinite(fps) and fps > 0):
         raise ValueError(f"{name or 'clip'}: fps must be a finite number > 0, got {fps!r}")
     built = _build(model_spec)
+    noises = noise_lib.parse(noise)
+    if noises:
+        frames = noise_lib.corrupt(frames, noises, noise_seed)
     potentials: dict[str, list[float]] = {n: [] for n in built}
     alarms: dict[str, list[bool]] = {n: [] for n in built}
     ssims = [math.nan]
@@ -205,7 +220,8 @@ def detect(
                                metrics.mpsi(mp), event)
     ssim = np.asarray(ssims)
     return Detection(name, n_frames, float(fps), ssim, float(ssim[1:].mean()),
-                     collision_frame, traces)
+                     collision_frame, traces, ",".join(map(str, noises)) or None,
+                     int(noise_seed) if noises else None)
 
 
 def detect_video(
@@ -215,11 +231,14 @@ def detect_video(
     *,
     progress: bool | None = False,
     window_s: float = 1.0,
+    noise: str | Sequence[noise_lib.Noise] | None = None,
+    noise_seed: int = 0,
 ) -> Detection:
     """`detect` over a video file or image folder (see `lgmd_sim.video.VideoReader`)."""
     clip = VideoReader(path)
     return detect(clip, clip.fps, model_spec, collision_frame, name=str(path),
-                  total=clip.frame_count, progress=progress, window_s=window_s)
+                  total=clip.frame_count, progress=progress, window_s=window_s,
+                  noise=noise, noise_seed=noise_seed)
 
 
 # --- outputs ------------------------------------------------------------------------------
@@ -336,6 +355,7 @@ def _check_out_folder(out: Path) -> None:
 def run(args: argparse.Namespace) -> int:
     """`lgmd-sim detect`: every video in turn; a bad one is reported and skipped (exit 2)."""
     names = parse_models(args.models)
+    noises = noise_lib.parse(args.noise)  # a bad spec fails before any video is read
     out = Path(args.out) if args.out else None if args.json else Path("detect-out")
     if out is not None:
         _check_out_folder(out)
@@ -352,7 +372,8 @@ def run(args: argparse.Namespace) -> int:
                 check_collision_frame(collision_frame, clip.frame_count, video)
             d = detect(clip, clip.fps, names, collision_frame, name=str(video),
                        total=clip.frame_count,
-                       progress=False if args.no_progress else None)
+                       progress=False if args.no_progress else None,
+                       noise=noises, noise_seed=args.noise_seed)
             paths = write_outputs(d, out, stem) if out is not None else {}
         except (ValueError, OSError) as exc:
             print(f"lgmd-sim detect: error: {exc}", file=sys.stderr)

@@ -224,3 +224,36 @@ def test_json_without_out_prints_and_writes_no_files(tmp_path, clip, capsys, mon
     assert sorted(p.name for p in tmp_path.iterdir()) == ["a.mp4"]  # no ./detect-out
     assert _detect(str(video), "--models", MODELS[0]) == 0  # without --json: ./detect-out
     assert (tmp_path / "detect-out" / "a.json").exists()
+
+
+def test_noise_corrupts_the_frames_before_models_and_ssim_and_is_recorded(tmp_path, clip,
+                                                                          capsys):
+    from lgmd_sim import noise
+
+    folder = _write_folder(tmp_path / "shots", clip.frames)  # PNG: lossless
+    spec = "gaussian:0.005,saltpepper:0.005"
+    assert _detect(str(folder), "--json", "--models", MODELS[0], "--noise", spec,
+                   "--noise-seed", "3") == 0
+    noisy = json.loads(capsys.readouterr().out)
+    assert (noisy["noise"], noisy["noise_seed"]) == (spec, 3)
+    expected = detect(noise.corrupt(VideoReader(folder), noise.parse(spec), 3), 30.0,
+                      [MODELS[0]])
+    np.testing.assert_allclose(noisy["models"][MODELS[0]]["membrane_potential"],
+                               expected.models[MODELS[0]].potential, atol=1e-6)
+    assert noisy["isi"] == pytest.approx(expected.isi)
+    assert _detect(str(folder), "--json", "--models", MODELS[0]) == 0
+    clean = json.loads(capsys.readouterr().out)
+    assert (clean["noise"], clean["noise_seed"]) == (None, None)
+    assert noisy["isi"] < clean["isi"] - 0.05  # the SSIM saw the noise too
+    assert (noisy["models"][MODELS[0]]["membrane_potential"]
+            != clean["models"][MODELS[0]]["membrane_potential"])
+
+
+def test_a_bad_noise_spec_is_one_line_before_any_video_is_read(tmp_path, capfd):
+    missing = tmp_path / "missing.mp4"  # would be an error of its own if it were read
+    assert _detect(str(missing), "--noise", "gauss:0.1", "--out", str(tmp_path / "o")) == 2
+    captured = capfd.readouterr()
+    err = captured.err.strip().splitlines()
+    assert err == ["lgmd-sim detect: error: unknown noise 'gauss'; known: gaussian, "
+                   "saltpepper, shake"]
+    assert captured.out == "" and not (tmp_path / "o").exists()

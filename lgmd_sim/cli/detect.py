@@ -35,5 +35,15 @@ def add(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--json", action="store_true",
                    help="print one JSON object per video to stdout (with the membrane "
                    "potential of every frame)")
+    p.add_argument("--noise", metavar="SPEC",
+                   help="corrupt every frame before the models and the SSIM see it, as the "
+                   "paper's noisy streams: comma-separated kind:level of gaussian (variance "
+                   "on the [0, 1] scale, the paper's 0.001 to 0.009), saltpepper (density, "
+                   "0.001 to 0.009) and shake (extra rotation, translation and brightness "
+                   "gain, level 1: about 1 degree and 2 pixels), e.g. "
+                   "gaussian:0.005,saltpepper:0.005; recorded in the JSON summary")
+    p.add_argument("--noise-seed", type=non_negative_int, default=0, metavar="N",
+                   help="seed of --noise (default: 0); frame t's noise depends only on the "
+                   "seed, SPEC and t")
     p.add_argument("--no-progress", action="store_true", help="hide the progress bar")
     p.set_defaults(run="lgmd_sim.detect:run")
