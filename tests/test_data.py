@@ -57,7 +57,7 @@ def test_generated_dataset_verifies_and_holds_both_outcomes(dataset):
     assert len(ds.filter(outcome=["clear"])) == 0
     info = json.loads((dataset / layout.INFO).read_text())
     assert info["codebase_version"] == "v3.0" and info["fps"] == 30.0
-    assert info["features"][layout.VIDEO_KEY]["info"]["video.codec"] == "ffv1"
+    assert info["features"][layout.VIDEO_KEY]["info"]["video.codec"] == "huffyuv"
     card = (dataset / layout.CARD).read_text()
     assert CONFIG.command() in card and "| HandheldApproach | 1 | 2 |" in card
 
@@ -162,11 +162,14 @@ def test_torch_window_dataset(dataset):
     assert batch[0].shape == (4, 6, 32, 48, 3)
 
 
-def test_lossy_option_records_its_codec(tmp_path):
-    config = GenerateConfig(("StationaryApproach",), (0.0,), 1, (32, 48), video="lossy",
+@pytest.mark.parametrize("video", ["ffv1", "mpeg4"])
+def test_other_video_formats_record_their_codec(tmp_path, video):
+    config = GenerateConfig(("StationaryApproach",), (0.0,), 1, (32, 48), video=video,
                             overrides={"time_limit": 0.5})
-    generate(config, tmp_path / "lossy", workers=1, progress=False)
-    assert verify(tmp_path / "lossy")[0] == []
-    info = data.open(tmp_path / "lossy").info
-    assert info["features"][layout.VIDEO_KEY]["info"]["video.codec"] == "mpeg4"
-    assert (tmp_path / "lossy" / layout.video_path(0, "lossy")).suffix == ".mp4"
+    generate(config, tmp_path / video, workers=1, progress=False)
+    assert verify(tmp_path / video)[0] == []
+    ds = data.open(tmp_path / video)
+    fmt = layout.VIDEO_FORMATS[video]
+    assert ds.info["features"][layout.VIDEO_KEY]["info"]["video.codec"] == fmt.codec
+    assert ds[0].video_path.suffix == fmt.suffix
+    assert ds[0].frames().shape == (16, 32, 48, 3)

@@ -88,8 +88,8 @@ def test_killed_run_resumes_to_the_same_bytes(tmp_path):
     # What else a kill can leave: a video without its data file, a temporary of a dead
     # process; both are removed and the episode redone.
     last = specs[-1]
-    shutil.copy(out / layout.video_path(0, "lossless"), out / layout.video_path(last.index,
-                                                                               "lossless"))
+    shutil.copy(out / layout.video_path(0, "huffyuv"), out / layout.video_path(last.index,
+                                                                               "huffyuv"))
     stale = out / layout.data_path(last.index)
     (stale.parent / f".{stale.name}.999999999-abcd.partial.parquet").write_bytes(b"torn")
     result = subprocess.run([*LGMD_SIM, *ARGS, "--out", str(out)], capture_output=True,
@@ -141,14 +141,14 @@ def small_disk(tmp_path):
 def test_full_disk_is_one_line_naming_the_folder_and_leaves_no_corrupt_episode(small_disk):
     out = small_disk / "ds"
     result = subprocess.run([*LGMD_SIM, "--scenarios", "HandheldApproach", "--jitter", "0,1",
-                             "--episodes", "3", "--resolution", "rl", "--workers", "1",
+                             "--episodes", "3", "--resolution", "64x96", "--workers", "1",
                              "--out", str(out)], capture_output=True, text=True, timeout=300)
     assert result.returncode == 2
     assert result.stderr.count("\n") == 1, result.stderr
     assert f"no space left on the device of {out}" in result.stderr
     assert [p for p in out.rglob("*") if ".partial" in p.name] == []
     assert not (out / layout.INFO).exists()
-    config = GenerateConfig(("HandheldApproach",), (0.0, 1.0), 3, "rl")
-    on_disk = [s for s in config.specs() if (out / layout.video_path(s.index, "lossless"))
+    config = GenerateConfig(("HandheldApproach",), (0.0, 1.0), 3, (64, 96))
+    on_disk = [s for s in config.specs() if (out / layout.video_path(s.index, "huffyuv"))
                .exists() or (out / layout.data_path(s.index)).exists()]
     assert on_disk and all(_complete(out, s) is not None for s in on_disk)

@@ -40,8 +40,9 @@ def add(sub: argparse._SubParsersAction) -> None:
                    help="noise variants, comma-separated, e.g. "
                    "gaussian:0.005,saltpepper:0.005 (join noises of one variant with +); "
                    "derived from the clean frames on loading, not stored")
-    g.add_argument("--video", choices=("lossless", "lossy"), default="lossless",
-                   help="lossless: FFV1 in .avi (default); lossy: MPEG-4 in .mp4")
+    g.add_argument("--video", choices=("huffyuv", "ffv1", "mpeg4"), default="huffyuv",
+                   help="frame storage: huffyuv (lossless, fast; default), ffv1 (lossless, "
+                   "about half the size, slower to write), mpeg4 (lossy, small)")
     g.add_argument("--seed", type=non_negative_int, default=0,
                    help="first episode seed (default 0)")
     g.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from lgmd_sim.cli.args import positive_int
+from lgmd_sim.cli.args import positive_int, resolution
 
 
 def add(sub: argparse._SubParsersAction) -> None:
@@ -35,3 +35,19 @@ def add(sub: argparse._SubParsersAction) -> None:
     b.add_argument("--steps", type=positive_int, default=200, help="steps timed per run")
     b.add_argument("--markdown", action="store_true", help="print the table as Markdown")
     b.set_defaults(run="lgmd_sim.speed.envs:run")
+    b = speed.add_parser(
+        "dataset", help="dataset generation frames/s vs the environment alone; disk per frame",
+        description="Per scenario, in one run: frames per second of `dataset generate` "
+        "against the same episodes run by the environment alone (same workers, size and "
+        "seeds), and disk per frame of the stored frames against PNG and raw RGB.",
+    )
+    b.add_argument("--scenarios", default="all", help="comma-separated names, or all")
+    b.add_argument("--episodes", type=positive_int, default=6, help="episodes per scenario")
+    b.add_argument("--resolution", type=resolution, default="paper",
+                   help="paper (270x480, default), rl, small or HxW")
+    b.add_argument("--workers", type=positive_int, default=2, help="worker processes")
+    b.add_argument("--video", choices=("huffyuv", "ffv1", "mpeg4"), default="huffyuv",
+                   help="frame storage: huffyuv (lossless, fast; default), ffv1 (lossless, "
+                   "about half the size, slower to write), mpeg4 (lossy, small)")
+    b.add_argument("--markdown", action="store_true", help="print the table as Markdown")
+    b.set_defaults(run="lgmd_sim.speed.dataset:run")

@@ -98,9 +98,9 @@ def card(config: Any, episodes, info: Mapping[str, Any]) -> str:
     total = len(rows)
     h, w = rows[0]["height"], rows[0]["width"]
     ours = info["lgmd_sim"]
-    frames = ("lossless (FFV1 in AVI: exact frames, so frame differences are exact)"
-              if ours["lossless"] else "lossy (MPEG-4 Part 2 in MP4; frame differences "
-              "are not exact)")
+    fmt = layout.VIDEO_FORMATS[config.video]
+    frames = (f"as {fmt.doc}" + (": the frames come back exact, so frame differences are "
+                                 "exact" if fmt.lossless else ""))
     outcome = {o: sum(r["outcome"] == o for r in rows) for o in layout.OUTCOMES}
     lines = [
         "# lgmd-sim jitter dataset",

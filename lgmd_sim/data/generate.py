@@ -23,6 +23,7 @@ run (wall time, workers, the command as typed) go to ``meta/runs.jsonl`` alone.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import dataclasses
 import errno
 import io
@@ -31,7 +32,7 @@ import math
 import sys
 import tempfile
 import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -63,7 +64,7 @@ class GenerateConfig:
         controller: a name of `lgmd_sim.controllers.available()`.
         models: LGMD models whose potential and alarm join the labels.
         noise: noise variants, each "kind:level" or several joined by "+".
-        video: "lossless" (FFV1 in AVI) or "lossy" (MPEG-4 in MP4).
+        video: how frames are stored, a key of `layout.VIDEO_FORMATS`.
         seed: the first episode seed.
         overrides: further environment parameters, for every scenario.
     """
@@ -75,7 +76,7 @@ class GenerateConfig:
     controller: str = "straight"
     models: tuple[str, ...] = ()
     noise: tuple[str, ...] = ()
-    video: str = "lossless"
+    video: str = layout.DEFAULT_VIDEO
     seed: int = 0
     overrides: Mapping[str, Any] = field(default_factory=dict)
 
@@ -102,7 +103,7 @@ class GenerateConfig:
             parts.append(f"--models {','.join(self.models)}")
         if self.noise:
             parts.append(f"--noise {','.join(self.noise)}")
-        if self.video != "lossless":
+        if self.video != layout.DEFAULT_VIDEO:
             parts.append(f"--video {self.video}")
         if self.seed:
             parts.append(f"--seed {self.seed}")
@@ -228,9 +229,7 @@ def make_episode(spec: EpisodeSpec) -> EpisodeResult:
     from lgmd_sim.controllers import rollout
     from lgmd_sim.envs.catalogue import scenario
     from lgmd_sim.frames import to_grey
-    from lgmd_sim.video import video_writer
-
-    suffix, codec, _lossless = layout.VIDEO_FORMATS[spec.video]
+    fmt = layout.VIDEO_FORMATS[spec.video]
     variants = {v: noise.parse(v.replace("+", ",")) for v in spec.noise}
     built = {v: {m: models.make(m) for m in spec.models} for v in [None, *variants]}
     controller = controllers.make(spec.controller)
@@ -241,15 +240,15 @@ def make_episode(spec: EpisodeSpec) -> EpisodeResult:
     try:
         params = env.unwrapped.params
         with tempfile.TemporaryDirectory(prefix="lgmd-sim-episode-") as tmp:
-            video = Path(tmp) / f"episode{suffix}"
-            with video_writer(video, params.fps, params.size) as write:
+            video = Path(tmp) / f"episode{fmt.suffix}"
+            with _encoder(video, fmt, params.fps, params.size) as write:
                 for step in rollout(env, controller, seed=spec.seed):
                     rgb = step.obs["frame"]
                     if rgb.shape[-1] == 1:  # a grey scenario (frame="grey")
                         rgb = rgb.repeat(3, axis=-1)
                     write(rgb)
                     _append_labels(columns, spec, step, params.fps, nan3)
-                    for variant, by_model in built.items():
+                    for variant, by_model in built.items() if spec.models else ():
                         seen = rgb if variant is None else noise.apply(
                             rgb, variants[variant], spec.seed, step.index)
                         grey = to_grey(seen)
@@ -264,12 +263,32 @@ def make_episode(spec: EpisodeSpec) -> EpisodeResult:
         env.close()
     meta = _episode_meta(spec, columns, params.fps, params.size)
     meta.update(
-        version=__version__, video_codec=codec, video_sha256=_sha256_bytes(video_bytes),
+        version=__version__, video_codec=fmt.codec, video_sha256=_sha256_bytes(video_bytes),
         config={"env": env_params, "controller": {
             "name": spec.controller, "params": dataclasses.asdict(controller.params)},
             "models": {m: dataclasses.asdict(built[None][m].params) for m in spec.models},
             "noise": list(spec.noise)})
     return EpisodeResult(video_bytes, _parquet_bytes(columns, spec, meta), meta)
+
+
+@contextlib.contextmanager
+def _encoder(path: Path, fmt: layout.VideoFormat, fps: float, size: tuple[int, int]
+             ) -> Iterator[Callable[[np.ndarray], None]]:
+    """Yield a function appending RGB frames to the video `path` in format `fmt`.
+
+    Not `lgmd_sim.video.video_writer`: its codec follows the suffix (FFV1 for .avi), and
+    its atomic rename is not needed in a job's private temporary folder.
+    """
+    import cv2
+
+    h, w = size
+    writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*fmt.fourcc), fps, (w, h))
+    if not writer.isOpened():
+        raise OSError(f"cannot write {fmt.codec} video: OpenCV has no {fmt.fourcc} encoder here")
+    try:
+        yield lambda rgb: writer.write(cv2.cvtColor(rgb, cv2.COLOR_RGB2BGR))
+    finally:
+        writer.release()
 
 
 def _append_labels(columns: dict[str, list], spec: EpisodeSpec, step: Any, fps: float,

@@ -22,6 +22,7 @@ import hashlib
 import json
 import os
 from collections.abc import Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -45,13 +46,33 @@ RUNS = "meta/runs.jsonl"
 #: Key of the episode's metadata (JSON) in its data file's Parquet key-value metadata.
 EPISODE_KEY = b"lgmd_sim.episode"
 
-#: Frame storage: file suffix, codec (as recorded in info.json) and whether lossless.
-#: FFV1 in AVI: exact RGB round trip and byte-identical files from run to run (FFmpeg's
-#: Matroska muxer writes a random segment id, so .mkv files differ every time).
-VIDEO_FORMATS: dict[str, tuple[str, str, bool]] = {
-    "lossless": (".avi", "ffv1", True),
-    "lossy": (".mp4", "mpeg4", False),
+@dataclass(frozen=True)
+class VideoFormat:
+    """How an episode's frames are stored: container suffix, OpenCV fourcc, FFmpeg codec
+    and pixel format (as info.json records them), and whether the frames come back exact."""
+
+    suffix: str
+    fourcc: str
+    codec: str
+    pix_fmt: str
+    lossless: bool
+    doc: str
+
+
+#: The frame storage formats (``--video``). All in containers OpenCV and FFmpeg read; the
+#: AVI files are byte-identical from run to run (FFmpeg's Matroska muxer writes a random
+#: segment id, so .mkv files would differ every time).
+VIDEO_FORMATS: dict[str, VideoFormat] = {
+    "huffyuv": VideoFormat(".avi", "HFYU", "huffyuv", "rgb24", True,
+                           "HuffYUV in AVI: lossless, fast to write (the default)"),
+    "ffv1": VideoFormat(".avi", "FFV1", "ffv1", "bgr0", True,
+                        "FFV1 in AVI: lossless, about half HuffYUV's size, but as slow to "
+                        "write as the world is to render"),
+    "mpeg4": VideoFormat(".mp4", "mp4v", "mpeg4", "yuv420p", False,
+                         "MPEG-4 Part 2 in MP4: lossy (frame differences are not exact), "
+                         "small"),
 }
+DEFAULT_VIDEO = "huffyuv"
 
 #: A run with no collision whose closest approach is within this distance (m) of the
 #: carrier is a near miss; farther, the episode is "clear".
@@ -140,14 +161,14 @@ def _arrow_type(kind: str):
 def features(models: Sequence[str], variants: Sequence[str], size: Sequence[int],
              fps: float, video_format: str) -> dict[str, dict[str, Any]]:
     """info.json's feature schema, in LeRobot's form (dtype, shape, names)."""
-    suffix, codec, lossless = VIDEO_FORMATS[video_format]
+    fmt = VIDEO_FORMATS[video_format]
     h, w = size
     out: dict[str, dict[str, Any]] = {VIDEO_KEY: {
         "dtype": "video", "shape": [h, w, 3], "names": ["height", "width", "channels"],
-        "info": {"video.height": h, "video.width": w, "video.codec": codec,
-                 "video.pix_fmt": "bgr0" if lossless else "yuv420p", "video.fps": fps,
-                 "video.channels": 3, "video.is_depth_map": False, "video.lossless": lossless,
-                 "video.container": suffix[1:], "has_audio": False}}}
+        "info": {"video.height": h, "video.width": w, "video.codec": fmt.codec,
+                 "video.pix_fmt": fmt.pix_fmt, "video.fps": fps, "video.channels": 3,
+                 "video.is_depth_map": False, "video.lossless": fmt.lossless,
+                 "video.container": fmt.suffix[1:], "has_audio": False}}}
     for name, kind, doc in COLUMNS:
         base, _, n = kind.partition("[")
         out[name] = {"dtype": "bool" if base == "bool" else base,
@@ -172,7 +193,7 @@ def data_path(episode: int) -> str:
 def video_path(episode: int, video_format: str) -> str:
     chunk, file = divmod(episode, CHUNK_SIZE)
     return VIDEO_PATH.format(video_key=VIDEO_KEY, chunk_index=chunk, file_index=file,
-                             suffix=VIDEO_FORMATS[video_format][0])
+                             suffix=VIDEO_FORMATS[video_format].suffix)
 
 
 def sha256(path: str | os.PathLike) -> str:

@@ -64,7 +64,7 @@ def info(config_json: Mapping[str, Any], metas: Sequence[Mapping[str, Any]],
     """meta/info.json: LeRobot's keys (fps, features, totals, paths), and ours under
     "lgmd_sim"."""
     first = metas[0]
-    suffix, _codec, lossless = layout.VIDEO_FORMATS[video]
+    fmt = layout.VIDEO_FORMATS[video]
     models, noise = config_json["models"], config_json["noise"]
     return {
         "codebase_version": layout.CODEBASE_VERSION,
@@ -76,12 +76,12 @@ def info(config_json: Mapping[str, Any], metas: Sequence[Mapping[str, Any]],
         "fps": first["fps"],
         "splits": {"train": f"0:{len(metas)}"},
         "data_path": layout.DATA_PATH,
-        "video_path": layout.VIDEO_PATH.replace("{suffix}", suffix),
+        "video_path": layout.VIDEO_PATH.replace("{suffix}", fmt.suffix),
         "features": layout.features(models, noise, first["resolution"], first["fps"], video),
         "lgmd_sim": {
             "version": config_json["version"],
             "files_per_episode": "one data file and one video file per episode",
-            "video": video, "lossless": lossless,
+            "video": f"{video}: {fmt.doc}", "lossless": fmt.lossless,
             "models": models,
             "noise_variants": noise,
             "noise_views": "noisy frames are not stored: lgmd_sim.data derives them from "

@@ -1,0 +1,113 @@
+"""`lgmd-sim speed dataset`: dataset generation against the environment alone, and disk
+per frame.
+
+For each scenario, in one run, with the same workers, episodes, seeds and frame size:
+
+- the environment alone: the episodes driven by the same controller as jobs of
+  `lgmd_sim.parallel.run_jobs`, frames thrown away;
+- ``dataset generate`` of the same episodes into a temporary folder (everything: frames
+  encoded, labels, files written, the manifest and contact sheet);
+- frames per second of both (total frames over wall time, worker start-up included in
+  both) and their ratio (target: 0.8 or more with 2 workers);
+- disk per frame of the stored frames, against the same frames as PNG files (OpenCV's
+  default compression) and raw RGB, and of the labels.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+import cv2
+
+from lgmd_sim.speed import cpu_name, format_table
+
+
+def drive(scenario: str, overrides: dict[str, Any], seed: int, controller: str) -> int:
+    """One episode with nothing stored: the environment's own cost. Returns its frames."""
+    import gymnasium as gym
+
+    from lgmd_sim import controllers
+    from lgmd_sim.envs.catalogue import scenario as scenario_of
+
+    env = gym.make(scenario_of(scenario).env_id, **overrides)
+    try:
+        return sum(1 for _ in controllers.rollout(env, controllers.make(controller), seed=seed))
+    finally:
+        env.close()
+
+
+def _env_rate(config, workers: int) -> float:
+    from lgmd_sim.parallel import Job, run_jobs
+
+    frames = []
+    jobs = [Job(s.key, drive, {"scenario": s.scenario, "overrides": dict(s.overrides),
+                               "seed": s.seed, "controller": s.controller})
+            for s in config.specs()]
+    start = time.perf_counter()
+    run_jobs(jobs, lambda job, n: frames.append(n), workers=workers, progress=False)
+    return sum(frames) / (time.perf_counter() - start)
+
+
+def _disk(root: Path, video: str) -> dict[str, float]:
+    """Bytes per frame: stored frames, the same frames as PNG, raw RGB, labels."""
+    from lgmd_sim.data import layout
+    from lgmd_sim.data.load import open_dataset
+
+    ds = open_dataset(root)
+    frames = ds.info["total_frames"]
+    stored = sum((root / layout.video_path(ep.index, video)).stat().st_size for ep in ds)
+    labels = sum(ep.data_path.stat().st_size for ep in ds)
+    png, raw = 0, 0
+    for ep in ds:
+        for rgb in ep.iter_frames():
+            _ok, buf = cv2.imencode(".png", cv2.cvtColor(rgb, cv2.COLOR_RGB2BGR))
+            png += buf.size
+            raw += rgb.nbytes
+    return {"stored": stored / frames, "png": png / frames, "raw": raw / frames,
+            "labels": labels / frames}
+
+
+def measure(scenarios: list[str], episodes: int, resolution: Any, workers: int, video: str
+            ) -> list[dict[str, Any]]:
+    from lgmd_sim.data.generate import GenerateConfig, generate
+
+    rows = []
+    for name in scenarios:
+        config = GenerateConfig((name,), (1.0,), episodes, resolution, video=video)
+        env_fps = _env_rate(config, workers)
+        with tempfile.TemporaryDirectory(prefix="lgmd-sim-speed-") as tmp:
+            s = generate(config, Path(tmp) / "ds", workers=workers, progress=False)
+            disk = _disk(Path(tmp) / "ds", video)
+        gen_fps = s.frames / s.seconds
+        rows.append({"scenario": name, "frames": s.frames, "env_fps": env_fps,
+                     "gen_fps": gen_fps, "ratio": gen_fps / env_fps, **disk})
+    return rows
+
+
+def run(args: argparse.Namespace) -> int:
+    from lgmd_sim.data.layout import VIDEO_FORMATS
+    from lgmd_sim.envs.catalogue import scenarios
+    from lgmd_sim.world.params import RESOLUTIONS
+
+    names = list(scenarios()) if args.scenarios == "all" else args.scenarios.split(",")
+    res = args.resolution
+    h, w = RESOLUTIONS[res] if isinstance(res, str) else res
+    rows = measure(names, args.episodes, res, args.workers, args.video)
+    codec = VIDEO_FORMATS[args.video].codec
+    print(f"# lgmd-sim speed dataset: {h}x{w}, jitter 1, {args.episodes} episodes per "
+          f"scenario, {args.workers} workers, frames {args.video} ({codec}); CPU: "
+          f"{cpu_name()}, {os.cpu_count()} cores")
+    print(format_table(
+        ["scenario", "frames", "env frames/s", "dataset frames/s", "dataset / env",
+         f"{codec} KB/frame", "PNG KB/frame", "raw KB/frame", "labels KB/frame"],
+        [[r["scenario"], str(r["frames"]), f"{r['env_fps']:.0f}", f"{r['gen_fps']:.0f}",
+          f"{r['ratio']:.2f}", f"{r['stored'] / 1000:.1f}", f"{r['png'] / 1000:.1f}",
+          f"{r['raw'] / 1000:.1f}", f"{r['labels'] / 1000:.2f}"] for r in rows],
+        args.markdown,
+    ))
+    return 0
