@@ -173,3 +173,18 @@ def test_other_video_formats_record_their_codec(tmp_path, video):
     assert ds.info["features"][layout.VIDEO_KEY]["info"]["video.codec"] == fmt.codec
     assert ds[0].video_path.suffix == fmt.suffix
     assert ds[0].frames().shape == (16, 32, 48, 3)
+
+
+def test_docs_describe_every_label_column():
+    text = (Path(__file__).resolve().parents[1] / "docs" / "datasets.md").read_text()
+    assert [name for name, _t, _d in layout.COLUMNS if f"| `{name}` |" not in text] == []
+
+
+def test_speed_dataset_prints_its_table(capsys):
+    from lgmd_sim.cli import main
+
+    assert main(["speed", "dataset", "--scenarios", "StationaryApproach", "--episodes", "1",
+                 "--resolution", "32x48", "--workers", "1", "--repeat", "1"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[1].split()[:2] == ["scenario", "frames"]
+    assert lines[2].split()[0] == "StationaryApproach"

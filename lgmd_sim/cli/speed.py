@@ -46,6 +46,8 @@ def add(sub: argparse._SubParsersAction) -> None:
     b.add_argument("--resolution", type=resolution, default="paper",
                    help="paper (270x480, default), rl, small or HxW")
     b.add_argument("--workers", type=positive_int, default=2, help="worker processes")
+    b.add_argument("--repeat", type=positive_int, default=2,
+                   help="rounds of each measurement; the best counts (default 2)")
     b.add_argument("--video", choices=("huffyuv", "ffv1", "mpeg4"), default="huffyuv",
                    help="frame storage: huffyuv (lossless, fast; default), ffv1 (lossless, "
                    "about half the size, slower to write), mpeg4 (lossy, small)")
