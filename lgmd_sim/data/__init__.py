@@ -14,10 +14,11 @@ they fit; docs/datasets.md describes it. Needs the 'data' extra (pyarrow).
 >>> ds = data.open("my-dataset")
 >>> for ep in ds.filter(outcome="near_miss"):
 ...     ep.frames(), ep.labels, ep.meta
+>>> data.episodes("my-dataset:12")      # episode 12 (a folder alone: all of them)
 """
 
 from lgmd_sim.data.layout import is_dataset
-from lgmd_sim.data.load import Clip, Dataset, Episode, detect_inputs
+from lgmd_sim.data.load import Clip, Dataset, Episode, detect_inputs, episodes
 from lgmd_sim.data.load import open_dataset as open
 
-__all__ = ["Clip", "Dataset", "Episode", "detect_inputs", "is_dataset", "open"]
+__all__ = ["Clip", "Dataset", "Episode", "detect_inputs", "episodes", "is_dataset", "open"]

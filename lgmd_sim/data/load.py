@@ -24,7 +24,7 @@ import numpy as np
 
 from lgmd_sim.data import layout
 
-__all__ = ["Clip", "Dataset", "Episode", "detect_inputs", "open_dataset"]
+__all__ = ["Clip", "Dataset", "Episode", "detect_inputs", "episodes", "open_dataset"]
 
 _EPISODE_SPEC = re.compile(r"(?P<path>.+):(?P<index>\d+)")
 
@@ -238,23 +238,28 @@ def open_dataset(path: str | os.PathLike) -> Dataset:
     return Dataset(root, info, config, episodes)
 
 
+def episodes(spec: str | os.PathLike) -> list[Episode] | None:
+    """The episodes `spec` names: every episode of a dataset folder, or episode N of
+    ``DIR:N``; None when `spec` is neither (a video file, an image folder)."""
+    text = os.fspath(spec)
+    if layout.is_dataset(text):
+        return list(open_dataset(text))
+    match = _EPISODE_SPEC.fullmatch(text)
+    if match and not Path(text).exists() and layout.is_dataset(match["path"]):
+        return [open_dataset(match["path"]).episode(int(match["index"]))]
+    return None
+
+
 def detect_inputs(videos: Sequence[str]) -> list[tuple[str, str, int | None]]:
     """(name, video file, labelled collision frame) per input of ``lgmd-sim detect``: a
-    dataset folder becomes each of its episodes, ``DIR:N`` its episode N, with the
-    collision frame from the labels; anything else stays as it is, unlabelled."""
+    dataset folder becomes each of its episodes, ``DIR:N`` its episode N (see `episodes`),
+    with the collision frame from the labels; anything else stays as it is, unlabelled."""
     out: list[tuple[str, str, int | None]] = []
     for video in videos:
-        spec = _EPISODE_SPEC.fullmatch(video)
-        if layout.is_dataset(video):
-            ds = open_dataset(video)
-            episodes = list(ds)
-        elif spec and not Path(video).exists() and layout.is_dataset(spec["path"]):
-            ds = open_dataset(spec["path"])
-            episodes = [ds.episode(int(spec["index"]))]
-        else:
+        found = episodes(video)
+        if found is None:
             out.append((video, video, None))
-            continue
-        for ep in episodes:
-            out.append((os.path.join(ds.path, f"episode_{ep.index:06d}"), str(ep.video_path),
+        for ep in found or ():
+            out.append((os.path.join(ep.root, f"episode_{ep.index:06d}"), str(ep.video_path),
                         ep.collision_frame))
     return out
