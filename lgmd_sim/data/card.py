@@ -23,13 +23,15 @@ ISI_BIN = 0.05
 
 
 def sheet_frame(meta: Mapping[str, Any]) -> int:
-    """The frame a contact sheet shows of an episode: 0.5 s before the collision, else the
-    closest approach, else the middle."""
-    if meta["collision_frame"] is not None:
-        return max(0, meta["collision_frame"] - round(meta["fps"] / 2))
-    if meta["closest_approach_frame"] is not None:
-        return meta["closest_approach_frame"]
-    return meta["length"] // 2
+    """The frame a contact sheet shows of an episode: 0.5 s before the collision, else
+    before the closest approach (then a passing object is still in view), else the
+    middle frame."""
+    key = meta["collision_frame"]
+    if key is None:
+        key = meta["closest_approach_frame"]
+    if key is None:
+        return meta["length"] // 2
+    return max(0, key - round(meta["fps"] / 2))
 
 
 def _frame(path: Path, index: int) -> np.ndarray:
@@ -181,7 +183,7 @@ def card(config: Any, episodes, info: Mapping[str, Any]) -> str:
         "",
         "A row per scenario, a column per jitter level (episode seed "
         f"{config.seed}){', then each noise variant of the last column' if config.noise else ''}"
-        "; each tile shows the frame (f) 0.5 s before the collision, or of the closest "
+        "; each tile shows the frame (f) 0.5 s before the collision, or before the closest "
         "approach.",
         "",
         "## Files and loading",
