@@ -35,6 +35,7 @@ __all__ = [
     "sensitivity_index",
     "ssim",
     "ssim_series",
+    "wilson_interval",
 ]
 
 #: Membrane-potential threshold of the paper (Sec. 4.1.3).
@@ -184,7 +185,7 @@ def sensitivity_index(
 
     F_n counts frames from 1 (the paper's numbering), so an alarm on the last frame gives
     1. The paper leaves the never-crossed case undefined: it is reported as si = 1.0 with
-    crossed = False, never silently (reference/paper-notes.md, item 8).
+    crossed = False, never silently (docs/models.md).
     """
     mp = _series(potentials, "sensitivity_index")
     first = first_alarm(mp, threshold)
@@ -241,7 +242,7 @@ def evaluate_clip(
     seconds (round(window_s * fps) frames) before the collision, collision frame
     included; otherwise a miss. A clip without collision (``collision_frame=None``) with
     any alarm is a false alarm. This is the evaluation of the group's published code
-    (LGMDEvolution.cs; see reference/baselines.md).
+    (fuqinbing/LGMD-Plus-and-GAs-Open-Source, LGMDEvolution.cs).
 
     Args:
         values: membrane potentials or alarm flags, one per frame.
@@ -287,3 +288,22 @@ def score(results: Iterable[EventResult]) -> float:
     f_non = sum(r.outcome == "false_alarm" for r in results)
     n_non = len(results) - n_col
     return (1 - (3 * f_col + f_non) / (3 * n_col + n_non)) * 100
+
+
+# --- rates --------------------------------------------------------------------------------
+
+
+def wilson_interval(successes: int, n: int, z: float = 1.96) -> tuple[float, float]:
+    """Wilson score interval of a rate ``successes / n`` (95% for z = 1.96).
+
+    Unlike the normal approximation it stays inside [0, 1] and is sensible at 0 and n,
+    where benchmark rates (collisions of an oracle, of a robot driving blind) often are.
+    """
+    if n <= 0 or not 0 <= successes <= n:
+        raise ValueError(f"wilson_interval: need 0 <= successes <= n and n > 0, got "
+                         f"{successes} of {n}")
+    p = successes / n
+    denominator = 1 + z * z / n
+    centre = (p + z * z / (2 * n)) / denominator
+    half = z * np.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / denominator
+    return float(max(0.0, centre - half)), float(min(1.0, centre + half))

@@ -10,6 +10,7 @@ status 2.
 from __future__ import annotations
 
 import argparse
+import shlex
 import signal
 import sys
 from collections.abc import Sequence
@@ -19,7 +20,7 @@ from lgmd_sim import __version__
 from lgmd_sim.extras import MissingExtra
 
 #: The subcommands, in the order `--help` lists them.
-COMMANDS = ("demo", "detect", "record", "models", "envs", "speed", "dataset")
+COMMANDS = ("demo", "detect", "record", "models", "envs", "bench", "speed", "dataset")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -45,7 +46,9 @@ def _terminate(signum: int, frame: object) -> None:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
+    argv = sys.argv[1:] if argv is None else list(argv)
     args = build_parser().parse_args(argv)
+    args.command_line = shlex.join(["lgmd-sim", *argv])  # what the run records say was run
     module, func = args.run.split(":")
     previous = signal.signal(signal.SIGTERM, _terminate)
     try:

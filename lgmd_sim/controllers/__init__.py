@@ -17,11 +17,14 @@ from typing import Any
 from lgmd_sim.controllers.base import Controller, Step, rollout
 from lgmd_sim.controllers.straight import Straight, StraightParams
 
-__all__ = ["Controller", "Step", "Straight", "StraightParams", "available", "make", "rollout"]
+__all__ = ["Controller", "Step", "Straight", "StraightParams", "available", "controller_class",
+           "make", "rollout"]
 
 # name -> "module:class", imported on first use
 _REGISTRY: dict[str, str] = {
     "straight": "lgmd_sim.controllers.straight:Straight",
+    "reactive": "lgmd_sim.controllers.avoid:ReactiveAvoid",
+    "oracle": "lgmd_sim.controllers.avoid:Oracle",
 }
 
 
@@ -30,9 +33,14 @@ def available() -> list[str]:
     return list(_REGISTRY)
 
 
-def make(name: str, **params: Any) -> Controller:
-    """Build controller `name` with parameter overrides (each checked)."""
+def controller_class(name: str) -> type[Controller]:
+    """The class behind a controller name."""
     if name not in _REGISTRY:
         raise ValueError(f"unknown controller {name!r}; available: {', '.join(_REGISTRY)}")
     module, cls = _REGISTRY[name].split(":")
-    return getattr(import_module(module), cls)(**params)
+    return getattr(import_module(module), cls)
+
+
+def make(name: str, **params: Any) -> Controller:
+    """Build controller `name` with parameter overrides (each checked)."""
+    return controller_class(name)(**params)

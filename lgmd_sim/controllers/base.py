@@ -22,9 +22,15 @@ class Controller(ABC):
     """
 
     Params: ClassVar[type[CheckedParams]]
+    #: Whether the controller is driven by an LGMD model (its ``model`` and ``preset``).
+    uses_model: ClassVar[bool] = False
+    #: Whether the controller's detector (LGMD alarm, ground-truth trigger) fired on the
+    #: last frame it acted on; False for controllers without one.
+    alarm: bool = False
 
     def __init__(self, **params: Any) -> None:
         self.params = self.Params(**params)
+        self.reset()
 
     def reset(self) -> None:  # noqa: B027  (optional hook: stateless controllers keep it)
         """Start a new episode (forget any state)."""

@@ -15,7 +15,8 @@ from typing import Any
 
 from lgmd_sim.models.base import LGMDModel, LGMDOutput, ModelParams
 
-__all__ = ["LGMDModel", "LGMDOutput", "ModelParams", "available", "make", "model_class"]
+__all__ = ["LGMDModel", "LGMDOutput", "ModelParams", "available", "make", "model_class",
+           "parse_spec"]
 
 # name -> "module:class"; imported on first use so that `available()` stays cheap.
 _REGISTRY: dict[str, str] = {
@@ -62,3 +63,18 @@ def make(
         raise ValueError(f"unknown parameter(s) {', '.join(unknown)} for model {name!r}; "
                          f"valid: {', '.join(sorted(known))}")
     return cls(cls.Params(**{**cls.presets[preset], **params}), n_streams=n_streams)
+
+
+def parse_spec(token: str) -> tuple[str, str]:
+    """A detector named "model" (its default preset) or "model/preset": (model, preset).
+
+    Raises:
+        ValueError: unknown model or preset, naming the valid ones.
+    """
+    name, _, preset = token.strip().partition("/")
+    cls = model_class(name)
+    preset = preset or next(iter(cls.presets))
+    if preset not in cls.presets:
+        raise ValueError(f"unknown preset {preset!r} for model {name!r}; available: "
+                         f"{', '.join(cls.presets)}")
+    return name, preset

@@ -337,6 +337,32 @@ class JitterWorld:
         groups[sc.tile_geoms[:, 0]] = np.where(fine, 0, scene_mod.HIDDEN)
         groups[sc.tile_geoms[:, 1]] = np.where(visible & ~fine, 0, scene_mod.HIDDEN)
 
+    def top_view(self) -> dict[str, Any]:
+        """A map of this episode seen from above, for figures: each static obstacle's
+        footprint (a polygon of (x, y) corners, or a circle: centre and radius), the goal,
+        and the terrain heights with the extent (x0, x1, y0, y1) they cover (m)."""
+        m, d = self.model, self.data
+        footprints: list[dict[str, Any]] = []
+        for _body, _kind, geoms in self.scene.obstacles:
+            g = geoms[0]
+            centre, size = d.geom_xpos[g, :2], m.geom_size[g]
+            if m.geom_type[g] == mujoco.mjtGeom.mjGEOM_BOX:
+                corners = np.array([[-1, -1], [1, -1], [1, 1], [-1, 1]]) * size[:2]
+                rot = d.geom_xmat[g].reshape(3, 3)[:2, :2]
+                footprints.append({"polygon": (corners @ rot.T + centre).tolist()})
+            else:  # cylinders and balloons: a circle
+                footprints.append({"circle": [*centre.tolist(), float(size[0])]})
+        goal = (d.xpos[self.scene.goal_body, :2].tolist() if self.scene.goal_body >= 0
+                else None)
+        view: dict[str, Any] = {"obstacles": footprints, "goal": goal}
+        if self._heights is not None:
+            x0, y0 = self.scene.terrain_origin
+            rows, cols = self._heights.shape
+            cell = self.params.terrain_cell
+            view["terrain"] = self._heights.tolist()
+            view["extent"] = [x0, x0 + (cols - 1) * cell, y0, y0 + (rows - 1) * cell]
+        return view
+
     def ground_height(self, x: np.ndarray | float, y: np.ndarray | float) -> np.ndarray:
         """Terrain height (m) at world points (x, y) in this episode."""
         if self._heights is None:

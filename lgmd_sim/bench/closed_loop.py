@@ -1,0 +1,263 @@
+"""`lgmd-sim bench closed-loop`: which detector lets a robot avoid obstacles, at what cost.
+
+Every cell (scenario, jitter level, controller, detector) runs the same list of episode
+seeds, so cells differ only in what drives the carrier. Controllers: `Straight` (no
+avoidance: the floor), `Oracle` (the manoeuvre triggered by ground truth: the ceiling,
+and the check that the manoeuvre can avoid at all) and `ReactiveAvoid` with each detector
+(an LGMD model and preset). Per episode one record (``DIR/records/<key>.json``, gathered
+into ``DIR/episodes.csv``); per cell the rates with 95% Wilson intervals
+(``DIR/summary.csv``, ``DIR/summary.md``); and figures (``DIR/*.png``).
+
+Alarms are the controller's detector firing (an LGMD alarm, or the Oracle's trigger),
+counted at their onsets; an alarm is false when no obstacle is within ``horizon`` seconds
+of collision at that frame (``info["threat_ttc"]``). The lead time of a collision is the
+time from the last alarm onset before it; the first alarm's time to collision is the
+ground truth's at the first onset.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import io
+import math
+import statistics
+from collections import defaultdict
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from lgmd_sim import metrics
+from lgmd_sim.bench.runs import RunFolder
+from lgmd_sim.fileio import write_text_atomic
+from lgmd_sim.parallel import Job, run_jobs
+
+__all__ = ["Cell", "episode", "plan", "run", "summarise"]
+
+
+@dataclass(frozen=True)
+class Cell:
+    """What one row of the summary compares: a controller (and its detector) in a scenario
+    at a jitter level."""
+
+    scenario: str
+    jitter: float
+    controller: str
+    model: str | None = None  # for controllers driven by an LGMD model
+    preset: str | None = None
+
+    @property
+    def label(self) -> str:
+        """"reactive: feedback/paper", "oracle", "straight"."""
+        return self.controller + (f": {self.model}/{self.preset}" if self.model else "")
+
+    def key(self, seed: int) -> str:
+        detector = f"-{self.model}-{self.preset}" if self.model else ""
+        return f"{self.scenario}-j{self.jitter:g}-{self.controller}{detector}-s{seed}"
+
+
+def episode(cell: Cell, seed: int, *, resolution: Any, cruise: float, horizon: float,
+            top_view: bool = False) -> dict[str, Any]:
+    """Run one episode of `cell` and measure it (a job: runs in a worker process)."""
+    import gymnasium as gym
+
+    from lgmd_sim import controllers
+    from lgmd_sim.envs.catalogue import scenario
+
+    detector = {"model": cell.model, "preset": cell.preset} if cell.model else {}
+    controller = controllers.make(cell.controller, cruise=cruise, **detector)
+    env = gym.make(scenario(cell.scenario).env_id, jitter=cell.jitter, resolution=resolution)
+    infos, alarms = [], []
+    try:
+        for step in controllers.rollout(env, controller, seed=seed):
+            infos.append(step.info)
+            alarms.append(step.action is not None and controller.alarm)
+        view = env.unwrapped.world.top_view() if top_view else None
+    finally:
+        env.close()
+    first, last = infos[0], infos[-1]
+    xy = np.array([i["carrier_pos"][:2] for i in infos])
+    times = np.array([i["time"] for i in infos])
+    travelled = float(np.linalg.norm(np.diff(xy, axis=0), axis=1).sum())
+    alarm = np.array(alarms)
+    onsets = np.flatnonzero(alarm & ~np.r_[False, alarm[:-1]])
+    ttc_at = np.array([infos[t]["threat_ttc"] for t in onsets])
+    false_alarms = int((ttc_at > horizon).sum())
+    collision = int(last["first_collision_frame"])
+    record: dict[str, Any] = {
+        "scenario": cell.scenario, "jitter": cell.jitter, "controller": cell.controller,
+        "model": cell.model, "preset": cell.preset, "seed": seed,
+        "frames": len(infos), "time_s": _finite(times[-1]),
+        "collided": collision >= 0, "goal_reached": bool(last.get("goal_reached", False)),
+        "distance_m": _finite(travelled),
+        "alarms": len(onsets), "false_alarms": false_alarms,
+        "false_alarms_per_min": _finite(false_alarms / (times[-1] / 60)) if times[-1] else None,
+        "first_alarm_ttc_s": _finite(ttc_at[0]) if len(onsets) else None,
+        "lead_time_s": _lead_time(times, onsets, collision),
+        "min_clearance_m": _finite(min(i["threat_distance"] for i in infos)),
+    }
+    if "goal_distance" in first:  # a scenario with a goal
+        start = first["goal_distance"]
+        record.update(straight_line_m=_finite(start), path_ratio=_finite(travelled / start),
+                      progress=_finite((start - last["goal_distance"]) / start))
+    if view is not None:
+        view["path"] = np.round(xy, 3).tolist()
+        view["collision_frame"] = collision if collision >= 0 else None
+        record["top_view"] = view
+    return record
+
+
+def _lead_time(times: np.ndarray, onsets: np.ndarray, collision: int) -> float | None:
+    """Seconds from the last alarm onset at or before the collision to the collision."""
+    before = onsets[onsets <= collision] if collision >= 0 else onsets[:0]
+    return _finite(times[collision] - times[before[-1]]) if len(before) else None
+
+
+def _finite(x: float) -> float | None:
+    """JSON-safe: None for an infinite or undefined value, else rounded."""
+    x = float(x)
+    return round(x, 4) if math.isfinite(x) else None
+# --- the sweep ----------------------------------------------------------------------------
+
+
+def plan(scenarios: Sequence[str], jitters: Sequence[float], controllers: Sequence[str],
+         detectors: Sequence[tuple[str, str]]) -> list[Cell]:
+    """Every cell of a sweep: controllers driven by a model get one cell per detector."""
+    from lgmd_sim.controllers import controller_class
+
+    cells = []
+    for sc in scenarios:
+        for j in jitters:
+            for name in controllers:
+                if controller_class(name).uses_model:
+                    cells += [Cell(sc, j, name, m, p) for m, p in detectors]
+                else:
+                    cells.append(Cell(sc, j, name))
+    return cells
+
+
+def _median(values: Sequence[float | None]) -> float | None:
+    kept = [v for v in values if v is not None]
+    return statistics.median(kept) if kept else None
+
+
+def summarise(records: Sequence[dict[str, Any]]) -> list[dict[str, Any]]:
+    """One row per cell: rates with 95% Wilson intervals, false alarms per minute, median
+    first-alarm time to collision and lead time, mean progress."""
+    groups: dict[tuple, list[dict[str, Any]]] = defaultdict(list)
+    for r in records:
+        groups[(r["scenario"], r["jitter"], r["controller"], r["model"], r["preset"])].append(r)
+    rows = []
+    for (sc, j, ctrl, model, preset), rs in groups.items():
+        n = len(rs)
+        collided = sum(r["collided"] for r in rs)
+        reached = sum(r["goal_reached"] for r in rs)
+        minutes = sum(r["time_s"] for r in rs) / 60
+        progress = [r["progress"] for r in rs if r.get("progress") is not None]
+        rows.append({
+            "scenario": sc, "jitter": j, "controller": ctrl, "model": model, "preset": preset,
+            "cell": Cell(sc, j, ctrl, model, preset).label, "episodes": n,
+            "collision_rate": collided / n, "collision_ci": metrics.wilson_interval(collided, n),
+            "success_rate": reached / n, "success_ci": metrics.wilson_interval(reached, n),
+            "false_alarms_per_min": sum(r["false_alarms"] for r in rs) / minutes,
+            "median_first_alarm_ttc_s": _median([r["first_alarm_ttc_s"] for r in rs]),
+            "median_lead_time_s": _median([r["lead_time_s"] for r in rs]),
+            "mean_progress": float(np.mean(progress)) if progress else None,
+            "mean_time_s": float(np.mean([r["time_s"] for r in rs])),
+        })
+    return rows
+
+
+_EPISODE_COLUMNS = ["scenario", "jitter", "controller", "model", "preset", "seed", "frames",
+                    "time_s", "collided", "goal_reached", "distance_m", "straight_line_m",
+                    "path_ratio", "progress", "alarms", "false_alarms", "false_alarms_per_min",
+                    "first_alarm_ttc_s", "lead_time_s", "min_clearance_m"]
+
+
+def _csv(rows: Sequence[dict[str, Any]], columns: Sequence[str]) -> str:
+    out = io.StringIO()
+    writer = csv.writer(out)
+    writer.writerow(columns)
+    for r in rows:
+        writer.writerow(["" if r.get(c) is None else r[c] for c in columns])
+    return out.getvalue()
+
+
+def _fmt(x: float | None, digits: int = 2) -> str:
+    return "-" if x is None else f"{x:.{digits}f}"
+
+
+def summary_markdown(rows: Sequence[dict[str, Any]]) -> str:
+    """The summary as a Markdown table (rates in percent with their 95% intervals)."""
+    head = ("| scenario | jitter | controller | episodes | collisions % [95% CI] | "
+            "success % [95% CI] | false alarms / min | first alarm TTC (s, median) | "
+            "lead time (s, median) | progress |")
+    lines = [head, "|---|---:|---|---:|---:|---:|---:|---:|---:|---:|"]
+    for r in sorted(rows, key=_order):
+        lo, hi = r["collision_ci"]
+        slo, shi = r["success_ci"]
+        lines.append(
+            f"| {r['scenario']} | {r['jitter']:g} | {r['cell']} | {r['episodes']} | "
+            f"{100 * r['collision_rate']:.0f} [{100 * lo:.0f}, {100 * hi:.0f}] | "
+            f"{100 * r['success_rate']:.0f} [{100 * slo:.0f}, {100 * shi:.0f}] | "
+            f"{_fmt(r['false_alarms_per_min'])} | {_fmt(r['median_first_alarm_ttc_s'])} | "
+            f"{_fmt(r['median_lead_time_s'])} | {_fmt(r['mean_progress'])} |")
+    return "\n".join(lines) + "\n"
+
+
+def _order(r: dict[str, Any]) -> tuple:
+    rank = {"oracle": 0, "reactive": 1, "straight": 2}.get(r["controller"], 1)
+    return (r["scenario"], r["jitter"], rank, r["cell"])
+
+
+def write_tables(folder: Path, records: Sequence[dict[str, Any]]) -> list[dict[str, Any]]:
+    """episodes.csv, summary.csv and summary.md from the records; return the summary."""
+    rows = summarise(records)
+    flat = [{**r, "collision_ci_low": r["collision_ci"][0], "collision_ci_high":
+             r["collision_ci"][1], "success_ci_low": r["success_ci"][0],
+             "success_ci_high": r["success_ci"][1]} for r in sorted(rows, key=_order)]
+    columns = ["scenario", "jitter", "controller", "model", "preset", "episodes",
+               "collision_rate", "collision_ci_low", "collision_ci_high", "success_rate",
+               "success_ci_low", "success_ci_high", "false_alarms_per_min",
+               "median_first_alarm_ttc_s", "median_lead_time_s", "mean_progress",
+               "mean_time_s"]
+    write_text_atomic(folder / "episodes.csv", _csv(records, _EPISODE_COLUMNS))
+    write_text_atomic(folder / "summary.csv", _csv(flat, columns))
+    write_text_atomic(folder / "summary.md", summary_markdown(rows))
+    return rows
+
+
+def run(args: argparse.Namespace) -> int:
+    """`lgmd-sim bench closed-loop`."""
+    from lgmd_sim.bench import figures
+
+    cells = plan(args.scenarios, args.jitter, args.controllers, args.detectors)
+    seeds = list(range(args.first_seed, args.first_seed + args.seeds))
+    config = {
+        "benchmark": "closed-loop", "scenarios": args.scenarios, "jitter": args.jitter,
+        "controllers": args.controllers, "detectors": [list(d) for d in args.detectors],
+        "seeds": [seeds[0], len(seeds)], "resolution": args.resolution,
+        "cruise": args.cruise, "horizon": args.horizon,
+    }
+    folder = RunFolder(args.out, config, args.resume, args.command_line)
+    done = folder.done()
+    options = {"resolution": args.resolution, "cruise": args.cruise, "horizon": args.horizon}
+    jobs = [Job(cell.key(seed), episode, {"cell": cell, "seed": seed, **options,
+                                         "top_view": seed == seeds[0]})
+            for cell in cells for seed in seeds if cell.key(seed) not in done]
+    run_jobs(jobs, lambda job, record: folder.store(job.key, record), workers=args.workers,
+             ray_address=args.ray, progress=False if args.no_progress else None,
+             desc="closed-loop")
+    keys = [cell.key(seed) for cell in cells for seed in seeds]
+    records = folder.records(keys)
+    rows = write_tables(folder.path, [{k: v for k, v in r.items() if k != "top_view"}
+                                      for r in records])
+    figures.closed_loop(folder.path, rows, [r for r in records if "top_view" in r])
+    folder.finish(episodes=len(records))
+    print(summary_markdown(rows), end="")
+    print(f"wrote {folder.path}/: episodes.csv, summary.csv, summary.md, "
+          f"{', '.join(figures.CLOSED_LOOP)}, run.json")
+    return 0

@@ -1,0 +1,65 @@
+"""`lgmd-sim bench`: its command-line arguments (the implementation loads when it runs).
+
+Lists (scenarios, controllers, models, jitter levels) are checked when the command runs,
+before any episode, so that a bad one is a single error line naming it.
+"""
+
+from __future__ import annotations
+
+import argparse
+
+from lgmd_sim.cli.args import non_negative_int, positive_int, resolution
+
+
+def add(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "bench", help="benchmark LGMD models in closed loop (driving) and open loop (clips)",
+        description="The model benchmark: fair, reproducible tables and figures of how each "
+        "LGMD model does, on the same seeds. (Code speed: `lgmd-sim speed`.)",
+    )
+    bench = p.add_subparsers(dest="what", required=True, metavar="WHAT")
+    b = bench.add_parser(
+        "closed-loop", help="robots avoiding obstacles with each detector: collisions, "
+        "successes, false alarms",
+        description="Every cell (scenario x jitter level x controller x detector) runs the "
+        "same episode seeds. Controllers: straight (no avoidance), oracle (the avoidance "
+        "manoeuvre triggered by ground truth) and reactive (the manoeuvre triggered by an "
+        "LGMD model's alarm, one cell per detector). Writes DIR/episodes.csv (one row per "
+        "episode), DIR/summary.csv and summary.md (collision and success rates with 95%% "
+        "Wilson intervals, false alarms per minute, lead times), figures and run.json.",
+    )
+    b.add_argument("--scenarios", default="RoughTerrainObstacles",
+                   help="comma-separated scenario names (default RoughTerrainObstacles)")
+    b.add_argument("--controllers", default="straight,oracle,reactive",
+                   help="comma-separated controllers (default straight,oracle,reactive)")
+    b.add_argument("--models", default="all",
+                   help="detectors of the reactive controller: 'all' or a comma-separated "
+                   "list of MODEL or MODEL/PRESET (default all, each at its default preset)")
+    b.add_argument("--presets", default=None,
+                   help="comma-separated presets: each model listed without a preset runs "
+                   "each of these it has (its default when it has none of them)")
+    b.add_argument("--jitter", default="0,1,2", help="comma-separated jitter levels "
+                   "(default 0,1,2)")
+    b.add_argument("--seeds", type=positive_int, default=50,
+                   help="episodes per cell (default 50)")
+    b.add_argument("--first-seed", type=non_negative_int, default=1000,
+                   help="the first episode seed; seeds are consecutive (default 1000)")
+    b.add_argument("--resolution", type=resolution, default="rl",
+                   help="frame size: rl (120x160, default), paper (270x480), small or HxW")
+    b.add_argument("--cruise", type=float, default=0.6,
+                   help="forward action of every controller while cruising (default 0.6)")
+    b.add_argument("--horizon", type=float, default=2.0,
+                   help="an alarm is false when no obstacle is within this time to "
+                   "collision (s, default 2)")
+    b.add_argument("--out", default="bench-closed-loop", metavar="DIR",
+                   help="output folder (default ./bench-closed-loop)")
+    b.add_argument("--resume", action="store_true",
+                   help="complete the run in DIR (same configuration): finished episodes "
+                   "are kept")
+    b.add_argument("--workers", type=positive_int, default=None,
+                   help="local worker processes (default: every core)")
+    b.add_argument("--ray", metavar="ADDRESS", default=None,
+                   help="run the episodes as Ray tasks: 'local' starts Ray here, 'auto' or "
+                   "HOST:PORT joins a cluster (needs the ray extra)")
+    b.add_argument("--no-progress", action="store_true", help="hide the progress bar")
+    b.set_defaults(run="lgmd_sim.bench.cli:closed_loop")

@@ -1,0 +1,149 @@
+"""Avoidance controllers: cruise to the goal; when triggered, brake and turn away for a
+set time, then resume. `ReactiveAvoid` is triggered by an LGMD model's alarm, `Oracle` by
+the ground truth; both share the manoeuvre, so they differ only in what triggers it."""
+
+from __future__ import annotations
+
+import math
+from abc import abstractmethod
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from lgmd_sim import models
+from lgmd_sim.controllers.base import Controller
+from lgmd_sim.controllers.straight import DESIGN, StraightParams
+from lgmd_sim.params import in_range, one_of, param, positive
+
+__all__ = [
+    "AvoidParams",
+    "Avoider",
+    "Oracle",
+    "OracleParams",
+    "ReactiveAvoid",
+    "ReactiveParams",
+]
+
+_TUNED = "design: tuned so that Oracle avoids the obstacles of RoughTerrainObstacles"
+
+
+@dataclass(frozen=True)
+class AvoidParams(StraightParams):
+    """The cruise of `Straight` and the avoidance manoeuvre."""
+
+    cruise: float = param(0.6, _TUNED, check=in_range(-1.0, 1.0),
+                          doc="forward action while cruising (fraction of max_speed)")
+    avoid_time: float = param(0.7, _TUNED, check=in_range(0.0, 10.0),
+                              doc="duration of the manoeuvre (s)")
+    avoid_speed: float = param(-0.1, _TUNED, check=in_range(-1.0, 1.0),
+                               doc="forward action during the manoeuvre (brake: near 0; "
+                                   "backing off a little keeps the turning chassis clear)")
+    avoid_turn: float = param(1.0, _TUNED, check=in_range(0.0, 1.0),
+                              doc="turn action during the manoeuvre, away from the threat")
+    pass_time: float = param(0.8, _TUNED, check=in_range(0.0, 10.0),
+                             doc="after the turn, drive straight on at cruise for this long "
+                                 "(s) before heading for the goal again: past the obstacle, "
+                                 "not back into it")
+    refractory: float = param(0.3, _TUNED, check=in_range(0.0, 10.0),
+                              doc="time after a manoeuvre during which triggers are ignored "
+                                  "(s): the turn itself sweeps the view")
+
+
+class Avoider(Controller):
+    """Cruise towards the goal (as `Straight`); on a trigger, turn away from the side the
+    trigger names for ``avoid_time`` seconds at ``avoid_speed``, then resume. Reads
+    ``info["time"]`` and ``info["goal_bearing"]``; subclasses read their trigger."""
+
+    params: AvoidParams
+
+    def reset(self) -> None:
+        self._until = -math.inf  # end of the current manoeuvre (s)
+        self._turn = 0.0
+        self.alarm = False
+
+    def act(self, obs: Mapping[str, np.ndarray], info: Mapping[str, Any]) -> np.ndarray:
+        p, now = self.params, float(info["time"])
+        side = self._trigger(obs, info)  # every frame: models must see them all
+        self.alarm = side is not None
+        if side is not None and now >= self._until + p.refractory:
+            self._until = now + p.avoid_time
+            self._turn = -p.avoid_turn if side > 0 else p.avoid_turn  # away from the threat
+        if now < self._until:  # braking and turning away
+            return np.array([p.avoid_speed, self._turn], np.float32)
+        if now < self._until + p.pass_time:  # driving on, past the obstacle
+            return np.array([p.cruise, 0.0], np.float32)
+        turn = float(np.clip(p.heading_gain * info.get("goal_bearing", 0.0), -1.0, 1.0))
+        return np.array([p.cruise, turn], np.float32)
+
+    @abstractmethod
+    def _trigger(self, obs: Mapping[str, np.ndarray], info: Mapping[str, Any]) -> float | None:
+        """None, or the side of the threat: > 0 on the left, <= 0 on the right."""
+
+
+@dataclass(frozen=True)
+class OracleParams(AvoidParams):
+    horizon: float = param(1.0, _TUNED, check=positive,
+                           doc="trigger when the threat's time to collision is below this (s)")
+    clearance: float = param(0.25, _TUNED, check=in_range(0.0, 10.0),
+                             doc="... or when it is nearer than this (m)")
+    ahead: float = param(90.0, _TUNED, check=in_range(0.0, 180.0),
+                         doc="... and its bearing within this many degrees of straight ahead")
+
+
+class Oracle(Avoider):
+    """The manoeuvre triggered by ground truth: ``info["threat_ttc"]`` below ``horizon``
+    or ``info["threat_distance"]`` below ``clearance``, with ``info["threat_bearing"]``
+    within ``ahead`` degrees. The upper bound of what the manoeuvre can do, and the check
+    that it can avoid the obstacles at all."""
+
+    Params = OracleParams
+    params: OracleParams
+
+    def _trigger(self, obs: Mapping[str, np.ndarray], info: Mapping[str, Any]) -> float | None:
+        bearing = float(info["threat_bearing"])
+        p = self.params
+        near = info["threat_ttc"] < p.horizon or info["threat_distance"] < p.clearance
+        if near and abs(math.degrees(bearing)) <= p.ahead:
+            return bearing
+        return None
+
+
+@dataclass(frozen=True)
+class ReactiveParams(AvoidParams):
+    model: str = param("feedback", DESIGN, check=one_of(*models.available()),
+                       doc="the LGMD model that triggers the manoeuvre")
+    preset: str | None = param(None, "the model's default preset", doc="its preset")
+    model_params: Mapping[str, Any] = field(
+        default_factory=dict, metadata={"source": DESIGN, "check": None,
+                                        "doc": "parameter overrides of the model"})
+
+
+class ReactiveAvoid(Avoider):
+    """The manoeuvre triggered by an LGMD model's alarm (potential above its threshold),
+    turning away from the half of the view with more S-layer activity. Reads
+    ``obs["frame"]`` (every frame goes through the model) and ``info["time"]``."""
+
+    Params = ReactiveParams
+    params: ReactiveParams
+    uses_model = True
+
+    def __init__(self, **params: Any) -> None:
+        p = self.Params(**params)  # checked before the model is made from it
+        self.model = models.make(p.model, preset=p.preset, **dict(p.model_params))
+        super().__init__(**params)
+
+    def reset(self) -> None:
+        super().reset()
+        self.model.reset()
+        self.potential = 0.5
+
+    def _trigger(self, obs: Mapping[str, np.ndarray], info: Mapping[str, Any]) -> float | None:
+        out = self.model.step(obs["frame"], layers=True)
+        self.potential = out.potential
+        if not out.alarm:
+            return None
+        s = out.layers["S"]
+        half = s.shape[1] // 2
+        return float(s[:, :half].mean() - s[:, -half:].mean())  # > 0: more on the left

@@ -1,0 +1,112 @@
+"""`lgmd-sim bench closed-loop`: identical results on 1 and 2 workers and on Ray, resuming,
+refusals, and bad input caught before any episode runs."""
+
+from __future__ import annotations
+
+import csv
+import json
+
+import pytest
+
+from lgmd_sim import cli
+
+# A fast sweep: the tripod scenario at 64 x 64 (about 0.2 s an episode); the machinery
+# is the same as on the robot.
+SWEEP = ["bench", "closed-loop", "--scenarios", "StationaryApproach", "--jitter", "0,1",
+         "--controllers", "straight,oracle,reactive", "--models", "lgmd1,feedback",
+         "--seeds", "2", "--resolution", "small", "--no-progress"]
+TABLES = ("episodes.csv", "summary.csv", "summary.md")
+
+
+def _bench(out, *extra: str) -> int:
+    return cli.main([*SWEEP, "--out", str(out), *extra])
+
+
+@pytest.fixture(scope="module")
+def one_worker(tmp_path_factory):
+    out = tmp_path_factory.mktemp("bench") / "one"
+    assert _bench(out, "--workers", "1") == 0
+    return out
+
+
+def test_a_sweep_writes_every_cell_and_episode(one_worker):
+    rows = list(csv.DictReader((one_worker / "episodes.csv").open()))
+    cells = {(r["jitter"], r["controller"], r["model"]) for r in rows}
+    assert len(rows) == 2 * 4 * 2 and len(cells) == 8  # jitters x (2 + 2 detectors) x seeds
+    assert {r["seed"] for r in rows} == {"1000", "1001"}
+    straight = [r for r in rows if r["controller"] == "straight"]
+    assert all(r["collided"] == "True" for r in straight)  # the balloon hits the tripod
+    summary = list(csv.DictReader((one_worker / "summary.csv").open()))
+    assert len(summary) == 8
+    for r in summary:
+        assert float(r["collision_ci_low"]) <= float(r["collision_rate"]) <= float(
+            r["collision_ci_high"])
+    run = json.loads((one_worker / "run.json").read_text())
+    assert run["status"] == "complete" and run["config"]["seeds"] == [1000, 2]
+    assert run["command"].startswith("lgmd-sim bench closed-loop")
+    for name in ("collisions_vs_jitter.png", "false_alarms_vs_collisions.png"):
+        assert (one_worker / name).stat().st_size > 10_000
+
+
+def test_two_workers_give_the_same_results(one_worker, tmp_path):
+    out = tmp_path / "two"
+    assert _bench(out, "--workers", "2") == 0
+    for name in TABLES:
+        assert (out / name).read_bytes() == (one_worker / name).read_bytes(), name
+
+
+def test_ray_gives_the_same_results(one_worker, tmp_path):
+    ray = pytest.importorskip("ray")
+    ray.init(num_cpus=2, include_dashboard=False, log_to_driver=False)
+    try:
+        out = tmp_path / "ray"
+        assert _bench(out, "--ray", "local") == 0
+    finally:
+        ray.shutdown()
+    for name in TABLES:
+        assert (out / name).read_bytes() == (one_worker / name).read_bytes(), name
+
+
+def test_resume_keeps_finished_episodes_and_refuses_other_runs(one_worker, tmp_path, capsys):
+    import shutil
+
+    out = tmp_path / "resumed"
+    shutil.copytree(one_worker, out)
+    records = sorted((out / "records").iterdir())
+    records[3].unlink()  # as if the run had been killed before this episode finished
+    for name in TABLES:
+        (out / name).unlink()
+    kept = records[0].stat().st_mtime_ns
+    assert _bench(out, "--workers", "1") == 2  # not without --resume
+    assert "--resume" in capsys.readouterr().err
+    assert _bench(out, "--workers", "1", "--resume") == 0
+    assert records[0].stat().st_mtime_ns == kept  # not run again
+    for name in TABLES:
+        assert (out / name).read_bytes() == (one_worker / name).read_bytes(), name
+    capsys.readouterr()
+    assert _bench(out, "--seeds", "3", "--resume") == 2  # the last --seeds wins
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "seeds" in err and "another configuration" in err
+
+
+@pytest.mark.parametrize(("option", "value", "message"), [
+    ("--models", "lgmd9", "lgmd9"),
+    ("--models", "feedback/nope", "unknown preset 'nope'"),
+    ("--controllers", "pilot", "unknown controller(s) 'pilot'"),
+    ("--scenarios", "Moon", "unknown scenario(s) 'Moon'"),
+    ("--jitter", "0,9", "jitter level '9'"),
+    ("--jitter", "x", "jitter level 'x'"),
+    ("--presets", "nope", "no model listed has any of the presets nope"),
+])
+def test_bad_input_is_one_line_before_any_episode(tmp_path, capsys, option, value, message):
+    out = tmp_path / "never"
+    assert _bench(out, option, value) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and message in err
+    assert not out.exists()
+
+
+def test_zero_seeds_is_refused(tmp_path):
+    with pytest.raises(SystemExit) as exc:
+        cli.main([*SWEEP, "--seeds", "0", "--out", str(tmp_path / "x")])
+    assert exc.value.code == 2
