@@ -4,6 +4,7 @@ bytes."""
 
 from __future__ import annotations
 
+import json
 import os
 import shutil
 import signal
@@ -58,6 +59,12 @@ def test_another_configuration_or_foreign_folder_is_refused(tmp_path, capsys):
     assert main(["dataset", "generate", "--out", str(out), *small, "--jitter", "0,1"]) == 2
     err = capsys.readouterr().err
     assert "another configuration: jitter is 0 there, 0,1 here" in err and err.count("\n") == 1
+    config = json.loads((out / layout.CONFIG).read_text())  # as if the scenario file changed
+    config["resolved"]["scenarios"]["StationaryApproach"]["mover_speed"] = 9.0
+    (out / layout.CONFIG).write_text(json.dumps(config))
+    assert main(["dataset", "generate", "--out", str(out), *small]) == 2
+    assert ("resolved.scenarios.StationaryApproach.mover_speed is 9.0 there, 2.0 here"
+            in capsys.readouterr().err)
     (tmp_path / "other").mkdir()
     (tmp_path / "other" / "notes.txt").write_text("mine")
     assert main(["dataset", "generate", "--out", str(tmp_path / "other"), *small]) == 2

@@ -81,14 +81,25 @@ class GenerateConfig:
     overrides: Mapping[str, Any] = field(default_factory=dict)
 
     def as_json(self) -> dict[str, Any]:
-        """The configuration as stored in meta/config.json (with the package version)."""
-        from lgmd_sim import __version__
+        """The configuration as stored in meta/config.json: the options, the package
+        version and what they resolve to (every parameter of each scenario, the
+        controller and the models), so that a changed scenario file or model default is a
+        different configuration too, not a silent mix of old and new episodes."""
+        from lgmd_sim import __version__, controllers, models
+        from lgmd_sim.envs.catalogue import params_for
 
         out = dataclasses.asdict(self)
         out["resolution"] = self.resolution if isinstance(self.resolution, str) else list(
             self.resolution)
         out["overrides"] = dict(self.overrides)
         out["version"] = __version__
+        out["resolved"] = {
+            "scenarios": {name: {k: v for k, v in dataclasses.asdict(
+                params_for(name, self.env_overrides(self.jitter[0]))).items() if k != "jitter"}
+                for name in self.scenarios},
+            "controller": dataclasses.asdict(controllers.make(self.controller).params),
+            "models": {m: dataclasses.asdict(models.make(m).params) for m in self.models},
+        }
         return json.loads(json.dumps(out))  # tuples as lists, as read back
 
     def command(self) -> str:
@@ -377,17 +388,28 @@ def _prepare(out: Path, config: GenerateConfig) -> None:
             held = json.loads(config_file.read_text())
         except (OSError, ValueError) as exc:
             raise ValueError(f"{config_file}: unreadable ({exc}); use another folder") from None
-        diff = [k for k in sorted(set(wanted) | set(held)) if wanted.get(k) != held.get(k)]
+        diff = _difference(held, wanted)
         if diff:
-            k = diff[0]
+            k, there, here = diff
             raise ValueError(f"{out} holds a dataset made with another configuration: {k} is "
-                             f"{_show(held.get(k))} there, {_show(wanted.get(k))} here; use "
-                             "another folder, or the options it was made with")
+                             f"{_show(there)} there, {_show(here)} here; use another folder, "
+                             "or the options (and lgmd-sim) it was made with")
         return
     if out.is_dir() and any(out.iterdir()):
         raise ValueError(f"output folder {out} is not empty and holds no lgmd-sim dataset "
                          f"(no {layout.CONFIG}); use a new or empty folder")
     write_text_atomic(config_file, layout.canonical_json(wanted))
+
+
+def _difference(held: Any, wanted: Any, path: str = "") -> tuple[str, Any, Any] | None:
+    """The first (dotted key, value there, value here) where two configurations differ."""
+    if isinstance(held, dict) and isinstance(wanted, dict):
+        for k in sorted(set(held) | set(wanted)):
+            found = _difference(held.get(k), wanted.get(k), f"{path}.{k}" if path else k)
+            if found:
+                return found
+        return None
+    return None if held == wanted else (path, held, wanted)
 
 
 def _show(value: Any) -> str:
