@@ -26,6 +26,7 @@ import argparse
 import contextlib
 import dataclasses
 import errno
+import hashlib
 import io
 import json
 import math
@@ -240,9 +241,12 @@ def make_episode(spec: EpisodeSpec) -> EpisodeResult:
     from lgmd_sim.controllers import rollout
     from lgmd_sim.envs.catalogue import scenario
     from lgmd_sim.frames import to_grey
+
     fmt = layout.VIDEO_FORMATS[spec.video]
     variants = {v: noise.parse(v.replace("+", ",")) for v in spec.noise}
-    built = {v: {m: models.make(m) for m in spec.models} for v in [None, *variants]}
+    # A set of models per stream seen: the clean frames (None) and each noise variant.
+    built = {v: {m: models.make(m) for m in spec.models}
+             for v in [None, *variants]} if spec.models else {}
     controller = controllers.make(spec.controller)
     env = gym.make(scenario(spec.scenario).env_id, **spec.overrides)
     columns: dict[str, list] = {name: [] for name in layout.label_schema(spec.models,
@@ -259,7 +263,7 @@ def make_episode(spec: EpisodeSpec) -> EpisodeResult:
                         rgb = rgb.repeat(3, axis=-1)
                     write(rgb)
                     _append_labels(columns, spec, step, params.fps, nan3)
-                    for variant, by_model in built.items() if spec.models else ():
+                    for variant, by_model in built.items():
                         seen = rgb if variant is None else noise.apply(
                             rgb, variants[variant], spec.seed, step.index)
                         grey = to_grey(seen)
@@ -277,7 +281,8 @@ def make_episode(spec: EpisodeSpec) -> EpisodeResult:
         version=__version__, video_codec=fmt.codec, video_sha256=_sha256_bytes(video_bytes),
         config={"env": env_params, "controller": {
             "name": spec.controller, "params": dataclasses.asdict(controller.params)},
-            "models": {m: dataclasses.asdict(built[None][m].params) for m in spec.models},
+            "models": {m: dataclasses.asdict(model.params)
+                       for m, model in built.get(None, {}).items()},
             "noise": list(spec.noise)})
     return EpisodeResult(video_bytes, _parquet_bytes(columns, spec, meta), meta)
 
@@ -369,8 +374,6 @@ def _parquet_bytes(columns: Mapping[str, list], spec: EpisodeSpec, meta: Mapping
 
 
 def _sha256_bytes(data: bytes) -> str:
-    import hashlib
-
     return hashlib.sha256(data).hexdigest()
 
 
