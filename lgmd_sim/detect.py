@@ -261,39 +261,16 @@ def _write_csv(path: Path, d: Detection) -> None:
 def _write_figure(path: Path, d: Detection) -> None:
     """The paper's layout: every model's potential with the threshold, each first alarm
     and the collision marked; the SSIM of consecutive frames below."""
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure
+    from lgmd_sim.plots import COLLISION, draw_potentials, figure
 
-    from lgmd_sim.plots import COLLISION, THRESHOLD, alarm_label, model_style
-
-    fig = Figure(figsize=(10, 5.8), layout="constrained")
-    FigureCanvasAgg(fig)
+    fig = figure(figsize=(10, 5.8))
     top, bottom = fig.subplots(2, 1, sharex=True, height_ratios=[2.2, 1])
-    frames = np.arange(d.frames)
-    for name, tr in d.models.items():
-        style = model_style(name)
-        top.plot(frames, tr.potential, label=alarm_label(name, tr.first_alarm, tr.event),
-                 **style)
-        if tr.first_alarm is not None:
-            top.plot(tr.first_alarm, tr.potential[tr.first_alarm], marker="v", ms=9,
-                     color=style["color"], mec="black", mew=0.8, ls="none",
-                     zorder=style.get("zorder", 4) + 1)
-    for threshold in sorted({tr.threshold for tr in d.models.values()}):
-        top.axhline(threshold, label=f"threshold {threshold:g}", **THRESHOLD)
-    top.plot([], [], marker="v", color="white", mec="black", ls="none", label="first alarm")
-    if d.collision_frame is not None:
-        for ax in (top, bottom):
-            ax.axvline(d.collision_frame, **COLLISION)
-        top.text(d.collision_frame - 0.01 * d.frames, 0.03, f"collision (frame "
-                 f"{d.collision_frame})", transform=top.get_xaxis_transform(), ha="right",
-                 va="bottom", fontsize="small", bbox={"fc": "white", "ec": "none", "pad": 1})
-    top.set_ylabel("membrane potential")
-    top.set_ylim(0.45, 1.02)
-    top.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize="small",
-               title="model: first alarm" + (", outcome" if d.collision_frame is not None
-                                             else ""), title_fontsize="small")
+    draw_potentials(top, d)
+    top.set_xlabel("")  # shared with the SSIM panel below
     top.set_title(Path(d.video).name)
-    bottom.plot(frames[1:], d.ssim[1:], color="0.35", lw=1.2)
+    if d.collision_frame is not None:
+        bottom.axvline(d.collision_frame, **COLLISION)
+    bottom.plot(np.arange(1, d.frames), d.ssim[1:], color="0.35", lw=1.2)
     bottom.set_ylabel("SSIM")
     bottom.set_xlabel("frame")
     bottom.set_title(f"SSIM of consecutive frames (ISI {d.isi:.4f})", fontsize="medium")

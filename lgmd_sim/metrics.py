@@ -31,6 +31,8 @@ __all__ = [
     "first_alarm",
     "isi",
     "mpsi",
+    "roc_auc",
+    "roc_curve",
     "score",
     "sensitivity_index",
     "ssim",
@@ -307,3 +309,47 @@ def wilson_interval(successes: int, n: int, z: float = 1.96) -> tuple[float, flo
     centre = (p + z * z / (2 * n)) / denominator
     half = z * np.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / denominator
     return float(max(0.0, centre - half)), float(min(1.0, centre + half))
+
+
+# --- detection curves ---------------------------------------------------------------------
+
+
+def _scores_labels(scores: Sequence[float] | np.ndarray, labels: Sequence[bool] | np.ndarray
+                   ) -> tuple[np.ndarray, np.ndarray]:
+    s = np.asarray(scores, np.float64).ravel()
+    y = np.asarray(labels, bool).ravel()
+    if s.shape != y.shape:
+        raise ValueError(f"scores and labels differ in length: {s.size} and {y.size}")
+    if not np.isfinite(s).all():
+        raise ValueError("scores must be finite")
+    return s, y
+
+
+def roc_curve(scores: Sequence[float] | np.ndarray, labels: Sequence[bool] | np.ndarray
+              ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """False and true positive rates of ``score >= t`` for every threshold t among the
+    scores (highest first), from (0, 0) to (1, 1); and the thresholds."""
+    s, y = _scores_labels(scores, labels)
+    order = np.argsort(-s, kind="stable")
+    s, y = s[order], y[order]
+    last = np.r_[np.flatnonzero(np.diff(s)), s.size - 1]  # the last index of each value
+    tp, fp = np.cumsum(y)[last], np.cumsum(~y)[last]
+    n_pos, n_neg = max(int(y.sum()), 1), max(int((~y).sum()), 1)
+    return (np.r_[0.0, fp / n_neg], np.r_[0.0, tp / n_pos], np.r_[np.inf, s[last]])
+
+
+def roc_auc(scores: Sequence[float] | np.ndarray, labels: Sequence[bool] | np.ndarray
+            ) -> float | None:
+    """Area under the ROC curve: the chance that a positive frame scores above a negative
+    one (ties count half). None when either class is empty."""
+    s, y = _scores_labels(scores, labels)
+    n_pos, n_neg = int(y.sum()), int((~y).sum())
+    if n_pos == 0 or n_neg == 0:
+        return None
+    order = np.argsort(s, kind="stable")
+    ranks = np.empty(s.size)
+    sorted_s = s[order]
+    starts = np.r_[0, np.flatnonzero(np.diff(sorted_s)) + 1]
+    ends = np.r_[starts[1:], s.size]
+    ranks[order] = np.repeat((starts + ends + 1) / 2, ends - starts)  # average ranks of ties
+    return float((ranks[y].sum() - n_pos * (n_pos + 1) / 2) / (n_pos * n_neg))

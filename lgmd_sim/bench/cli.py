@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 import math
 
-__all__ = ["closed_loop", "parse_detectors", "parse_jitter", "parse_names"]
+__all__ = ["closed_loop", "open_loop", "parse_detectors", "parse_jitter", "parse_names"]
 
 
 def parse_names(text: str, valid: list[str], what: str) -> list[str]:
@@ -73,3 +73,48 @@ def closed_loop(args: argparse.Namespace) -> int:
     if not (math.isfinite(args.horizon) and args.horizon > 0):
         raise ValueError(f"--horizon must be a number > 0, got {args.horizon}")
     return closed_loop.run(args)
+
+
+def _levels(text: str) -> list[float]:
+    levels = []
+    for item in filter(None, (t.strip() for t in text.split(","))):
+        try:
+            level = float(item)
+        except ValueError:
+            level = -1.0
+        if not 0 < level <= 1:
+            raise ValueError(f"noise level {item!r} is not a number in (0, 1]")
+        levels.append(level)
+    return list(dict.fromkeys(levels))
+
+
+def open_loop(args: argparse.Namespace) -> int:
+    """Check every list, plan the clips, then run `lgmd_sim.bench.open_loop.run`."""
+    from lgmd_sim.bench import open_loop
+    from lgmd_sim.envs.catalogue import params_for, scenarios
+
+    args.detectors = parse_detectors(args.models, args.presets)
+    args.noise_levels = _levels(args.noise_levels)
+    if not (math.isfinite(args.horizon) and args.horizon > 0):
+        raise ValueError(f"--horizon must be a number > 0, got {args.horizon}")
+    if not (math.isfinite(args.window) and args.window >= 0):
+        raise ValueError(f"--window must be a number >= 0, got {args.window}")
+    if args.dataset is not None:
+        from lgmd_sim import data
+
+        episodes = data.episodes(args.dataset)
+        if episodes is None:
+            raise ValueError(f"{args.dataset} is not a dataset (nor DIR:N, an episode of one)")
+        args.clips = [open_loop.Clip(ep.scenario, ep.jitter, ep.seed, str(ep.root), ep.index)
+                      for ep in episodes]
+        tripods = {ep.scenario for ep in episodes
+                   if params_for(ep.scenario, {}).carrier == "tripod"}
+    else:
+        names = parse_names(args.scenarios, list(scenarios()), "scenario(s)")
+        jitters = parse_jitter(args.jitter)
+        seeds = range(args.first_seed, args.first_seed + args.seeds)
+        args.clips = [open_loop.Clip(sc, j, s) for sc in names for j in jitters for s in seeds]
+        tripods = {sc for sc in names if params_for(sc, {}).carrier == "tripod"}
+    # the paper's dataset (d): its stationary clips (a tripod, no jitter) with noise added
+    args.noisy = {c.key for c in args.clips if c.scenario in tripods and c.jitter == 0}
+    return open_loop.run(args)

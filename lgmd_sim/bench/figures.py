@@ -9,10 +9,11 @@ from typing import Any
 
 import numpy as np
 
+from lgmd_sim import metrics
 from lgmd_sim.fileio import write_files
-from lgmd_sim.plots import model_style
+from lgmd_sim.plots import figure, model_style
 
-__all__ = ["CLOSED_LOOP", "closed_loop"]
+__all__ = ["CLOSED_LOOP", "closed_loop", "open_loop"]
 
 #: The closed-loop benchmark's figures.
 CLOSED_LOOP = ("collisions_vs_jitter.png", "false_alarms_vs_collisions.png",
@@ -27,15 +28,6 @@ def _style(row: dict[str, Any]) -> dict[str, Any]:
     if row["model"] is None:
         return dict(_CONTROLLER_STYLES.get(row["controller"], {"color": "0.3", "marker": "^"}))
     return {**model_style(row["model"]), "marker": "o"}
-
-
-def _figure(**kwargs: Any):
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure
-
-    fig = Figure(layout="constrained", **kwargs)
-    FigureCanvasAgg(fig)
-    return fig
 
 
 def _save(fig, path: Path) -> None:
@@ -53,7 +45,7 @@ def closed_loop(folder: Path, rows: Sequence[dict[str, Any]],
 
 
 def _rates_vs_jitter(path: Path, rows: Sequence[dict[str, Any]], scenarios: list[str]) -> None:
-    fig = _figure(figsize=(11, 3.6 * len(scenarios)))
+    fig = figure(figsize=(11, 3.6 * len(scenarios)))
     axes = fig.subplots(len(scenarios), 2, squeeze=False)
     for (ax_col, ax_suc), sc in zip(axes, scenarios, strict=True):
         lines: dict[str, list[dict[str, Any]]] = defaultdict(list)
@@ -81,7 +73,7 @@ def _rates_vs_jitter(path: Path, rows: Sequence[dict[str, Any]], scenarios: list
 
 def _false_alarms_vs_collisions(path: Path, rows: Sequence[dict[str, Any]],
                                 scenarios: list[str]) -> None:
-    fig = _figure(figsize=(8.5, 4.2 * len(scenarios)))
+    fig = figure(figsize=(8.5, 4.2 * len(scenarios)))
     axes = fig.subplots(len(scenarios), 1, squeeze=False)[:, 0]
     markers = ["o", "s", "^", "D", "v", "P"]
     for ax, sc in zip(axes, scenarios, strict=True):
@@ -116,7 +108,7 @@ def _trajectories(path: Path, examples: Sequence[dict[str, Any]], scenarios: lis
     if not panels:
         return
     cols = len({j for _, j in panels})
-    fig = _figure(figsize=(5.2 * cols, 4.4 * len(scenarios)))
+    fig = figure(figsize=(5.2 * cols, 4.4 * len(scenarios)))
     axes = fig.subplots(len(scenarios), cols, squeeze=False)
     jitters = sorted({j for _, j in panels})
     for (sc, j) in panels:
@@ -148,3 +140,82 @@ def _trajectories(path: Path, examples: Sequence[dict[str, Any]], scenarios: lis
         ax.set_ylabel("y (m)")
     axes[0, -1].legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize="small")
     _save(fig, path)
+
+
+def open_loop(folder: Path, rows: Sequence[dict[str, Any]],
+              records: Sequence[dict[str, Any]]) -> list[str]:
+    """The open-loop figures: detection curves per scenario and jitter (clean clips), and
+    MpSI and SI against the noise level; returns the file names written."""
+    made = [_detection_curves(folder / "detection_curves.png", records)]
+    if any(r["noise"] for r in rows):
+        made.append(_noise(folder / "noise.png", rows))
+    return made
+
+
+def _detection_curves(path: Path, records: Sequence[dict[str, Any]]) -> str:
+    groups: dict[tuple, dict[str, list]] = defaultdict(lambda: defaultdict(list))
+    for rec in records:
+        for row in rec["rows"]:
+            if not row["noise"]:
+                pooled = groups[(rec["scenario"], rec["jitter"])][row["detector"]]
+                pooled.append((row["potential"], rec["near"]))
+    panels = sorted(groups)
+    cols = min(3, len(panels))
+    rows_n = -(-len(panels) // cols)
+    fig = figure(figsize=(4.6 * cols + 1.5, 4.2 * rows_n))
+    axes = fig.subplots(rows_n, cols, squeeze=False).ravel()
+    for ax, key in zip(axes, panels, strict=False):
+        for det, pairs in sorted(groups[key].items()):
+            scores = np.concatenate([p for p, _ in pairs])
+            near = np.concatenate([n for _, n in pairs]).astype(bool)
+            auc = metrics.roc_auc(scores, near)
+            if auc is None:  # no dangerous frame (a near miss) or no safe one
+                continue
+            fpr, tpr, _ = metrics.roc_curve(scores, near)
+            style = {k: v for k, v in model_style(det).items() if k != "alpha"}
+            ax.plot(fpr, tpr, label=f"{det} (AUC {auc:.2f})", **style)
+        ax.plot([0, 1], [0, 1], color="0.6", lw=0.8, ls=":")
+        ax.set_title(f"{key[0]}, jitter {key[1]:g}", fontsize="medium")
+        ax.set_xlabel("false positive rate (frames)")
+        ax.set_ylabel("true positive rate")
+        ax.set_aspect("equal")
+        if ax.get_legend_handles_labels()[0]:
+            ax.legend(loc="lower right", fontsize="x-small")
+        else:
+            ax.text(0.5, 0.5, "no frame within the horizon", ha="center", transform=ax.transAxes)
+    for ax in axes[len(panels):]:
+        ax.axis("off")
+    fig.suptitle("Per-frame potential as a detector of an obstacle within the time-to-"
+                 "collision horizon (clean clips)")
+    _save(fig, path)
+    return path.name
+
+
+def _noise(path: Path, rows: Sequence[dict[str, Any]]) -> str:
+    """MpSI and SI against the noise level per model (the paper's Figs. 7-8)."""
+    noisy = [r for r in rows if r["noise"]]
+    scenarios = sorted({r["scenario"] for r in noisy})
+    kinds = sorted({r["noise"].split(":")[0] for r in noisy})
+    fig = figure(figsize=(11, 3.4 * len(scenarios) * len(kinds)))
+    axes = fig.subplots(len(scenarios) * len(kinds), 2, squeeze=False)
+    for i, (sc, kind) in enumerate((s, k) for s in scenarios for k in kinds):
+        for det in sorted({r["detector"] for r in noisy}):
+            clean = [r for r in rows if r["scenario"] == sc and r["detector"] == det
+                     and not r["noise"] and r["jitter"] == 0]
+            pts = sorted(((float(r["noise"].split(":")[1]), r) for r in noisy
+                          if r["scenario"] == sc and r["detector"] == det
+                          and r["noise"].startswith(kind + ":")), key=lambda x: x[0])
+            pts = [(0.0, clean[0])] * bool(clean) + pts
+            style = {k: v for k, v in model_style(det).items() if k != "alpha"}
+            for ax, what in zip(axes[i], ("mpsi", "si"), strict=True):
+                ax.plot([x for x, _ in pts], [r[what] for _, r in pts], marker="o", ms=4,
+                        label=det, **style)
+        for ax, what in zip(axes[i], ("MpSI", "SI"), strict=True):
+            ax.set_title(f"{sc}: {what} with {kind} noise (mean over clips)",
+                         fontsize="medium")
+            ax.set_xlabel("variance" if kind == "gaussian" else "density")
+            ax.set_ylabel(what)
+            ax.grid(alpha=0.3)
+        axes[i, 1].legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize="small")
+    _save(fig, path)
+    return path.name

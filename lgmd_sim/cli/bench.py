@@ -63,3 +63,54 @@ def add(sub: argparse._SubParsersAction) -> None:
                    "HOST:PORT joins a cluster (needs the ray extra)")
     b.add_argument("--no-progress", action="store_true", help="hide the progress bar")
     b.set_defaults(run="lgmd_sim.bench.cli:closed_loop")
+
+    b = bench.add_parser(
+        "open-loop", help="the paper's Tables 2 and 3 in simulation: every model on the same "
+        "recorded clips, with noise",
+        description="Every model on the same clips: episodes of the scenarios (the carrier "
+        "driving straight) or of a dataset (--dataset). The stationary clips (tripod scenarios "
+        "at jitter 0) also run corrupted with Gaussian and salt-and-pepper noise at each "
+        "--noise-levels value (the paper's dataset d). Per clip and model: ISI, MpSI, SI, "
+        "first alarm, hit / miss / false alarm, lead time; per scenario, jitter, noise and "
+        "model the same over the clips and the ROC AUC of the potential as a detector of an "
+        "obstacle within --horizon seconds of collision. Writes summary.csv, summary.md, "
+        "noise.md, a figure per scenario in the paper's layout, detection curves and the "
+        "noise figure, and run.json.",
+    )
+    b.add_argument("--scenarios", default="all",
+                   help="comma-separated scenario names, or all (default)")
+    b.add_argument("--jitter", default="0,1", help="comma-separated jitter levels (default 0,1)")
+    b.add_argument("--models", default="all",
+                   help="'all' or a comma-separated list of MODEL or MODEL/PRESET")
+    b.add_argument("--presets", default=None,
+                   help="comma-separated presets: each model listed without a preset runs "
+                   "each of these it has (its default when it has none of them)")
+    b.add_argument("--seeds", type=positive_int, default=8, help="clips per scenario and "
+                   "jitter level (default 8)")
+    b.add_argument("--first-seed", type=non_negative_int, default=0,
+                   help="the first episode seed (default 0)")
+    b.add_argument("--dataset", metavar="DIR", default=None,
+                   help="take the clips from a dataset (DIR, or DIR:N for its episode N) "
+                   "instead of simulating them")
+    b.add_argument("--noise-levels", default="0.001,0.003,0.005,0.007,0.009",
+                   help="Gaussian variances and salt-and-pepper densities for the stationary "
+                   "clips (default 0.001,0.003,0.005,0.007,0.009; '' for none)")
+    b.add_argument("--resolution", type=resolution, default="paper",
+                   help="frame size of simulated clips: paper (270x480, default), rl, small "
+                   "or HxW")
+    b.add_argument("--horizon", type=float, default=1.0,
+                   help="a frame counts as dangerous when an obstacle is within this time to "
+                   "collision (s, default 1), for the ROC AUC")
+    b.add_argument("--window", type=float, default=1.0,
+                   help="a first alarm within this many seconds before the collision is a "
+                   "hit (s, default 1)")
+    b.add_argument("--out", default="bench-open-loop", metavar="DIR",
+                   help="output folder (default ./bench-open-loop)")
+    b.add_argument("--resume", action="store_true",
+                   help="complete the run in DIR (same configuration)")
+    b.add_argument("--workers", type=positive_int, default=None,
+                   help="local worker processes (default: every core)")
+    b.add_argument("--ray", metavar="ADDRESS", default=None,
+                   help="run the clips as Ray tasks: 'local', 'auto' or HOST:PORT")
+    b.add_argument("--no-progress", action="store_true", help="hide the progress bar")
+    b.set_defaults(run="lgmd_sim.bench.cli:open_loop")

@@ -1,0 +1,256 @@
+"""`lgmd-sim bench open-loop`: the paper's Tables 2 and 3 and its noise figures, simulated.
+
+Clips are episodes of the scenarios (the carrier driving straight, as `lgmd-sim record`
+does) or the episodes of a dataset (``--dataset``); every detector runs on the same
+frames. The stationary clips (a scenario whose carrier does not shake, at jitter 0) are
+also run corrupted by Gaussian and salt-and-pepper noise at each ``noise_levels`` value,
+as the paper's dataset (d). Per clip and detector: ISI, MpSI, SI (never-crossed counted
+as 1, with its flag), the first alarm, hit / miss / false alarm against the labelled
+collision with a window of ``window`` seconds, the lead time. Per group (scenario, jitter,
+noise, detector): the same over the seeds, and the ROC AUC of the per-frame potential as a
+detector of "an obstacle is within ``horizon`` seconds of collision", pooled over the
+group's frames: one threshold hides what a model can do.
+"""
+
+from __future__ import annotations
+
+import argparse
+import base64
+import statistics
+from collections import defaultdict
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from lgmd_sim import metrics
+from lgmd_sim.bench.runs import RunFolder
+from lgmd_sim.fileio import write_files, write_text_atomic
+from lgmd_sim.parallel import Job, run_jobs
+
+__all__ = ["Clip", "clip_job", "run", "summarise"]
+
+#: The paper's noise kinds for its dataset (d).
+NOISE_KINDS = ("gaussian", "saltpepper")
+
+
+@dataclass(frozen=True)
+class Clip:
+    """Where a clip's frames come from: a scenario episode, or a dataset's episode."""
+
+    scenario: str
+    jitter: float
+    seed: int
+    dataset: str | None = None  # the dataset folder, for a dataset episode
+    index: int | None = None  # its episode index
+
+    @property
+    def key(self) -> str:
+        if self.dataset is not None:
+            return f"{self.scenario}-j{self.jitter:g}-e{self.index}"
+        return f"{self.scenario}-j{self.jitter:g}-s{self.seed}"
+
+
+def _frames(clip: Clip, resolution: Any) -> tuple[list[np.ndarray], np.ndarray, int | None, float]:
+    """The clip's RGB frames, each frame's time to collision, its collision frame and fps."""
+    if clip.dataset is not None:
+        from lgmd_sim import data
+
+        ep = data.open(clip.dataset).episode(clip.index)
+        ttc = np.asarray(ep.labels.column("threat_ttc").to_numpy(zero_copy_only=False), float)
+        return list(ep.frames()), ttc, ep.collision_frame, ep.fps
+    import gymnasium as gym
+
+    from lgmd_sim.controllers import Straight, rollout
+    from lgmd_sim.envs.catalogue import scenario
+
+    env = gym.make(scenario(clip.scenario).env_id, jitter=clip.jitter, resolution=resolution)
+    try:
+        steps = list(rollout(env, Straight(), seed=clip.seed))
+        fps = float(env.unwrapped.params.fps)
+    finally:
+        env.close()
+    frames = [s.obs["frame"] for s in steps]
+    ttc = np.array([s.info["threat_ttc"] for s in steps], float)
+    hit = steps[-1].info["first_collision_frame"]
+    return frames, ttc, (int(hit) if hit >= 0 else None), fps
+
+
+def clip_job(clip: Clip, detectors: Sequence[tuple[str, str]], noises: Sequence[str], *,
+             resolution: Any, horizon: float, window: float, figure: bool) -> dict[str, Any]:
+    """Run every detector on one clip and on each noisy version of it (a job)."""
+    from lgmd_sim import models, noise
+    from lgmd_sim.detect import detect
+
+    frames, ttc, collision, fps = _frames(clip, resolution)
+    record: dict[str, Any] = {
+        "scenario": clip.scenario, "jitter": clip.jitter, "seed": clip.seed,
+        "episode": clip.index, "frames": len(frames), "fps": fps,
+        "collision_frame": collision, "near": (ttc < horizon).astype(int).tolist(),
+        "rows": [],
+    }
+    for variant in ("", *noises):
+        if variant:
+            spec = noise.parse(variant)
+            seen = [noise.apply(f, spec, clip.seed, i) for i, f in enumerate(frames)]
+        else:
+            seen = frames
+        built = {f"{m}/{p}": models.make(m, preset=p) for m, p in detectors}
+        d = detect(seen, fps, built, collision, name=clip.key, window_s=window)
+        for label, tr in d.models.items():
+            record["rows"].append({
+                "noise": variant, "detector": label, "isi": d.isi, "mpsi": tr.mpsi,
+                "si": tr.sensitivity.si, "crossed": tr.sensitivity.crossed,
+                "first_alarm": tr.first_alarm,
+                "outcome": tr.event.outcome if tr.event else
+                ("false_alarm" if tr.first_alarm is not None else "correct_rejection"),
+                "lead_s": tr.event.lead_s if tr.event else None,
+                "potential": np.round(tr.potential, 4).tolist(),
+            })
+        if figure and not variant:
+            record["figure_png"] = base64.b64encode(_clip_figure(clip, seen, d)).decode()
+    return record
+
+
+def _clip_figure(clip: Clip, frames: Sequence[np.ndarray], d: Any) -> bytes:
+    """The paper's layout for one clip: a frame, its P layer, every model's potential and
+    the distribution of SSIM between consecutive frames."""
+    import io
+
+    from lgmd_sim.frames import to_grey
+    from lgmd_sim.plots import draw_potentials, figure
+
+    t = min(len(frames) - 1, max(1, round(0.8 * (d.collision_frame or len(frames) - 1))))
+    p = np.abs(to_grey(frames[t]).astype(np.int16) - to_grey(frames[t - 1]).astype(np.int16))
+    fig = figure(figsize=(13, 6.5))
+    grid = fig.add_gridspec(2, 3, width_ratios=[1, 1, 1.25])
+    ax = fig.add_subplot(grid[0, 0])
+    ax.imshow(frames[t])
+    ax.set_title(f"(a) frame {t}", fontsize="medium")
+    ax.axis("off")
+    ax = fig.add_subplot(grid[0, 1])
+    ax.imshow(p, cmap="gray", vmin=0, vmax=max(int(np.percentile(p, 99.5)), 1))
+    ax.set_title(f"(b) P layer |L({t}) - L({t - 1})|", fontsize="medium")
+    ax.axis("off")
+    ax = fig.add_subplot(grid[0, 2])
+    ax.hist(d.ssim[1:], bins=20, range=(min(0.0, float(np.min(d.ssim[1:]))), 1.0),
+            color="0.5", edgecolor="black")
+    ax.set_title(f"(d) SSIM of consecutive frames: ISI {d.isi:.3f}", fontsize="medium")
+    ax.set_xlabel("SSIM")
+    ax.set_ylabel("frames")
+    ax = fig.add_subplot(grid[1, :])
+    draw_potentials(ax, d)
+    ax.set_title("(c) membrane potentials", fontsize="medium")
+    fig.suptitle(f"{clip.scenario}, jitter {clip.jitter:g}, seed {clip.seed}")
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=90)
+    return buf.getvalue()
+
+
+# --- tables ---------------------------------------------------------------------------------
+
+
+def _mean(values: Sequence[float | None]) -> float | None:
+    kept = [v for v in values if v is not None]
+    return float(np.mean(kept)) if kept else None
+
+
+def summarise(records: Sequence[dict[str, Any]]) -> list[dict[str, Any]]:
+    """One row per (scenario, jitter, noise, detector) over the clips."""
+    groups: dict[tuple, list[tuple[dict, dict]]] = defaultdict(list)
+    for rec in records:
+        for row in rec["rows"]:
+            groups[(rec["scenario"], rec["jitter"], row["noise"], row["detector"])].append(
+                (rec, row))
+    out = []
+    for (sc, j, variant, det), pairs in groups.items():
+        collision = [r for c, r in pairs if c["collision_frame"] is not None]
+        none = [r for c, r in pairs if c["collision_frame"] is None]
+        scores = np.concatenate([r["potential"] for _, r in pairs])
+        near = np.concatenate([c["near"] for c, _ in pairs]).astype(bool)
+        leads = [r["lead_s"] for r in collision if r["outcome"] == "hit"]
+        out.append({
+            "scenario": sc, "jitter": j, "noise": variant, "detector": det,
+            "clips": len(pairs), "isi": _mean([r["isi"] for _, r in pairs]),
+            "mpsi": _mean([r["mpsi"] for _, r in pairs]),
+            "si": _mean([r["si"] for _, r in pairs]),
+            "crossed": float(np.mean([r["crossed"] for _, r in pairs])),
+            "hit_rate": (sum(r["outcome"] == "hit" for r in collision) / len(collision)
+                         if collision else None),
+            "false_alarm_rate": (sum(r["outcome"] == "false_alarm" for r in none) / len(none)
+                                 if none else None),
+            "median_lead_s": statistics.median(leads) if leads else None,
+            "auc": metrics.roc_auc(scores, near),
+        })
+    return sorted(out, key=lambda r: (r["scenario"], r["jitter"], r["noise"], r["detector"]))
+
+
+_COLUMNS = ["scenario", "jitter", "noise", "detector", "clips", "isi", "mpsi", "si", "crossed",
+            "hit_rate", "false_alarm_rate", "median_lead_s", "auc"]
+
+
+def summary_markdown(rows: Sequence[dict[str, Any]], noise: bool = False) -> str:
+    """The clean clips' summary (or, with `noise`, every noise level) as Markdown."""
+
+    def f(x: float | None, digits: int = 3) -> str:
+        return "-" if x is None else f"{x:.{digits}f}"
+
+    lines = ["| scenario | jitter | noise | detector | clips | ISI | MpSI | SI | crossed | "
+             "hits | false alarms | lead (s) | ROC AUC |",
+             "|---|---:|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
+    for r in rows:
+        if bool(r["noise"]) != noise:
+            continue
+        lines.append(
+            f"| {r['scenario']} | {r['jitter']:g} | {r['noise'] or '-'} | {r['detector']} | "
+            f"{r['clips']} | {f(r['isi'])} | {f(r['mpsi'])} | {f(r['si'])} | "
+            f"{f(r['crossed'], 2)} | {f(r['hit_rate'], 2)} | {f(r['false_alarm_rate'], 2)} | "
+            f"{f(r['median_lead_s'], 2)} | {f(r['auc'])} |")
+    return "\n".join(lines) + "\n"
+
+
+def run(args: argparse.Namespace) -> int:
+    """`lgmd-sim bench open-loop`."""
+    from lgmd_sim.bench import figures
+    from lgmd_sim.bench.closed_loop import _csv
+
+    clips: list[Clip] = args.clips
+    noises = [f"{kind}:{level:g}" for kind in NOISE_KINDS for level in args.noise_levels]
+    config = {
+        "benchmark": "open-loop", "clips": [c.key for c in clips],
+        "dataset": args.dataset, "detectors": [list(d) for d in args.detectors],
+        "noise": noises, "resolution": args.resolution, "horizon": args.horizon,
+        "window": args.window,
+    }
+    folder = RunFolder(args.out, config, args.resume, args.command_line)
+    done = folder.done()
+    first = {}
+    for c in clips:  # the figure of each (scenario, jitter): its first clip
+        first.setdefault((c.scenario, c.jitter), c.key)
+    jobs = [Job(c.key, clip_job, {
+        "clip": c, "detectors": args.detectors,
+        "noises": noises if c.key in args.noisy else (),
+        "resolution": args.resolution, "horizon": args.horizon, "window": args.window,
+        "figure": first[(c.scenario, c.jitter)] == c.key,
+    }) for c in clips if c.key not in done]
+    run_jobs(jobs, lambda job, record: folder.store(job.key, record), workers=args.workers,
+             ray_address=args.ray, progress=False if args.no_progress else None,
+             desc="open-loop", unit="clip")
+    records = folder.records([c.key for c in clips])
+    rows = summarise(records)
+    write_text_atomic(folder.path / "summary.csv", _csv(rows, _COLUMNS))
+    write_text_atomic(folder.path / "summary.md", summary_markdown(rows))
+    if noises:
+        write_text_atomic(folder.path / "noise.md", summary_markdown(rows, noise=True))
+    clip_figures = {folder.path / f"clip_{r['scenario']}_j{r['jitter']:g}.png":
+                    base64.b64decode(r["figure_png"]) for r in records if "figure_png" in r}
+    write_files({path: (lambda tmp, png=png: tmp.write_bytes(png))
+                 for path, png in clip_figures.items()})
+    made = figures.open_loop(folder.path, rows, records)
+    folder.finish(clips=len(records))
+    print(summary_markdown(rows), end="")
+    names = ["summary.csv", "summary.md", *(["noise.md"] if noises else []),
+             *sorted(p.name for p in clip_figures), *made, "run.json"]
+    print(f"wrote {folder.path}/: {', '.join(names)}")
+    return 0
