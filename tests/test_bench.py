@@ -153,3 +153,11 @@ def test_open_loop_on_a_dataset_equals_the_simulated_clips(tmp_path):
     a = list(csv.DictReader((tmp_path / "a" / "summary.csv").open()))
     b = list(csv.DictReader((tmp_path / "b" / "summary.csv").open()))
     assert a == b  # lossless frames: the same potentials, the same table
+
+
+def test_speed_closed_loop_prints_both_tables(capsys):
+    assert cli.main(["speed", "closed-loop", "--steps", "5", "--episodes", "1",
+                     "--resolution", "small"]) == 0
+    out = capsys.readouterr().out
+    assert "environment alone" in out and "+ ReactiveAvoid(feedback)" in out
+    assert "speed-up" in out

@@ -53,3 +53,19 @@ def add(sub: argparse._SubParsersAction) -> None:
                    "about half the size, slower to write), mpeg4 (lossy, small)")
     b.add_argument("--markdown", action="store_true", help="print the table as Markdown")
     b.set_defaults(run="lgmd_sim.speed.dataset:run")
+    b = speed.add_parser(
+        "closed-loop", help="env + LGMD + controller steps/s vs the env alone; 2 workers vs 1",
+        description="In one run: steps per second of the environment alone and with "
+        "ReactiveAvoid driven by each model (target: 0.9 of the environment's speed or "
+        "more), and frames per second of closed-loop benchmark episodes on one and on two "
+        "workers (target: 1.7x or more).",
+    )
+    b.add_argument("--scenario", default="RoughTerrainObstacles", help="scenario name")
+    b.add_argument("--resolution", type=resolution, default="rl",
+                   help="rl (120x160, default), paper, small or HxW")
+    b.add_argument("--steps", type=positive_int, default=600, help="steps timed per run")
+    b.add_argument("--episodes", type=positive_int, default=12,
+                   help="episodes per worker count (worker start-up is counted: enough "
+                   "episodes make it small)")
+    b.add_argument("--markdown", action="store_true", help="print the table as Markdown")
+    b.set_defaults(run="lgmd_sim.speed.closed_loop:run")
