@@ -41,22 +41,33 @@ __all__ = ["Cell", "episode", "plan", "run", "summarise"]
 @dataclass(frozen=True)
 class Cell:
     """What one row of the summary compares: a controller (and its detector) in a scenario
-    at a jitter level."""
+    at a jitter level.
+
+    Attributes:
+        model, preset: the LGMD model of a controller driven by one (`uses_model`).
+        params: further controller parameters, as (name, value) pairs.
+        tag: a short name for the cell's controller where the parameters would make a long
+            one (e.g. a trained policy's name); it appears in labels and file names.
+    """
 
     scenario: str
     jitter: float
     controller: str
-    model: str | None = None  # for controllers driven by an LGMD model
+    model: str | None = None
     preset: str | None = None
+    params: tuple[tuple[str, Any], ...] = ()
+    tag: str | None = None
 
     @property
     def label(self) -> str:
-        """"reactive: feedback/paper", "oracle", "straight"."""
-        return self.controller + (f": {self.model}/{self.preset}" if self.model else "")
+        """"reactive: feedback/paper", "oracle", "straight", "policy: ppo-feedback"."""
+        detail = f"{self.model}/{self.preset}" if self.model else self.tag
+        return self.controller + (f": {detail}" if detail else "")
 
     def key(self, seed: int) -> str:
-        detector = f"-{self.model}-{self.preset}" if self.model else ""
-        return f"{self.scenario}-j{self.jitter:g}-{self.controller}{detector}-s{seed}"
+        detail = f"-{self.model}-{self.preset}" if self.model else (
+            f"-{self.tag}" if self.tag else "")
+        return f"{self.scenario}-j{self.jitter:g}-{self.controller}{detail}-s{seed}"
 
 
 def episode(cell: Cell, seed: int, *, resolution: Any, cruise: float, horizon: float,
@@ -67,9 +78,14 @@ def episode(cell: Cell, seed: int, *, resolution: Any, cruise: float, horizon: f
     from lgmd_sim import controllers
     from lgmd_sim.envs.catalogue import scenario
 
-    detector = {"model": cell.model, "preset": cell.preset} if cell.model else {}
-    controller = controllers.make(cell.controller, cruise=cruise, **detector)
-    env = gym.make(scenario(cell.scenario).env_id, jitter=cell.jitter, resolution=resolution)
+    params = dict(cell.params)
+    if cell.model:
+        params.update(model=cell.model, preset=cell.preset)
+    if "cruise" in controllers.controller_class(cell.controller).Params.names():
+        params.setdefault("cruise", cruise)  # every cruising controller at the same speed
+    controller = controllers.make(cell.controller, **params)
+    env = controller.wrap_env(gym.make(scenario(cell.scenario).env_id, jitter=cell.jitter,
+                                       resolution=resolution))
     infos, alarms = [], []
     try:
         for step in controllers.rollout(env, controller, seed=seed):
@@ -89,7 +105,7 @@ def episode(cell: Cell, seed: int, *, resolution: Any, cruise: float, horizon: f
     collision = int(last["first_collision_frame"])
     record: dict[str, Any] = {
         "scenario": cell.scenario, "jitter": cell.jitter, "controller": cell.controller,
-        "model": cell.model, "preset": cell.preset, "seed": seed,
+        "model": cell.model, "preset": cell.preset, "tag": cell.tag, "seed": seed,
         "frames": len(infos), "time_s": _finite(times[-1]),
         "collided": collision >= 0, "goal_reached": bool(last.get("goal_reached", False)),
         "distance_m": _finite(travelled),
@@ -149,9 +165,10 @@ def summarise(records: Sequence[dict[str, Any]]) -> list[dict[str, Any]]:
     first-alarm time to collision and lead time, mean progress."""
     groups: dict[tuple, list[dict[str, Any]]] = defaultdict(list)
     for r in records:
-        groups[(r["scenario"], r["jitter"], r["controller"], r["model"], r["preset"])].append(r)
+        groups[(r["scenario"], r["jitter"], r["controller"], r["model"], r["preset"],
+                r.get("tag"))].append(r)
     rows = []
-    for (sc, j, ctrl, model, preset), rs in groups.items():
+    for (sc, j, ctrl, model, preset, tag), rs in groups.items():
         n = len(rs)
         collided = sum(r["collided"] for r in rs)
         reached = sum(r["goal_reached"] for r in rs)
@@ -159,7 +176,7 @@ def summarise(records: Sequence[dict[str, Any]]) -> list[dict[str, Any]]:
         progress = [r["progress"] for r in rs if r.get("progress") is not None]
         rows.append({
             "scenario": sc, "jitter": j, "controller": ctrl, "model": model, "preset": preset,
-            "cell": Cell(sc, j, ctrl, model, preset).label, "episodes": n,
+            "tag": tag, "cell": Cell(sc, j, ctrl, model, preset, tag=tag).label, "episodes": n,
             "collision_rate": collided / n, "collision_ci": metrics.wilson_interval(collided, n),
             "success_rate": reached / n, "success_ci": metrics.wilson_interval(reached, n),
             "false_alarms_per_min": sum(r["false_alarms"] for r in rs) / minutes,
@@ -171,7 +188,8 @@ def summarise(records: Sequence[dict[str, Any]]) -> list[dict[str, Any]]:
     return rows
 
 
-_EPISODE_COLUMNS = ["scenario", "jitter", "controller", "model", "preset", "seed", "frames",
+_EPISODE_COLUMNS = ["scenario", "jitter", "controller", "model", "preset", "tag", "seed",
+                    "frames",
                     "time_s", "collided", "goal_reached", "distance_m", "straight_line_m",
                     "path_ratio", "progress", "alarms", "false_alarms", "false_alarms_per_min",
                     "first_alarm_ttc_s", "lead_time_s", "min_clearance_m"]
@@ -219,7 +237,7 @@ def write_tables(folder: Path, records: Sequence[dict[str, Any]]) -> list[dict[s
     flat = [{**r, "collision_ci_low": r["collision_ci"][0], "collision_ci_high":
              r["collision_ci"][1], "success_ci_low": r["success_ci"][0],
              "success_ci_high": r["success_ci"][1]} for r in sorted(rows, key=_order)]
-    columns = ["scenario", "jitter", "controller", "model", "preset", "episodes",
+    columns = ["scenario", "jitter", "controller", "model", "preset", "tag", "episodes",
                "collision_rate", "collision_ci_low", "collision_ci_high", "success_rate",
                "success_ci_low", "success_ci_high", "false_alarms_per_min",
                "median_first_alarm_ttc_s", "median_lead_time_s", "mean_progress",

@@ -35,6 +35,11 @@ class Controller(ABC):
     def reset(self) -> None:  # noqa: B027  (optional hook: stateless controllers keep it)
         """Start a new episode (forget any state)."""
 
+    def wrap_env(self, env: gym.Env) -> gym.Env:
+        """The environment as this controller observes it (a trained policy adds the
+        wrappers it was trained with); most controllers take it as it is."""
+        return env
+
     @abstractmethod
     def act(self, obs: Mapping[str, np.ndarray], info: Mapping[str, Any]) -> np.ndarray:
         """The action, (v, omega) in [-1, 1], for the frame just observed."""
