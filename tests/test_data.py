@@ -173,6 +173,8 @@ def test_other_video_formats_record_their_codec(tmp_path, video):
     assert ds.info["features"][layout.VIDEO_KEY]["info"]["video.codec"] == fmt.codec
     assert ds[0].video_path.suffix == fmt.suffix
     assert ds[0].frames().shape == (16, 32, 48, 3)
+    generate(config, tmp_path / "again", workers=1, progress=False)
+    assert tree(tmp_path / "again") == tree(tmp_path / video)  # the same bytes again
 
 
 def test_docs_describe_every_label_column():
