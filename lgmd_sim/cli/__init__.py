@@ -20,7 +20,7 @@ from lgmd_sim import __version__
 from lgmd_sim.extras import MissingExtra
 
 #: The subcommands, in the order `--help` lists them.
-COMMANDS = ("demo", "detect", "record", "models", "envs", "bench", "speed", "dataset")
+COMMANDS = ("demo", "detect", "record", "models", "envs", "bench", "calibrate", "speed", "dataset")
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -28,6 +28,9 @@ _REGISTRY: dict[str, str] = {
 }
 
 
+_DATA_PRESETS_JOINED: set[str] = set()
+
+
 def available() -> list[str]:
     """The model names `make` accepts."""
     return list(_REGISTRY)
@@ -37,8 +40,16 @@ def model_class(name: str) -> type[LGMDModel]:
     """The class behind a model name."""
     if name not in _REGISTRY:
         raise ValueError(f"unknown model {name!r}; available: {', '.join(_REGISTRY)}")
-    module, cls = _REGISTRY[name].split(":")
-    return getattr(import_module(module), cls)
+    module, cls_name = _REGISTRY[name].split(":")
+    cls = getattr(import_module(module), cls_name)
+    if name not in _DATA_PRESETS_JOINED:
+        # calibrated presets live in a data file (lgmd_sim.models.presets): they join the
+        # class's own presets on first use
+        from lgmd_sim.models.presets import data_presets
+
+        cls.presets = {**cls.presets, **data_presets(name, cls.presets)}
+        _DATA_PRESETS_JOINED.add(name)
+    return cls
 
 
 def make(

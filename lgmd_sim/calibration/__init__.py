@@ -1,0 +1,7 @@
+"""Calibration: the same search for every model on recorded clips, judged by a declared
+objective on clips it never saw (`lgmd-sim calibrate`; see `lgmd_sim.calibration.run`).
+
+- `lgmd_sim.calibration.objective`: every clip a hit or a miss;
+- `lgmd_sim.calibration.clips`: the clips, recorded once;
+- `lgmd_sim.calibration.search`: each model's free parameters and one candidate's score.
+"""

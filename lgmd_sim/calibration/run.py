@@ -1,0 +1,169 @@
+"""`lgmd-sim calibrate`: the same search for every model, judged on clips it never saw.
+
+1. Record the clips (`lgmd_sim.calibration.clips`): a search set and a held-out set with
+   disjoint seeds, into ``DIR/clips``.
+2. Evaluate every candidate of every detector (`lgmd_sim.calibration.search`): the same
+   number of candidates each, one job each, records in ``DIR/records`` (resumable).
+3. Per detector, choose the candidate and threshold with the best objective on the search
+   set (`lgmd_sim.calibration.objective`); report it on the held-out set beside.
+4. Write ``DIR/summary.md``, ``DIR/calibration.png`` and ``DIR/calibrated.json``: the
+   presets with the command, seeds, objective and figure that produced them. With
+   ``--save-presets`` also the package's data file, which makes them the models'
+   ``calibrated`` presets (and ``calibrated-open-loop`` for the feedback model's open-loop
+   control, gain 0, tuned by the same search).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from lgmd_sim.bench.runs import RunFolder
+from lgmd_sim.calibration import clips as clip_mod
+from lgmd_sim.calibration import objective as obj
+from lgmd_sim.calibration.search import SPACES, THRESHOLDS, candidates, evaluate
+from lgmd_sim.fileio import write_files, write_text_atomic
+from lgmd_sim.parallel import Job, run_jobs
+
+__all__ = ["PRESET_NAMES", "choose", "run"]
+
+#: The preset each calibrated detector becomes: (model, preset name).
+PRESET_NAMES = {"feedback": ("feedback", "calibrated"),
+                "feedback-open-loop": ("feedback", "calibrated-open-loop"),
+                "lgmd1": ("lgmd1", "calibrated"), "lgmd2": ("lgmd2", "calibrated"),
+                "f_on": ("f_on", "calibrated"), "f_off": ("f_off", "calibrated")}
+
+
+def _unpack(bits: list, clips: int) -> np.ndarray:
+    return np.unpackbits(np.array(bits, np.uint8), axis=1, count=len(THRESHOLDS))[:clips]
+
+
+def choose(records: Sequence[dict[str, Any]], clip_sets: dict[str, list[dict]]
+           ) -> dict[str, Any]:
+    """The best candidate and threshold of one detector on the search set, and how it
+    does on both sets."""
+    labels = {s: [clip_mod.label(r) for r in recs] for s, recs in clip_sets.items()}
+    best = None
+    for rec in records:
+        hit = _unpack(rec["sets"]["search"], len(labels["search"])).astype(bool)
+        score, _ = obj.objective(labels["search"], hit)
+        i = int(np.argmax(score))  # the lowest threshold among equals
+        if best is None or score[i] > best[0]:
+            best = (float(score[i]), rec, i)
+    _, rec, i = best
+    result = {"detector": rec["detector"], "candidate": rec["index"],
+              "params": rec["params"], "threshold": float(THRESHOLDS[i])}
+    for set_name in clip_sets:
+        hit = _unpack(rec["sets"][set_name], len(labels[set_name])).astype(bool)
+        score, rates = obj.objective(labels[set_name], hit[:, i:i + 1])
+        result[set_name] = {"objective": float(score[0]),
+                            **{k: float(v[0]) for k, v in rates.items()}}
+    return result
+
+
+def _markdown(chosen: Sequence[dict[str, Any]]) -> str:
+    lines = ["| detector | threshold | objective search / held-out | jitter hits | "
+             "stationary hits | near misses rejected |", "|---|---:|---:|---:|---:|---:|"]
+    for c in chosen:
+        s, h = c["search"], c["heldout"]
+        cells = [f"{s[k]:.2f} / {h[k]:.2f}" for k in ("jitter", "stationary", "near_miss")]
+        lines.append(f"| {c['detector']} | {c['threshold']:.3f} | "
+                     f"{s['objective']:.3f} / {h['objective']:.3f} | {' | '.join(cells)} |")
+    return "\n".join(lines) + "\n"
+
+
+def _figure(path: Path, chosen: Sequence[dict[str, Any]]) -> None:
+    from lgmd_sim.plots import figure, model_style
+
+    fig = figure(figsize=(11, 4))
+    axes = fig.subplots(1, 4, sharey=True)
+    names = [c["detector"] for c in chosen]
+    x = np.arange(len(names))
+    for ax, what in zip(axes, ("objective", *obj.KINDS), strict=True):
+        for k, set_name in enumerate(("search", "heldout")):
+            values = [c[set_name][what] for c in chosen]
+            colours = [model_style(n.split("-")[0])["color"] for n in names]
+            ax.bar(x + (k - 0.5) * 0.38, values, 0.38, color=colours,
+                   alpha=1.0 if k == 0 else 0.45, edgecolor="black", lw=0.5,
+                   label="search seeds" if k == 0 else "held-out seeds")
+        ax.set_xticks(x, names, rotation=45, ha="right", fontsize="small")
+        ax.set_title(what.replace("_", " ") + (" (hit rate)" if what != "objective" else ""),
+                     fontsize="medium")
+        ax.set_ylim(0, 1.02)
+        ax.grid(axis="y", alpha=0.3)
+    axes[0].legend(fontsize="small", loc="lower left")
+    write_files({path: lambda tmp: fig.savefig(tmp, format="png", dpi=110)})
+
+
+def run(args: argparse.Namespace) -> int:
+    """`lgmd-sim calibrate`."""
+    search_seeds = list(range(args.first_seed, args.first_seed + args.seeds))
+    held = list(range(args.heldout_seed, args.heldout_seed + args.seeds))
+    if set(search_seeds) & set(held):
+        raise ValueError("the search and held-out seeds overlap: move --heldout-seed")
+    config = {"calibration": 1, "detectors": args.detectors, "budget": args.budget,
+              "search_seeds": [search_seeds[0], len(search_seeds)],
+              "heldout_seeds": [held[0], len(held)], "resolution": args.resolution,
+              "groups": clip_mod.DEFAULT_GROUPS, "late": obj.LATE, "seed": args.seed}
+    folder = RunFolder(args.out, config, args.resume, args.command_line)
+    clip_dir = folder.path / "clips"
+    clip_dir.mkdir(exist_ok=True)
+    sets = {"search": clip_mod.specs(clip_mod.DEFAULT_GROUPS, search_seeds),
+            "heldout": clip_mod.specs(clip_mod.DEFAULT_GROUPS, held)}
+    all_specs = [s for specs in sets.values() for s in specs]
+    done = folder.done()
+    jobs = [Job(f"clip-{s.key}", clip_mod.record_clip,
+                {"spec": s, "folder": str(clip_dir), "resolution": args.resolution})
+            for s in all_specs if f"clip-{s.key}" not in done]
+    common = {"workers": args.workers, "ray_address": args.ray,
+              "progress": False if args.no_progress else None}
+    run_jobs(jobs, lambda job, rec: folder.store(job.key, {**rec, "key": job.key[5:]}),
+             desc="recording clips", unit="clip", **common)
+    clip_sets = {name: folder.records([f"clip-{s.key}" for s in specs])
+                 for name, specs in sets.items()}
+    cands = [c for d in args.detectors for c in candidates(d, args.budget, args.seed)]
+    jobs = [Job(c.key, evaluate, {"candidate": c, "folder": str(clip_dir),
+                                  "clip_sets": clip_sets})
+            for c in cands if c.key not in done]
+    run_jobs(jobs, lambda job, rec: folder.store(job.key, rec), desc="candidates",
+             unit="candidate", **common)
+    chosen = [choose(folder.records([c.key for c in cands if c.detector == d]), clip_sets)
+              for d in args.detectors]
+    write_text_atomic(folder.path / "summary.md", _markdown(chosen))
+    _figure(folder.path / "calibration.png", chosen)
+    presets = {
+        "command": args.command_line, "objective": obj.__doc__.strip(),
+        "search_seeds": config["search_seeds"], "heldout_seeds": config["heldout_seeds"],
+        "resolution": args.resolution, "budget": args.budget, "figure": "calibration.png",
+        "presets": {PRESET_NAMES[c["detector"]][0]: {} for c in chosen},
+    }
+    for c in chosen:
+        model, name = PRESET_NAMES[c["detector"]]
+        base = SPACES[c["detector"]][1]
+        presets["presets"][model][name] = {
+            "from": base, "params": {**c["params"], "threshold": c["threshold"]},
+            "search": c["search"], "heldout": c["heldout"]}
+    text = json.dumps(presets, indent=2) + "\n"
+    write_text_atomic(folder.path / "calibrated.json", text)
+    if args.save_presets:
+        from lgmd_sim.models.presets import CALIBRATED
+
+        write_text_atomic(CALIBRATED, text)
+    folder.finish(candidates=len(cands), clips=len(all_specs))
+    print(_markdown(chosen), end="")
+    saved = f"; presets saved to {CALIBRATED}" if args.save_presets else ""
+    print(f"wrote {folder.path}/: summary.md, calibration.png, calibrated.json{saved}")
+    return 0
+
+
+def main(args: argparse.Namespace) -> int:
+    """Check the arguments, then `run`."""
+    from lgmd_sim.bench.cli import parse_names
+
+    args.detectors = parse_names(args.detectors, list(SPACES), "detector(s)")
+    return run(args)

@@ -1,0 +1,108 @@
+"""What the calibration searches: each model's free parameters, sampled with the same
+budget for every model, and the evaluation of one candidate on the recorded clips.
+
+The alarm threshold is free for every model, and costs nothing to search: one run of a
+candidate gives its potentials, and every threshold of `THRESHOLDS` is scored from them.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from lgmd_sim.calibration.clips import label, load_clip
+from lgmd_sim.calibration.objective import hits
+
+__all__ = ["SPACES", "THRESHOLDS", "Candidate", "candidates", "evaluate"]
+
+#: The thresholds every candidate is scored at (potentials lie in [0.5, 1)).
+THRESHOLDS = np.round(np.arange(0.52, 0.995, 0.005), 4)
+
+
+def _log_uniform(lo: float, hi: float) -> Callable[[np.random.Generator], float]:
+    return lambda rng: float(np.exp(rng.uniform(math.log(lo), math.log(hi))))
+
+
+def _feedback(rng: np.random.Generator) -> dict[str, Any]:
+    """The feedback LGMD's free parameters (docs/models.md, choices 2-9), loop closed."""
+    eta1 = _log_uniform(0.5, 200.0)(rng)
+    return {
+        "feedback_gain": _log_uniform(1.0, 1e6)(rng),
+        "rho": _log_uniform(0.01, 10.0)(rng),
+        "eta": (eta1, eta1 * rng.uniform(1.5, 4.0)),
+        "zeta": (rng.uniform(0.2, 1.0), rng.uniform(0.2, 1.0)),
+        "tv_window": int(rng.choice([3, 5, 8, 12])),
+        "k_mode": str(rng.choice(["constant", "potential"])),
+        "mu": _log_uniform(0.3, 10.0)(rng),
+    }
+
+
+def _open_loop(rng: np.random.Generator) -> dict[str, Any]:
+    """The feedback LGMD with its loop open (`FIXED`): only the sigmoid scale is left."""
+    return {"mu": _log_uniform(0.3, 10.0)(rng)}
+
+
+def _scale(rng: np.random.Generator) -> dict[str, Any]:
+    """A baseline's sigmoid coefficient (its threshold is searched as for every model)."""
+    return {"c_sig": _log_uniform(0.1, 100.0)(rng)}
+
+
+#: Parameters every candidate of a detector has, its starting one included.
+FIXED: dict[str, dict[str, Any]] = {"feedback-open-loop": {"feedback_gain": 0.0}}
+#: Per calibrated detector: the model, the preset the candidates start from, and the
+#: sampler of the parameters searched.
+SPACES: dict[str, tuple[str, str, Callable[[np.random.Generator], dict[str, Any]]]] = {
+    "feedback": ("feedback", "paper", _feedback),
+    "feedback-open-loop": ("feedback", "paper", _open_loop),
+    "lgmd1": ("lgmd1", "published", _scale),
+    "lgmd2": ("lgmd2", "published", _scale),
+    "f_on": ("f_on", "published", _scale),
+    "f_off": ("f_off", "published", _scale),
+}
+
+
+@dataclass(frozen=True)
+class Candidate:
+    """One parameter setting of a detector."""
+
+    detector: str  # a key of SPACES
+    index: int  # 0 is the starting preset itself
+    params: Mapping[str, Any]
+
+    @property
+    def key(self) -> str:
+        return f"{self.detector}-{self.index:03d}"
+
+
+def candidates(detector: str, budget: int, seed: int) -> list[Candidate]:
+    """The starting preset and `budget` - 1 samples of the detector's space (seeded)."""
+    _model, _preset, sample = SPACES[detector]
+    fixed = FIXED.get(detector, {})
+    rng = np.random.default_rng([seed, sum(map(ord, detector))])
+    return [Candidate(detector, 0, dict(fixed))] + [
+        Candidate(detector, i, {**fixed, **sample(rng)}) for i in range(1, budget)]
+
+
+def evaluate(candidate: Candidate, folder: str, clip_sets: Mapping[str, Sequence[dict]]
+             ) -> dict[str, Any]:
+    """Run a candidate over every clip; per set, each clip's hits at every threshold (a
+    job). The potentials' peaks go along, for the figures."""
+    from lgmd_sim import models
+
+    name, preset, _ = SPACES[candidate.detector]
+    model = models.make(name, preset=preset, **candidate.params)
+    out: dict[str, Any] = {"detector": candidate.detector, "index": candidate.index,
+                           "params": dict(candidate.params), "sets": {}}
+    for set_name, records in clip_sets.items():
+        potentials = []
+        for rec in records:
+            frames, _truth, _fps = load_clip(folder, rec["key"])
+            model.reset()
+            potentials.append(np.array([model.step(f).potential for f in frames]))
+        hit = hits([label(r) for r in records], potentials, THRESHOLDS)
+        out["sets"][set_name] = np.packbits(hit, axis=1).tolist()  # compact: bits per clip
+    return out

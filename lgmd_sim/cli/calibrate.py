@@ -1,0 +1,50 @@
+"""`lgmd-sim calibrate`: its command-line arguments (the implementation loads when it runs)."""
+
+from __future__ import annotations
+
+import argparse
+
+from lgmd_sim.cli.args import non_negative_int, positive_int, resolution
+
+
+def add(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "calibrate", help="tune every model by the same search on recorded clips; validate "
+        "on held-out seeds; write calibrated presets",
+        description="Record clips (jitter approaches, stationary approaches, near misses) "
+        "with search seeds and held-out seeds; evaluate BUDGET candidate settings of every "
+        "detector (the feedback LGMD, its open-loop control, each baseline) on the search "
+        "clips; choose each detector's best setting and threshold by the declared objective "
+        "(docs/results.md) and report it on the held-out clips. Writes DIR/summary.md, "
+        "DIR/calibration.png and DIR/calibrated.json (the presets, with the command, seeds "
+        "and objective); --save-presets makes them the models' `calibrated` presets.",
+    )
+    p.add_argument("--detectors", default="all",
+                   help="comma-separated among feedback, feedback-open-loop, lgmd1, lgmd2, "
+                   "f_on, f_off, or all (default)")
+    p.add_argument("--budget", type=positive_int, default=32,
+                   help="candidate settings per detector, its starting preset included "
+                   "(default 32, the same for every detector)")
+    p.add_argument("--seeds", type=positive_int, default=8,
+                   help="episode seeds per clip group in each set (default 8)")
+    p.add_argument("--first-seed", type=non_negative_int, default=0,
+                   help="first search seed (default 0)")
+    p.add_argument("--heldout-seed", type=non_negative_int, default=100,
+                   help="first held-out seed (default 100)")
+    p.add_argument("--seed", type=non_negative_int, default=0,
+                   help="seed of the random search (default 0)")
+    p.add_argument("--resolution", type=resolution, default="rl",
+                   help="frame size of the clips: rl (120x160, default: the size of the "
+                   "closed-loop task), paper, small or HxW")
+    p.add_argument("--out", default="calibration", metavar="DIR",
+                   help="output folder (default ./calibration)")
+    p.add_argument("--save-presets", action="store_true",
+                   help="also write the package's calibrated presets (lgmd_sim/models/"
+                   "calibrated.json)")
+    p.add_argument("--resume", action="store_true", help="complete the run in DIR")
+    p.add_argument("--workers", type=positive_int, default=None,
+                   help="local worker processes (default: every core)")
+    p.add_argument("--ray", metavar="ADDRESS", default=None,
+                   help="run the jobs as Ray tasks: 'local', 'auto' or HOST:PORT")
+    p.add_argument("--no-progress", action="store_true", help="hide the progress bars")
+    p.set_defaults(run="lgmd_sim.calibration.run:main")
