@@ -130,6 +130,20 @@ def parse_models(spec: str | Sequence[str]) -> list[str]:
     return list(dict.fromkeys(names))  # drop repeats, keep order
 
 
+def with_preset(names: Sequence[str], preset: str | None) -> dict[str, LGMDModel]:
+    """The models `names`, each at `preset` where it has one (named "model/preset"), else
+    at its default (named "model")."""
+    if preset is not None and not any(preset in models.model_class(n).presets for n in names):
+        raise ValueError(f"none of the models {', '.join(names)} has a preset {preset!r}")
+    built = {}
+    for name in names:
+        if preset is not None and preset in models.model_class(name).presets:
+            built[f"{name}/{preset}"] = models.make(name, preset=preset)
+        else:
+            built[name] = models.make(name)
+    return built
+
+
 def _build(spec: str | Sequence[str] | Mapping[str, LGMDModel]) -> dict[str, LGMDModel]:
     if isinstance(spec, Mapping):
         if not spec:
@@ -331,7 +345,7 @@ def _check_out_folder(out: Path) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """`lgmd-sim detect`: every video in turn; a bad one is reported and skipped (exit 2)."""
-    names = parse_models(args.models)
+    built = with_preset(parse_models(args.models), args.preset)
     noises = noise_lib.parse(args.noise)  # a bad spec fails before any video is read
     out = Path(args.out) if args.out else None if args.json else Path("detect-out")
     if out is not None:
@@ -347,7 +361,7 @@ def run(args: argparse.Namespace) -> int:
             clip = VideoReader(source)
             if clip.frame_count is not None and collision_frame is not None:
                 check_collision_frame(collision_frame, clip.frame_count, video)
-            d = detect(clip, clip.fps, names, collision_frame, name=str(video),
+            d = detect(clip, clip.fps, built, collision_frame, name=str(video),
                        total=clip.frame_count,
                        progress=False if args.no_progress else None,
                        noise=noises, noise_seed=args.noise_seed)

@@ -257,3 +257,13 @@ def test_a_bad_noise_spec_is_one_line_before_any_video_is_read(tmp_path, capfd):
     assert err == ["lgmd-sim detect: error: unknown noise 'gauss'; known: gaussian, "
                    "saltpepper, shake"]
     assert captured.out == "" and not (tmp_path / "o").exists()
+
+
+def test_preset_applies_to_every_model_that_has_it(tmp_path, clip, capsys):
+    video = _write_video(tmp_path / "a.mp4", clip.frames)
+    assert _detect(str(video), "--models", "feedback,lgmd1", "--preset", "paper-text",
+                   "--json") == 0
+    record = json.loads(capsys.readouterr().out)
+    assert list(record["models"]) == ["feedback/paper-text", "lgmd1"]
+    assert _detect(str(video), "--models", "lgmd1", "--preset", "nope", "--json") == 2
+    assert "has a preset 'nope'" in capsys.readouterr().err

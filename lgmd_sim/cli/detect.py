@@ -23,6 +23,10 @@ def add(sub: argparse._SubParsersAction) -> None:
         "(default: all)",
     )
     p.add_argument(
+        "--preset", metavar="NAME",
+        help="run each model at this preset where it has one, e.g. calibrated (see "
+        "`lgmd-sim models`); the others at their default")
+    p.add_argument(
         "--collision-frame", type=non_negative_int, metavar="N",
         help="labelled collision frame (0-based): marked in the figure, and used to score "
         "hit, miss and lead time",
