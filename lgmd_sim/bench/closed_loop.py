@@ -248,11 +248,12 @@ def write_tables(folder: Path, records: Sequence[dict[str, Any]]) -> list[dict[s
     return rows
 
 
-def run(args: argparse.Namespace) -> int:
-    """`lgmd-sim bench closed-loop`."""
+def run(args: argparse.Namespace, extra: Sequence[Cell] = ()) -> int:
+    """`lgmd-sim bench closed-loop`; the `extra` cells (e.g. trained policies', from
+    `lgmd-sim eval`) run beside the planned ones, on the same seeds."""
     from lgmd_sim.bench import figures
 
-    cells = plan(args.scenarios, args.jitter, args.controllers, args.detectors)
+    cells = plan(args.scenarios, args.jitter, args.controllers, args.detectors) + list(extra)
     seeds = list(range(args.first_seed, args.first_seed + args.seeds))
     config = {
         "benchmark": "closed-loop", "scenarios": args.scenarios, "jitter": args.jitter,
@@ -260,6 +261,10 @@ def run(args: argparse.Namespace) -> int:
         "seeds": [seeds[0], len(seeds)], "resolution": args.resolution,
         "cruise": args.cruise, "horizon": args.horizon,
     }
+    if extra:
+        config["extra"] = [{"scenario": c.scenario, "jitter": c.jitter,
+                            "controller": c.controller, "params": dict(c.params), "tag": c.tag}
+                           for c in extra]
     folder = RunFolder(args.out, config, args.resume, args.command_line)
     done = folder.done()
     options = {"resolution": args.resolution, "cruise": args.cruise, "horizon": args.horizon}
