@@ -6,6 +6,12 @@
 >>> m = models.make("feedback")            # the paper's feedback LGMD, preset "paper"
 >>> out = m.step(frame)                     # out.potential in [0.5, 1), out.alarm
 >>> batch = models.make("lgmd2", n_streams=8)   # 8 independent streams, frames (8, H, W)
+>>> m = models.make("lgmd1", preset="published+image")   # with ego-motion compensation
+
+A detector is named "model", "model/preset" or either with front ends appended:
+"lgmd1/published+image", "feedback+imu+gain" (`parse_spec`). A front end is a preset
+suffix that sets the parameters ``stabilize`` ("+pose", "+imu", "+image") and ``gain``
+("+gain"); see `lgmd_sim.models.stabilize`.
 """
 
 from __future__ import annotations
@@ -15,8 +21,17 @@ from typing import Any
 
 from lgmd_sim.models.base import LGMDModel, LGMDOutput, ModelParams
 
-__all__ = ["LGMDModel", "LGMDOutput", "ModelParams", "available", "make", "model_class",
-           "parse_spec"]
+__all__ = ["FRONT_END_SUFFIXES", "LGMDModel", "LGMDOutput", "ModelParams", "available", "make",
+           "model_class", "parse_spec"]
+
+#: Front ends as preset suffixes ("published+image"), in the order a spec lists them, and
+#: the parameters each sets.
+FRONT_END_SUFFIXES: dict[str, dict[str, Any]] = {
+    "pose": {"stabilize": "pose"},
+    "imu": {"stabilize": "imu"},
+    "image": {"stabilize": "image"},
+    "gain": {"gain": True},
+}
 
 # name -> "module:class"; imported on first use so that `available()` stays cheap.
 _REGISTRY: dict[str, str] = {
@@ -59,33 +74,59 @@ def make(
 
     Args:
         name: one of `available()`.
-        preset: a named parameter set of that model (e.g. "paper" for `feedback`).
+        preset: a named parameter set of that model (e.g. "paper" for `feedback`), with
+            optional front-end suffixes (`FRONT_END_SUFFIXES`: "published+image").
         n_streams: None for one stream; N to run N independent streams at once.
         **params: parameter overrides, each checked (see the model's ``Params``).
     """
     cls = model_class(name)
-    preset = next(iter(cls.presets)) if preset is None else preset
-    if preset not in cls.presets:
-        raise ValueError(f"unknown preset {preset!r} for model {name!r}; available: "
-                         f"{', '.join(cls.presets)}")
+    base, fronts = _split_preset(name, preset)
     known = cls.Params.names()
     unknown = sorted(set(params) - known)
     if unknown:
         raise ValueError(f"unknown parameter(s) {', '.join(unknown)} for model {name!r}; "
                          f"valid: {', '.join(sorted(known))}")
-    return cls(cls.Params(**{**cls.presets[preset], **params}), n_streams=n_streams)
+    clash = sorted(set(params) & set(fronts))
+    if clash:
+        raise ValueError(f"preset {preset!r} sets {', '.join(clash)} already")
+    return cls(cls.Params(**{**cls.presets[base], **fronts, **params}), n_streams=n_streams)
 
 
 def parse_spec(token: str) -> tuple[str, str]:
-    """A detector named "model" (its default preset) or "model/preset": (model, preset).
+    """A detector named "model" (its default preset) or "model/preset", either optionally
+    followed by front ends ("+image", "+gain"...): (model, preset), the preset written
+    out in full with its front ends in a fixed order ("lgmd1+gain+image" ->
+    ("lgmd1", "published+image+gain")), ready for ``make(model, preset=preset)``.
 
     Raises:
-        ValueError: unknown model or preset, naming the valid ones.
+        ValueError: unknown model, preset or front end, naming the valid ones.
     """
-    name, _, preset = token.strip().partition("/")
+    head, *suffixes = token.strip().split("+")
+    name, _, preset = head.partition("/")
+    model_class(name)
+    preset = "+".join([preset or next(iter(model_class(name).presets)), *suffixes])
+    _split_preset(name, preset)
+    base, *given = preset.split("+")
+    return name, "+".join([base, *(s for s in FRONT_END_SUFFIXES if s in given)])
+
+
+def _split_preset(name: str, preset: str | None) -> tuple[str, dict[str, Any]]:
+    """A preset with its front-end suffixes: the preset's name and the suffixes'
+    parameters. None is the model's default preset."""
     cls = model_class(name)
-    preset = preset or next(iter(cls.presets))
-    if preset not in cls.presets:
-        raise ValueError(f"unknown preset {preset!r} for model {name!r}; available: "
+    base, *suffixes = (preset or next(iter(cls.presets))).split("+")
+    if base not in cls.presets:
+        raise ValueError(f"unknown preset {base!r} for model {name!r}; available: "
                          f"{', '.join(cls.presets)}")
-    return name, preset
+    unknown = [s for s in suffixes if s not in FRONT_END_SUFFIXES]
+    if unknown:
+        raise ValueError(f"unknown front end(s) {', '.join(map(repr, unknown))}; available: "
+                         f"{', '.join('+' + s for s in FRONT_END_SUFFIXES)}")
+    sources = [s for s in suffixes if "stabilize" in FRONT_END_SUFFIXES[s]]
+    if len(sources) > 1 or len(set(suffixes)) < len(suffixes):
+        raise ValueError(f"preset {preset!r}: at most one of +pose, +imu, +image, and "
+                         "each front end once")
+    params: dict[str, Any] = {}
+    for s in suffixes:
+        params.update(FRONT_END_SUFFIXES[s])
+    return base, params

@@ -8,7 +8,15 @@ identical to N separate streaming models.
 
 Subclasses implement three hooks on a (N, H, W) stack of grey frames (uint8 in 0..255 or
 float32 in 0..255): `_allocate` (state for a new frame size), `_reset_streams` (fresh
-state for some streams) and `_step` (one frame per stream, returning potentials).
+state for some streams) and `_step` (one frame per stream, returning potentials); and,
+for ego-motion compensation, `_state_maps` (the stored maps that move with the camera)
+with the optional `_maps_moved`.
+
+Ego-motion compensation (`lgmd_sim.models.stabilize`): ``step(frame, motion=Motion(H))``
+first warps every stored map into the current camera frame by the homography H between
+the previous frame and this one (`lgmd_sim.models.warp`); a model built with
+``stabilize="image"`` (or "pose" / "imu", given ``step(frame, rotation=...)``) makes H
+itself, and with ``gain=True`` the brightness gain between frames.
 """
 
 from __future__ import annotations
@@ -21,7 +29,11 @@ from typing import Any, ClassVar
 import numpy as np
 
 from lgmd_sim.frames import to_grey
-from lgmd_sim.params import CheckedParams, in_range, param
+from lgmd_sim.models.warp import Motion, Plan, apply_plan, fill_pad_columns, homography_plan
+from lgmd_sim.params import CheckedParams, in_range, one_of, param
+
+#: Values of the ``stabilize`` parameter: where each frame's camera rotation comes from.
+FRONT_ENDS = ("none", "pose", "imu", "image")
 
 # --- parameters -------------------------------------------------------------------------
 
@@ -35,6 +47,28 @@ class ModelParams(CheckedParams):
         "paper Sec. 4.1.3 (Eq. 23): membrane-potential threshold 0.8",
         check=in_range(0.5, 1.0),
         doc="alarm when the membrane potential exceeds this",
+    )
+    stabilize: str = param(
+        "none",
+        "ours (issue 9): none, as in the paper",
+        check=one_of(*FRONT_ENDS),
+        doc="ego-motion compensation: every stored map is warped by the camera's rotation "
+            "between frames before the frame goes in; 'pose' / 'imu': the rotation given "
+            "to step(rotation=...) (the environments' info['pose_rotation'] / "
+            "info['imu_rotation']), 'image': fitted from the frames alone; 'none': off",
+    )
+    fovy: float = param(
+        55.0,
+        "the jitter world's camera (lgmd_sim.world.params, fovy)",
+        check=in_range(1.0, 179.0),
+        doc="vertical field of view (degrees), for the camera intrinsics of 'stabilize'",
+    )
+    gain: bool = param(
+        False,
+        "ours (issue 9): off, as in the paper",
+        check=one_of(True, False),
+        doc="compensate global brightness changes (auto-exposure, shade, flicker): the "
+            "previous frame is scaled by the gain fitted between it and this frame",
     )
 
 
@@ -52,6 +86,26 @@ class LGMDOutput:
     potential: float | np.ndarray
     alarm: bool | np.ndarray
     layers: Mapping[str, np.ndarray] | None = None
+
+
+@dataclass(frozen=True)
+class StateMap:
+    """A stored map of a model's state that moves with the camera (see `_state_maps`).
+
+    Attributes:
+        attr: the model attribute holding it, an array of shape (N, ..., H, W) (or of
+            padded rows, see ``padded``).
+        fill: what pixels the warp uncovers get: "frame", the current frame (for the
+            previous frame, so that P = 0 there; the brightness gain scales it), or
+            "zero".
+        padded: None, or the kernel border rule (`lgmd_sim.models.kernels.BORDERS`) of an
+            array whose rows hold the image at columns 1..W with one padding column each
+            side (and maybe more rows after row H-1): the padding is refilled by that rule.
+    """
+
+    attr: str
+    fill: str = "zero"
+    padded: int | None = None
 
 
 # --- models -----------------------------------------------------------------------------
@@ -84,6 +138,13 @@ class LGMDModel(ABC):
         self.n_streams = n_streams
         self._n = 1 if n_streams is None else int(n_streams)
         self.frame_shape: tuple[int, int] | None = None
+        #: The ego-motion front end (`lgmd_sim.models.stabilize`), None without one.
+        self.front_end = None
+        if self.params.stabilize != "none" or self.params.gain:
+            from lgmd_sim.models.stabilize import FrontEnd
+
+            self.front_end = FrontEnd(self.params, self._n)
+        self._plan: Plan | None = None
 
     @property
     def batched(self) -> bool:
@@ -93,6 +154,8 @@ class LGMDModel(ABC):
         """Start new streams: all of them (the frame size may then change), or those listed."""
         if streams is None:
             self.frame_shape = None
+            if self.front_end is not None:
+                self.front_end.reset(None)
             return
         if not self.batched:
             raise ValueError("reset(streams=...) needs a batched model (n_streams=N)")
@@ -104,10 +167,34 @@ class LGMDModel(ABC):
             raise ValueError(f"stream index out of range 0..{self._n - 1}: {idx.tolist()}")
         if self.frame_shape is not None and idx.size:
             self._reset_streams(idx)
+        if self.front_end is not None and idx.size:
+            self.front_end.reset(idx)
 
-    def step(self, frame: np.ndarray, *, layers: bool = False) -> LGMDOutput:
-        """Feed one frame (one per stream when batched); return potentials and alarms."""
+    def step(self, frame: np.ndarray, *, layers: bool = False, motion: Motion | None = None,
+             rotation: np.ndarray | None = None) -> LGMDOutput:
+        """Feed one frame (one per stream when batched); return potentials and alarms.
+
+        Args:
+            frame: the frame, (H, W) or (H, W, 3); (N, H, W) or (N, H, W, 3) when batched.
+            layers: also return the layer maps (``out.layers``).
+            motion: the camera's motion since the previous frame (`Motion`: homography
+                and brightness gain): every stored map is warped by it first. Only for a
+                model without a front end (``stabilize="none"``, ``gain=False``).
+            rotation: for ``stabilize="pose"`` or ``"imu"``: the camera's rotation since
+                the previous frame, a rotation vector (rad, camera frame: x right, y up,
+                z backwards), (3,) or (N, 3); the environments' ``info["pose_rotation"]``
+                or ``info["imu_rotation"]`` (see `rotation_key`).
+        """
         grey = self._to_grey_stack(frame)
+        if self.front_end is not None:
+            if motion is not None:
+                raise ValueError(f"{self.name}: estimates its own motion (stabilize="
+                                 f"{self.params.stabilize!r}, gain={self.params.gain}); "
+                                 "motion= is for models without a front end")
+            motion = self.front_end.motion(grey, rotation)
+        elif rotation is not None:
+            raise ValueError(f"{self.name}: rotation= needs stabilize='pose' or 'imu'")
+        hs, gains = (None, None) if motion is None else motion.per_stream(self._n)
         shape = (grey.shape[1], grey.shape[2])
         if self.frame_shape is None:
             self.frame_shape = shape
@@ -118,6 +205,8 @@ class LGMDModel(ABC):
                 f"{self.name}: frame size {shape[0]}x{shape[1]} differs from this stream's "
                 f"{self.frame_shape[0]}x{self.frame_shape[1]}; call reset() to start a new stream"
             )
+        elif hs is not None or gains is not None:
+            self._compensate(grey, hs, gains)
         maps = {n: np.empty((self._n, *shape), np.float32) for n in self.layer_names} if (
             layers
         ) else None
@@ -128,7 +217,61 @@ class LGMDModel(ABC):
         one = {k: v[0] for k, v in maps.items()} if maps else None
         return LGMDOutput(float(potential[0]), bool(alarm[0]), one)
 
+    @property
+    def rotation_key(self) -> str | None:
+        """The ``info`` key whose value `step` needs as ``rotation`` each frame
+        ("pose_rotation" or "imu_rotation"), or None: the frames are enough."""
+        return {"pose": "pose_rotation", "imu": "imu_rotation"}.get(self.params.stabilize)
+
+    # -- ego-motion compensation ---------------------------------------------------------
+
+    def _compensate(self, grey: np.ndarray, hs: np.ndarray | None, gains: np.ndarray | None
+                    ) -> None:
+        """Warp every stored map (`_state_maps`) into the current frame by the streams'
+        homographies `hs` (N, 3, 3) and scale the previous frame by their `gains` (N,)."""
+        n, height, width = grey.shape
+        maps = self._state_maps()
+        for m in maps:  # a previous frame holds interpolated grey levels from now on
+            if m.fill == "frame" and getattr(self, m.attr).dtype != np.float32:
+                setattr(self, m.attr, getattr(self, m.attr).astype(np.float32))
+        if self._plan is None or self._plan.uncovered.shape != (height, width):
+            self._plan = Plan(height, width)
+            self._scratch = np.zeros((height + 1, width + 1), np.float32)
+        plan, identity, moved = self._plan, np.eye(3), False
+        for i in range(n):
+            gain = 1.0 if gains is None else float(gains[i])
+            if hs is None or np.array_equal(hs[i], identity):
+                for m in maps:  # no warp: the gain alone (exactly nothing when it is 1)
+                    if m.fill == "frame" and gain != 1.0:
+                        view = getattr(self, m.attr)[i]
+                        view *= np.float32(gain)
+                continue
+            moved = True
+            homography_plan(hs[i], plan)
+            fill = grey[i].astype(np.float32)
+            for m in maps:
+                view = getattr(self, m.attr)[i]
+                if m.padded is not None:
+                    view = view[..., :height, 1:width + 1]
+                for k in np.ndindex(view.shape[:-2]):
+                    apply_plan(plan, view[k], fill if m.fill == "frame" else None,
+                               gain if m.fill == "frame" else 1.0, self._scratch)
+        if moved:
+            for m in maps:
+                if m.padded is not None:
+                    fill_pad_columns(getattr(self, m.attr)[..., :height, :], width, m.padded)
+            self._maps_moved()
+
     # -- hooks -------------------------------------------------------------------------
+
+    def _state_maps(self) -> Sequence[StateMap]:
+        """The stored maps (each an attribute of shape (N, ..., H, W)) that move with the
+        camera, for ego-motion compensation; a model without the list cannot be warped."""
+        raise NotImplementedError(f"{self.name}: {type(self).__name__} lists no state maps, "
+                                  "so it cannot be motion-compensated")
+
+    def _maps_moved(self) -> None:  # noqa: B027  (optional hook)
+        """After `_state_maps` were warped: refresh what is derived from them."""
 
     @abstractmethod
     def _allocate(self, n: int, height: int, width: int) -> None:

@@ -27,7 +27,7 @@ from typing import Any, ClassVar
 import numpy as np
 from numba import njit
 
-from lgmd_sim.models.base import LGMDModel, ModelParams
+from lgmd_sim.models.base import LGMDModel, ModelParams, StateMap
 from lgmd_sim.models.kernels import (
     JIT,
     fill_borders,
@@ -211,6 +211,16 @@ class FeedbackLGMD(LGMDModel):
             state[idx] = 0.0
         self._has_prev[idx] = False
         self._potential_prev[idx] = 0.5
+
+    def _state_maps(self) -> list[StateMap]:
+        return [StateMap("_prev", "frame"), *(StateMap(a) for a in (
+            "_pon_hist", "_poff_hist", "_s_prev", "_ds_hist"))]
+
+    def _maps_moved(self) -> None:
+        # D, the running sum of the |dS| history, summed afresh from the warped history
+        self._d[:] = self._ds_hist[:, 0]
+        for t in range(1, self._ds_hist.shape[1]):
+            self._d += self._ds_hist[:, t]
 
     def _step(self, grey: np.ndarray, layers: dict[str, np.ndarray] | None) -> np.ndarray:
         if grey.dtype != np.uint8 and self._prev.dtype == np.uint8:

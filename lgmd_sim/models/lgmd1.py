@@ -32,7 +32,7 @@ from typing import Any, ClassVar
 import numpy as np
 from numba import njit
 
-from lgmd_sim.models.base import LGMDModel, ModelParams
+from lgmd_sim.models.base import LGMDModel, ModelParams, StateMap
 from lgmd_sim.models.kernels import (
     BORDERS,
     REFLECT,
@@ -401,6 +401,12 @@ class LGMD1(LGMDModel):
         self._mean_abs_p[idx] = 0.0
         self._frame_index[idx] = 0
         self._fresh[idx] = True
+
+    def _state_maps(self) -> list[StateMap]:
+        # E(t-1) = P(t-1) in padded rows; P(t-2) where persistence keeps it
+        maps = [StateMap("_prev", "frame"),
+                StateMap("_e", padded=border_code(self.params.border)[0])]
+        return maps + ([StateMap("_p_older")] if self.params.persistence != "none" else [])
 
     def _step(self, grey: np.ndarray, layers: dict[str, np.ndarray] | None) -> np.ndarray:
         self._prev = take_first_frames(grey, self._prev, self._fresh)

@@ -33,7 +33,7 @@ from typing import Any, ClassVar
 import numpy as np
 from numba import njit
 
-from lgmd_sim.models.base import LGMDModel, ModelParams
+from lgmd_sim.models.base import LGMDModel, ModelParams, StateMap
 from lgmd_sim.models.kernels import fill_borders_as, row_index, staggered_arrays
 from lgmd_sim.models.lgmd1 import (
     _NO_MAP,
@@ -259,6 +259,19 @@ class LGMD2(LGMDModel):
         self._frame_index[idx] = 0
         self._k[idx] = 0.5
         self._adapted[idx] = 0.5
+
+    def _state_maps(self) -> list[StateMap]:
+        maps = [StateMap("_prev", "frame"), StateMap("_on"), StateMap("_off")]
+        if self.params.inhibition_filter == "low-pass":
+            maps.append(StateMap("_lp", padded=self._border))
+        return maps + ([StateMap("_p_hist")] if self.params.persistence != "none" else [])
+
+    def _maps_moved(self) -> None:
+        # ON(t) = [P]+ + carry ON(t-1) takes its mean from ON(t-1)'s: now the warped one's
+        n_cells = self._on[0].size
+        for i in range(self._n):
+            self._m_prev[i, 1] = self._on[i].sum(dtype=np.float64) / n_cells
+            self._m_prev[i, 2] = self._off[i].sum(dtype=np.float64) / n_cells
 
     # -- one frame ---------------------------------------------------------------------
 

@@ -1,0 +1,160 @@
+"""Warping a model's stored maps into the current camera frame (ego-motion compensation).
+
+A per-frame motion estimate is a 3x3 homography H per stream that maps pixel coordinates
+of the previous frame to those of the current one (x_t ~ H x_{t-1}; pixel (x, y) is
+column x, row y, pixel centres at integers). Warping a stored map m gives
+m'(x) = m(H^-1 x), bilinearly interpolated; a pixel whose source lies outside the
+previous frame is *uncovered* and gets a fill value instead (the model decides which:
+the current frame for its previous frame, so that P = 0 there, zero for the rest).
+
+The sampling plan (source cell and weights of every pixel) is computed once per stream
+and frame (`homography_plan`) and applied to every map of that stream (`apply_plan`), so
+that all of a model's maps move exactly alike. Everything is per stream, so a batch is
+warped exactly as separate streams are.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numba import njit
+
+from lgmd_sim.models.kernels import REFLECT, ZERO
+
+__all__ = ["Motion", "Plan", "apply_plan", "fill_pad_columns", "homography_plan"]
+
+#: Options of the warp kernels: fast-math without contraction into fused multiply-adds,
+#: whose rounding would differ between LLVM's vector and scalar paths (see
+#: `lgmd_sim.models.lgmd1.JIT`), so a stream is warped to the same bits in any batch.
+_JIT = {"cache": True, "nogil": True,
+        "fastmath": {"nnan", "ninf", "nsz", "arcp", "afn", "reassoc"}}
+
+
+@dataclass(frozen=True)
+class Motion:
+    """The camera's motion between the previous frame and this one, per stream.
+
+    Attributes:
+        homography: (3, 3), or (N, 3, 3) for a batch: previous -> current pixel
+            coordinates; None for no warp.
+        gain: the brightness of this frame over the previous one's (a number, or (N,)):
+            the previous frame is multiplied by it; None for 1.
+    """
+
+    homography: np.ndarray | None = None
+    gain: float | np.ndarray | None = None
+
+    def per_stream(self, n: int) -> tuple[np.ndarray | None, np.ndarray | None]:
+        """(N, 3, 3) float64 homographies or None, (N,) float64 gains or None; checked."""
+        hs = gains = None
+        if self.homography is not None:
+            h = np.asarray(self.homography, np.float64)
+            if h.shape == (3, 3):
+                h = np.broadcast_to(h, (n, 3, 3))
+            if h.shape != (n, 3, 3) or not np.isfinite(h).all():
+                raise ValueError(f"motion: homography must be finite, of shape (3, 3) or "
+                                 f"({n}, 3, 3), got {np.shape(self.homography)}")
+            hs = h
+        if self.gain is not None:
+            g = np.broadcast_to(np.asarray(self.gain, np.float64), (n,)) if np.ndim(
+                self.gain) == 0 else np.asarray(self.gain, np.float64)
+            if g.shape != (n,) or not (np.isfinite(g).all() and (g > 0).all()):
+                raise ValueError(f"motion: gain must be finite and > 0, a number or {n} of "
+                                 f"them, got {self.gain!r}")
+            gains = g
+        return hs, gains
+
+
+class Plan:
+    """Where each pixel of a (height, width) frame comes from in the previous frame.
+
+    Attributes:
+        offset: (H, W) int32 top-left source cell (y0, x0) of each pixel, as the flat
+            index y0 (W + 1) + x0 into a source with rows of W + 1 (see `apply_plan`).
+        weights: (4, H, W) float32 bilinear weights of the source cells (y0, x0),
+            (y0, x0 + 1), (y0 + 1, x0), (y0 + 1, x0 + 1); all 0 where uncovered.
+        uncovered: (H, W) float32, 1 where the source lies outside the previous frame.
+    """
+
+    __slots__ = ("offset", "uncovered", "weights")
+
+    def __init__(self, height: int, width: int) -> None:
+        self.offset = np.zeros((height, width), np.int32)
+        self.weights = np.zeros((4, height, width), np.float32)
+        self.uncovered = np.zeros((height, width), np.float32)
+
+
+def homography_plan(h: np.ndarray, plan: Plan) -> None:
+    """Fill `plan` for the homography `h` (3x3, previous -> current pixel coordinates)."""
+    _plan(np.linalg.inv(np.asarray(h, np.float64)), plan.offset, plan.weights, plan.uncovered)
+
+
+@njit(**_JIT)
+def _plan(hinv, offset, weights, uncovered):
+    height, width = offset.shape
+    w00, w01, w10, w11 = weights[0], weights[1], weights[2], weights[3]
+    for y in range(height):
+        for x in range(width):
+            den = hinv[2, 0] * x + hinv[2, 1] * y + hinv[2, 2]
+            inv = 1.0 / den if den > 1e-12 else 0.0
+            sx = (hinv[0, 0] * x + hinv[0, 1] * y + hinv[0, 2]) * inv
+            sy = (hinv[1, 0] * x + hinv[1, 1] * y + hinv[1, 2]) * inv
+            ok = den > 1e-12 and 0.0 <= sx <= width - 1 and 0.0 <= sy <= height - 1
+            sx = min(max(sx, 0.0), width - 1.0)  # a safe cell where uncovered
+            sy = min(max(sy, 0.0), height - 1.0)
+            ix = min(int(sx), max(width - 2, 0))
+            iy = min(int(sy), max(height - 2, 0))
+            offset[y, x] = iy * (width + 1) + ix
+            ax = np.float32(sx - ix)
+            ay = np.float32(sy - iy)
+            on = np.float32(1.0) if ok else np.float32(0.0)
+            bx = np.float32(1.0) - ax
+            by = np.float32(1.0) - ay
+            w00[y, x] = on * bx * by
+            w01[y, x] = on * ax * by
+            w10[y, x] = on * bx * ay
+            w11[y, x] = on * ax * ay
+            uncovered[y, x] = np.float32(1.0) - on
+
+
+def apply_plan(plan: Plan, values: np.ndarray, fill: np.ndarray | None, gain: float,
+               scratch: np.ndarray) -> None:
+    """Warp one (H, W) float32 map in place by `plan`, times `gain`; uncovered pixels take
+    `fill` (an (H, W) float32 map) or 0 where `fill` is None. `scratch` is a zeroed
+    (H + 1, W + 1) float32 buffer (its last row and column stay 0: a 1-pixel frame reads
+    them with weight 0)."""
+    height, width = values.shape
+    scratch[:height, :width] = values
+    _apply(plan.offset, plan.weights, plan.uncovered, scratch.reshape(-1), values,
+           np.float32(gain), values if fill is None else fill, fill is not None)
+
+
+@njit(**_JIT)
+def _apply(offset, weights, uncovered, src, dst, gain, fill, use_fill):
+    height, width = dst.shape
+    below = width + 1  # the source's row stride
+    w00, w01, w10, w11 = weights[0], weights[1], weights[2], weights[3]
+    for y in range(height):
+        off, a, b, c, d = offset[y], w00[y], w01[y], w10[y], w11[y]
+        out = dst[y]
+        for x in range(width):
+            k = off[x]
+            out[x] = gain * (a[x] * src[k] + b[x] * src[k + 1] + c[x] * src[k + below]
+                             + d[x] * src[k + below + 1])
+        if use_fill:
+            u, f = uncovered[y], fill[y]
+            for x in range(width):
+                out[x] += u[x] * f[x]
+
+
+def fill_pad_columns(padded: np.ndarray, width: int, border: int) -> None:
+    """Refill the one padding column each side of rows stored at ``padded[..., 1:width+1]``
+    by a kernel border rule (`lgmd_sim.models.kernels.BORDERS`), after their values moved."""
+    if border == ZERO:
+        padded[..., 0] = 0.0
+        padded[..., width + 1] = 0.0
+        return
+    reflect = border == REFLECT and width > 1
+    padded[..., 0] = padded[..., 2 if reflect else 1]
+    padded[..., width + 1] = padded[..., width - 1 if reflect else width]

@@ -1,0 +1,186 @@
+"""Ego-motion compensation: warping a model's state, the front ends, the world's IMU."""
+
+import cv2
+import numpy as np
+import pytest
+
+from lgmd_sim import models, stimuli
+from lgmd_sim.models.stabilize import (
+    ImageRotation,
+    brightness_gain,
+    intrinsics,
+    rotation_homography,
+    rotation_matrix,
+    rotation_vector,
+)
+from lgmd_sim.models.warp import Motion
+
+MODELS = models.available()
+SHAPE = (48, 64)
+#: Model variants whose stored maps differ: persistence, low-pass inhibition, borders.
+VARIANTS = [(n, None) for n in MODELS] + [("lgmd1", "plgmd"), ("lgmd2", "v0.1"),
+                                          ("f_on", "v0.1")]
+
+
+def _turns(n: int, seed: int, degrees: float = 1.0) -> np.ndarray:
+    """n seeded small camera rotations (rotation vectors, rad)."""
+    return np.radians(degrees) * np.random.default_rng(seed).normal(size=(n, 3))
+
+
+def _scene(n_frames: int, shape: tuple[int, int], seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    """A textured scene far away seen by a camera that turns a little each frame: uint8
+    frames (T, H, W) and each frame's turn since the previous one (T, 3; 0 first)."""
+    h, w = shape
+    rng = np.random.default_rng(seed)
+    texture = cv2.GaussianBlur(rng.integers(0, 256, (3 * h, 3 * w)).astype(np.float32),
+                               (0, 0), 2.0)
+    texture = cv2.normalize(texture, None, 0, 255, cv2.NORM_MINMAX)
+    k = intrinsics(55.0, h, w)
+    centre = np.array([[1, 0, -w], [0, 1, -h], [0, 0, 1.0]])  # the texture's middle third
+    turns = np.vstack([np.zeros(3), _turns(n_frames - 1, seed)])
+    pose = np.eye(3)
+    frames = []
+    for r in turns:
+        pose = rotation_homography(r, k) @ pose
+        frames.append(cv2.warpPerspective(texture, pose @ centre, (w, h),
+                                          flags=cv2.INTER_LINEAR))
+    return np.clip(np.stack(frames) + 0.5, 0, 255).astype(np.uint8), turns
+
+
+@pytest.fixture(scope="module")
+def clip() -> np.ndarray:
+    return stimuli.approaching(SHAPE, background="texture", still_frames=2, seed=1).frames[-8:]
+
+
+@pytest.mark.parametrize(("name", "preset"), VARIANTS)
+def test_an_identity_motion_changes_nothing(name, preset, clip):
+    plain, moved = models.make(name, preset=preset), models.make(name, preset=preset)
+    for frame in clip:
+        a = plain.step(frame, layers=True)
+        b = moved.step(frame, layers=True, motion=Motion(np.eye(3), 1.0))
+        assert a.potential == b.potential
+        for key in a.layers:
+            assert np.array_equal(a.layers[key], b.layers[key])
+
+
+@pytest.mark.parametrize(("name", "preset"), VARIANTS)
+def test_a_batch_is_warped_exactly_as_separate_streams(name, preset, clip):
+    n = 3
+    k = intrinsics(55.0, *SHAPE)
+    turns = _turns(len(clip) * n, seed=2, degrees=2.0).reshape(len(clip), n, 3)
+    gains = 1.0 + 0.05 * np.random.default_rng(3).normal(size=(len(clip), n))
+    frames = np.stack([np.roll(clip, 3 * i, axis=2) for i in range(n)], axis=1)
+    batch = models.make(name, preset=preset, n_streams=n)
+    alone = [models.make(name, preset=preset) for _ in range(n)]
+    for t in range(len(clip)):
+        hs = rotation_homography(turns[t], k)
+        out = batch.step(frames[t], layers=True, motion=Motion(hs, gains[t]))
+        for i, m in enumerate(alone):
+            one = m.step(frames[t, i], layers=True, motion=Motion(hs[i], gains[t, i]))
+            assert one.potential == out.potential[i]
+            for key in one.layers:
+                assert np.array_equal(one.layers[key], out.layers[key][i]), (t, i, key)
+
+
+def test_uncovered_pixels_see_no_change(clip):
+    """A camera turned by 4 pixels: the strip it uncovers has P = 0 (its previous frame is
+    the current one), the rest is the previous frame moved."""
+    m = models.make("lgmd1")
+    m.step(clip[0])
+    shift = np.array([[1.0, 0, 4], [0, 1, 0], [0, 0, 1]])  # content moves 4 px right
+    out = m.step(clip[1], layers=True, motion=Motion(shift))
+    p = out.layers["P"]
+    assert np.all(p[:, :4] == 0)
+    expect = clip[1][:, 4:].astype(np.float32) - clip[0][:, :-4]
+    assert np.allclose(p[:, 4:], expect, atol=1e-3)
+
+
+@pytest.mark.parametrize("name", MODELS)
+def test_the_camera_rotation_removed_leaves_a_still_scene_nearly_still(name):
+    frames, turns = _scene(6, (72, 96))
+    plain = models.make(name)
+    pose = models.make(name, stabilize="pose")
+    for f, r in zip(frames, turns, strict=True):
+        a, b = plain.step(f, layers=True), pose.step(f, layers=True, rotation=r)
+    assert np.abs(b.layers["P"]).mean() < 0.2 * np.abs(a.layers["P"]).mean()
+
+
+def test_image_fit_finds_the_rotation():
+    frames, turns = _scene(8, (135, 240), seed=4)
+    fit = ImageRotation(55.0)
+    flip = np.diag([1.0, -1.0, -1.0])
+    for f, r in zip(frames, turns, strict=True):
+        rot, inliers = fit.update(f)
+        found = rotation_vector((flip @ rot @ flip).T)  # back to MuJoCo's camera frame
+        assert np.degrees(np.linalg.norm(found - r)) < 0.05
+    assert inliers >= 20
+
+
+def test_image_front_end_matches_the_given_rotation():
+    frames, turns = _scene(6, (135, 240), seed=5)
+    pose = models.make("lgmd1", preset="published+pose")
+    image = models.make("lgmd1", preset="published+image")
+    plain = models.make("lgmd1")
+    for f, r in zip(frames, turns, strict=True):
+        a = pose.step(f, layers=True, rotation=r)
+        b = image.step(f, layers=True)
+        c = plain.step(f, layers=True)
+    err = np.abs(a.layers["P"] - b.layers["P"]).mean()
+    assert err < 0.1 * np.abs(c.layers["P"]).mean()
+    assert image.front_end.inliers[0] >= 20
+
+
+def test_brightness_gain_is_found_and_removed():
+    frames, _ = _scene(2, (72, 96))
+    darker = np.clip(frames[1] * 0.8 + 0.5, 0, 255).astype(np.uint8)
+    assert brightness_gain(frames[1], darker, None) == pytest.approx(0.8, abs=0.01)
+    plain, gain = models.make("lgmd1"), models.make("lgmd1", gain=True)
+    for f in (frames[1], darker):
+        a, b = plain.step(f, layers=True), gain.step(f, layers=True)
+    assert np.abs(b.layers["P"]).mean() < 0.1 * np.abs(a.layers["P"]).mean()
+
+
+def test_rotations_round_trip():
+    r = _turns(5, 6, degrees=20.0)
+    assert np.allclose([rotation_vector(m) for m in rotation_matrix(r)], r, atol=1e-12)
+    assert np.allclose(rotation_homography(np.zeros(3), intrinsics(55, 10, 20)), np.eye(3))
+
+
+def test_specs_name_front_ends():
+    assert models.parse_spec("lgmd1+gain+image") == ("lgmd1", "published+image+gain")
+    assert models.parse_spec("feedback/paper+imu") == ("feedback", "paper+imu")
+    m = models.make("lgmd2", preset="v0.1+pose", n_streams=2)
+    assert (m.params.stabilize, m.params.inhibition_filter, m.rotation_key) == (
+        "pose", "low-pass", "pose_rotation")
+    for bad, match in [("lgmd1+zoom", "'zoom'"), ("lgmd1+image+imu", "at most one"),
+                       ("lgmd1/none+image", "unknown preset")]:
+        with pytest.raises(ValueError, match=match):
+            models.parse_spec(bad)
+    with pytest.raises(ValueError, match="sets stabilize already"):
+        models.make("lgmd1", preset="published+image", stabilize="imu")
+
+
+def test_misused_motion_inputs_are_named(clip):
+    with pytest.raises(ValueError, match=r"rotation=info\['imu_rotation'\]"):
+        models.make("lgmd1", stabilize="imu").step(clip[0])
+    with pytest.raises(ValueError, match="needs stabilize='pose' or 'imu'"):
+        models.make("lgmd1").step(clip[0], rotation=np.zeros(3))
+    with pytest.raises(ValueError, match="estimates its own motion"):
+        models.make("lgmd1", stabilize="image").step(clip[0], motion=Motion(np.eye(3)))
+    with pytest.raises(ValueError, match="shape"):
+        models.make("lgmd1", stabilize="pose", n_streams=2).step(
+            np.stack([clip[0]] * 2), rotation=np.zeros(3))
+    with pytest.raises(ValueError, match="homography"):
+        models.make("lgmd1").step(clip[0], motion=Motion(np.eye(2)))
+
+
+def test_a_reset_stream_forgets_its_previous_frame(clip):
+    """After reset(streams), a stream's front end starts again: it matches a new model."""
+    batch = models.make("feedback", stabilize="image", gain=True, n_streams=2)
+    for f in clip[:4]:
+        batch.step(np.stack([f, f]))
+    batch.reset(streams=[1])
+    fresh = models.make("feedback", stabilize="image", gain=True)
+    for f in clip[4:]:
+        out = batch.step(np.stack([f, f]))
+        assert out.potential[1] == fresh.step(f).potential
