@@ -7,6 +7,11 @@ Packages:
     lgmd_sim.world       the MuJoCo jitter world: terrain, robot, camera carriers, obstacles
     lgmd_sim.envs        Gymnasium environments, the scenario catalogue and wrappers
     lgmd_sim.controllers what drives the camera's carrier; the episode loop
+    lgmd_sim.bench       the model benchmark (`lgmd-sim bench closed-loop|open-loop`)
+    lgmd_sim.calibration `lgmd-sim calibrate`: the same search for every model
+    lgmd_sim.data        labelled datasets: generate, verify, load
+    lgmd_sim.noise       the paper's Gaussian and salt-and-pepper noise, extra shake
+    lgmd_sim.parallel    independent jobs on a local pool or on Ray
     lgmd_sim.speed       speed benchmarks (`lgmd-sim speed`)
     lgmd_sim.cli         the `lgmd-sim` command
 

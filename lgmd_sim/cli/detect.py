@@ -16,7 +16,9 @@ def add(sub: argparse._SubParsersAction) -> None:
         "per-frame CSV (membrane potential and alarm of each model, SSIM with the previous "
         "frame), a summary JSON and a PNG figure in the paper's style.",
     )
-    p.add_argument("videos", nargs="+", metavar="VIDEO", help="video file or image folder")
+    p.add_argument("videos", nargs="+", metavar="VIDEO",
+                   help="video file, image folder, or a dataset folder (DIR:N for its "
+                   "episode N)")
     p.add_argument(
         "--models", default="all",
         help="'all' or a comma-separated list of: feedback, lgmd1, lgmd2, f_on, f_off "
