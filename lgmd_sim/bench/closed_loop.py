@@ -18,8 +18,6 @@ ground truth's at the first onset.
 from __future__ import annotations
 
 import argparse
-import csv
-import io
 import math
 import statistics
 from collections import defaultdict
@@ -31,7 +29,7 @@ from typing import Any
 import numpy as np
 
 from lgmd_sim import metrics
-from lgmd_sim.bench.runs import RunFolder
+from lgmd_sim.bench.runs import RunFolder, csv_text
 from lgmd_sim.fileio import write_text_atomic
 from lgmd_sim.parallel import Job, run_jobs
 
@@ -195,15 +193,6 @@ _EPISODE_COLUMNS = ["scenario", "jitter", "controller", "model", "preset", "tag"
                     "first_alarm_ttc_s", "lead_time_s", "min_clearance_m"]
 
 
-def _csv(rows: Sequence[dict[str, Any]], columns: Sequence[str]) -> str:
-    out = io.StringIO()
-    writer = csv.writer(out)
-    writer.writerow(columns)
-    for r in rows:
-        writer.writerow(["" if r.get(c) is None else r[c] for c in columns])
-    return out.getvalue()
-
-
 def _fmt(x: float | None, digits: int = 2) -> str:
     return "-" if x is None else f"{x:.{digits}f}"
 
@@ -242,8 +231,8 @@ def write_tables(folder: Path, records: Sequence[dict[str, Any]]) -> list[dict[s
                "success_ci_low", "success_ci_high", "false_alarms_per_min",
                "median_first_alarm_ttc_s", "median_lead_time_s", "mean_progress",
                "mean_time_s"]
-    write_text_atomic(folder / "episodes.csv", _csv(records, _EPISODE_COLUMNS))
-    write_text_atomic(folder / "summary.csv", _csv(flat, columns))
+    write_text_atomic(folder / "episodes.csv", csv_text(records, _EPISODE_COLUMNS))
+    write_text_atomic(folder / "summary.csv", csv_text(flat, columns))
     write_text_atomic(folder / "summary.md", summary_markdown(rows))
     return rows
 

@@ -25,7 +25,7 @@ from typing import Any
 import numpy as np
 
 from lgmd_sim import metrics
-from lgmd_sim.bench.runs import RunFolder
+from lgmd_sim.bench.runs import RunFolder, csv_text
 from lgmd_sim.fileio import write_files, write_text_atomic
 from lgmd_sim.parallel import Job, run_jobs
 
@@ -213,8 +213,6 @@ def summary_markdown(rows: Sequence[dict[str, Any]], noise: bool = False) -> str
 def run(args: argparse.Namespace) -> int:
     """`lgmd-sim bench open-loop`."""
     from lgmd_sim.bench import figures
-    from lgmd_sim.bench.closed_loop import _csv
-
     clips: list[Clip] = args.clips
     noises = [f"{kind}:{level:g}" for kind in NOISE_KINDS for level in args.noise_levels]
     config = {
@@ -239,7 +237,7 @@ def run(args: argparse.Namespace) -> int:
              desc="open-loop", unit="clip")
     records = folder.records([c.key for c in clips])
     rows = summarise(records)
-    write_text_atomic(folder.path / "summary.csv", _csv(rows, _COLUMNS))
+    write_text_atomic(folder.path / "summary.csv", csv_text(rows, _COLUMNS))
     write_text_atomic(folder.path / "summary.md", summary_markdown(rows))
     if noises:
         write_text_atomic(folder.path / "noise.md", summary_markdown(rows, noise=True))

@@ -14,18 +14,20 @@ is refused with one line naming the difference.
 
 from __future__ import annotations
 
+import csv
+import io
 import json
 import os
 import platform
 import time
-from collections.abc import Iterable, Mapping
+from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
 from lgmd_sim import __version__
 from lgmd_sim.fileio import write_text_atomic
 
-__all__ = ["RunFolder", "machine"]
+__all__ = ["RunFolder", "csv_text", "machine"]
 
 
 def machine() -> dict[str, Any]:
@@ -34,6 +36,16 @@ def machine() -> dict[str, Any]:
 
     return {"cpu": cpu_name(), "cores": os.cpu_count(), "python": platform.python_version(),
             "platform": platform.platform()}
+
+
+def csv_text(rows: Sequence[Mapping[str, Any]], columns: Sequence[str]) -> str:
+    """Rows as CSV with the given columns; None becomes an empty cell."""
+    out = io.StringIO()
+    writer = csv.writer(out)
+    writer.writerow(columns)
+    for r in rows:
+        writer.writerow(["" if r.get(c) is None else r[c] for c in columns])
+    return out.getvalue()
 
 
 def _difference(old: Mapping[str, Any], new: Mapping[str, Any]) -> str:
