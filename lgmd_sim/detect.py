@@ -30,8 +30,8 @@ from lgmd_sim.frames import to_grey
 from lgmd_sim.models.base import LGMDModel
 from lgmd_sim.video import VideoReader
 
-__all__ = ["Detection", "ModelTrace", "detect", "detect_video", "output_names", "parse_models",
-           "run", "write_outputs"]
+__all__ = ["Detection", "ModelTrace", "detect", "detect_video", "front_end_params",
+           "output_names", "parse_models", "run", "with_preset", "write_outputs"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -45,6 +45,8 @@ class ModelTrace:
         sensitivity: SI (Eq. 23) with its never-crossed flag.
         mpsi: MpSI (Eq. 22).
         event: hit / miss against the labelled collision frame, None when unlabelled.
+        front_end: the model's ego-motion compensation ("image", "gain", "image+gain"...,
+            see `lgmd_sim.models.stabilize`) and the field of view it assumed, or None.
     """
 
     threshold: float
@@ -53,6 +55,7 @@ class ModelTrace:
     sensitivity: metrics.Sensitivity
     mpsi: float
     event: metrics.EventResult | None
+    front_end: tuple[str, float] | None = None
 
     @property
     def first_alarm(self) -> int | None:
@@ -67,6 +70,8 @@ class ModelTrace:
             "mpsi": self.mpsi,
             "peak_potential": float(self.potential.max()),
             "threshold": self.threshold,
+            "stabilize": None if self.front_end is None else self.front_end[0],
+            "fovy": None if self.front_end is None else self.front_end[1],
         }
         if self.event is not None:
             ev = self.event
@@ -130,18 +135,46 @@ def parse_models(spec: str | Sequence[str]) -> list[str]:
     return list(dict.fromkeys(names))  # drop repeats, keep order
 
 
-def with_preset(names: Sequence[str], preset: str | None) -> dict[str, LGMDModel]:
+def with_preset(names: Sequence[str], preset: str | None, **front: Any
+                ) -> dict[str, LGMDModel]:
     """The models `names`, each at `preset` where it has one (named "model/preset"), else
-    at its default (named "model")."""
+    at its default (named "model"); ``front`` (`front_end_params`) gives each the same
+    ego-motion compensation."""
     if preset is not None and not any(preset in models.model_class(n).presets for n in names):
         raise ValueError(f"none of the models {', '.join(names)} has a preset {preset!r}")
     built = {}
     for name in names:
         if preset is not None and preset in models.model_class(name).presets:
-            built[f"{name}/{preset}"] = models.make(name, preset=preset)
+            built[f"{name}/{preset}"] = models.make(name, preset=preset, **front)
         else:
-            built[name] = models.make(name)
+            built[name] = models.make(name, **front)
     return built
+
+
+#: The front ends a video can have: its frames are all there is (no pose, no IMU).
+VIDEO_FRONT_ENDS = ("image", "gain")
+
+
+def front_end_params(stabilize: str | None, fovy: float) -> dict[str, Any]:
+    """Model parameters of front ends for videos, "+"-separated: "image" (the camera's
+    rotation between frames, fitted from the frames, with the vertical field of view
+    `fovy` in degrees), "gain" (the brightness gain between frames) or "image+gain";
+    None or "none": {} (none)."""
+    if stabilize is None or stabilize == "none":
+        return {}
+    given = stabilize.split("+")
+    if any(f not in VIDEO_FRONT_ENDS for f in given) or len(set(given)) < len(given):
+        raise ValueError(f"--stabilize {stabilize!r}: give image, gain or image+gain (a video "
+                         "has no pose or IMU to take the rotation from)")
+    return {"stabilize": "image" if "image" in given else "none", "gain": "gain" in given,
+            "fovy": fovy}
+
+
+def _front_end(model: LGMDModel) -> tuple[str, float] | None:
+    """A model's front ends as a spec suffix ("image+gain") and its field of view."""
+    p = model.params
+    parts = [p.stabilize] * (p.stabilize != "none") + ["gain"] * bool(p.gain)
+    return ("+".join(parts), float(p.fovy)) if parts else None
 
 
 def _build(spec: str | Sequence[str] | Mapping[str, LGMDModel]) -> dict[str, LGMDModel]:
@@ -231,7 +264,7 @@ def detect(
             alarm, collision_frame, fps, window_s=window_s
         )
         traces[n] = ModelTrace(threshold, mp, alarm, metrics.sensitivity_index(mp, threshold),
-                               metrics.mpsi(mp), event)
+                               metrics.mpsi(mp), event, _front_end(model))
     ssim = np.asarray(ssims)
     return Detection(name, n_frames, float(fps), ssim, float(ssim[1:].mean()),
                      collision_frame, traces, ",".join(map(str, noises)) or None,
@@ -345,7 +378,8 @@ def _check_out_folder(out: Path) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """`lgmd-sim detect`: every video in turn; a bad one is reported and skipped (exit 2)."""
-    built = with_preset(parse_models(args.models), args.preset)
+    built = with_preset(parse_models(args.models), args.preset,
+                        **front_end_params(args.stabilize, args.fov))
     noises = noise_lib.parse(args.noise)  # a bad spec fails before any video is read
     out = Path(args.out) if args.out else None if args.json else Path("detect-out")
     if out is not None:

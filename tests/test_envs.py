@@ -64,7 +64,7 @@ def test_observation_action_and_metadata():
     assert env.metadata["render_modes"] == ["rgb_array"] and env.metadata["render_fps"] == 30
     obs, info = env.reset(seed=0)
     assert obs["frame"].shape == (64, 64, 1) and obs["frame"].dtype == np.uint8
-    assert obs["proprio"].shape == (8,) and obs["proprio"].dtype == np.float32
+    assert obs["proprio"].shape == (11,) and obs["proprio"].dtype == np.float32
     assert obs["goal"].shape == (3,) and obs["goal"][0] == pytest.approx(
         info["goal_distance"], rel=1e-5)
     assert env.observation_space.contains(obs)

@@ -1,5 +1,7 @@
 """Ego-motion compensation: warping a model's state, the front ends, the world's IMU."""
 
+import itertools
+
 import cv2
 import numpy as np
 import pytest
@@ -184,3 +186,154 @@ def test_a_reset_stream_forgets_its_previous_frame(clip):
     for f in clip[4:]:
         out = batch.step(np.stack([f, f]))
         assert out.potential[1] == fresh.step(f).potential
+
+
+# --- the world's IMU -----------------------------------------------------------------------
+
+
+def _episode(steps: int, **overrides):
+    import gymnasium as gym
+
+    import lgmd_sim  # noqa: F401  (registers the scenarios)
+
+    env = gym.make("lgmd_sim/HandheldApproach-v0", resolution=(72, 96), **overrides)
+    try:
+        obs, info = env.reset(seed=3)
+        out = [(obs, info)]
+        for _ in range(steps):
+            obs, _r, _te, _tr, info = env.step([1.0, 0.0])
+            out.append((obs, info))
+    finally:
+        env.close()
+    return out
+
+
+@pytest.fixture(scope="module")
+def episode():
+    return _episode(6)
+
+
+def test_the_imu_integrates_the_camera_rotation(episode):
+    first = episode[0][1]
+    assert np.array_equal(first["pose_rotation"], np.zeros(3))
+    assert np.array_equal(first["imu_rotation"], np.zeros(3))
+    for obs, info in episode[1:]:
+        assert np.linalg.norm(info["pose_rotation"]) > 1e-4  # the hand shakes
+        assert np.allclose(info["imu_rotation"], info["pose_rotation"], atol=1e-9)
+        assert np.array_equal(obs["proprio"][8:], info["imu_rotation"].astype(np.float32))
+
+
+def test_the_pose_rotation_aligns_consecutive_frames(episode):
+    """Frame t-1 warped by the homography of the camera's turn matches frame t better (and
+    better than by the opposite turn)."""
+    k = intrinsics(55.0, 72, 96)
+    error = np.zeros(3)  # unwarped, warped, warped by the opposite turn
+    for (prev, _), (obs, info) in itertools.pairwise(episode[1:]):
+        a = cv2.cvtColor(prev["frame"], cv2.COLOR_RGB2GRAY).astype(np.float32)
+        b = cv2.cvtColor(obs["frame"], cv2.COLOR_RGB2GRAY).astype(np.float32)
+        for i, turn in enumerate([None, info["pose_rotation"], -info["pose_rotation"]]):
+            seen = a if turn is None else cv2.warpPerspective(
+                a, rotation_homography(turn, k), (96, 72))
+            error[i] += np.abs(b - seen)[8:-8, 8:-8].mean()
+    assert error[1] < 0.7 * min(error[0], error[2])
+
+
+def test_gyro_noise_and_bias_are_seeded_and_touch_only_the_imu(episode):
+    noisy = _episode(6, gyro_noise=0.014, gyro_bias=1.0)
+    again = _episode(6, gyro_noise=0.014, gyro_bias=1.0)
+    for (obs, info), (nobs, ninfo), (_aobs, ainfo) in zip(episode, noisy, again, strict=True):
+        assert np.array_equal(obs["frame"], nobs["frame"])
+        assert np.array_equal(info["pose_rotation"], ninfo["pose_rotation"])
+        assert np.array_equal(ninfo["imu_rotation"], ainfo["imu_rotation"])
+    error = np.degrees(np.linalg.norm(noisy[-1][1]["imu_rotation"]
+                                      - noisy[-1][1]["pose_rotation"]))
+    assert 1e-4 < error < 0.5  # about 1 deg/s of bias over a 1/30 s frame
+
+
+# --- the wrappers ----------------------------------------------------------------------------
+
+#: a model fed the IMU's rotation from info and one fitting it from the frames
+STABILIZED = {"model": ["lgmd1", "feedback"], "preset": None, "history": 2, "grid": (1, 2),
+              "stabilize": "imu", "gain": True}
+
+
+@pytest.mark.parametrize("mode", ["next", "same", "sb3"])
+def test_wrappers_feed_the_rotation_from_info(mode):
+    """Batched wrappers equal separately wrapped environments with an IMU-fed model."""
+    from gymnasium.vector import AutoresetMode, SyncVectorEnv
+    from test_wrappers import LIMITS, assert_same, make
+
+    from lgmd_sim.envs.wrappers import LGMDObservation, LGMDVectorObservation
+
+    if mode == "sb3":
+        from stable_baselines3.common.vec_env import DummyVecEnv
+
+        from lgmd_sim.envs.wrappers import VecLGMDObservation
+
+        def run(venv):
+            venv.seed(5)
+            out = [venv.reset()]
+            for _ in range(14):
+                venv.step_async(np.zeros((3, 2), np.float32))
+                obs, _rewards, dones, infos = venv.step_wait()
+                out.append((obs, dones, [i.get("terminal_observation") for i in infos]))
+            venv.close()
+            return out
+
+        separate = DummyVecEnv([lambda t=t: LGMDObservation(make(t), **STABILIZED)
+                                for t in LIMITS])
+        batched = VecLGMDObservation(DummyVecEnv([lambda t=t: make(t) for t in LIMITS]),
+                                     **STABILIZED)
+    else:
+        auto = AutoresetMode.NEXT_STEP if mode == "next" else AutoresetMode.SAME_STEP
+
+        def run(envs):
+            out = [envs.reset(seed=5)[0]]
+            for _ in range(14):
+                obs, _r, _te, _tr, info = envs.step(np.zeros((3, 2), np.float32))
+                out.append((obs, info.get("final_obs")))
+            envs.close()
+            return out
+
+        separate = SyncVectorEnv([lambda t=t: LGMDObservation(make(t), **STABILIZED)
+                                  for t in LIMITS], autoreset_mode=auto)
+        batched = LGMDVectorObservation(SyncVectorEnv([lambda t=t: make(t) for t in LIMITS],
+                                                      autoreset_mode=auto), **STABILIZED)
+    assert batched.features.rotation_keys == ["imu_rotation"]
+    assert_same(run(batched), run(separate))
+
+
+def test_the_wrapper_needs_the_info_it_names():
+    from lgmd_sim.envs.wrappers import LGMDFeatures
+
+    features = LGMDFeatures(1, "lgmd1", preset="published+pose", grid=None)
+    with pytest.raises(ValueError, match="pose_rotation from each step's info"):
+        features.step(np.zeros((1, 16, 16, 3), np.uint8), np.array([True]))
+
+
+# --- lgmd-sim detect --stabilize ---------------------------------------------------------------
+
+
+def test_detect_stabilize_image_equals_the_compensated_models(tmp_path, capfd):
+    import json
+
+    from test_detect import _detect, _write_folder
+
+    from lgmd_sim.detect import detect
+    from lgmd_sim.video import VideoReader
+
+    frames, _ = _scene(6, (72, 96), seed=7)
+    folder = _write_folder(tmp_path / "shots", frames)
+    assert _detect(str(folder), "--json", "--models", "lgmd1,lgmd2", "--stabilize",
+                   "gain+image", "--fov", "55") == 0
+    record = json.loads(capfd.readouterr().out)
+    expected = detect(VideoReader(folder), 30.0, {
+        "lgmd1": models.make("lgmd1", preset="published+image+gain"),
+        "lgmd2": models.make("lgmd2", preset="published+image+gain")})
+    for name in ("lgmd1", "lgmd2"):
+        got = record["models"][name]
+        assert (got["stabilize"], got["fovy"]) == ("image+gain", 55.0)
+        np.testing.assert_allclose(got["membrane_potential"],
+                                   expected.models[name].potential, atol=1e-6)
+    assert _detect(str(folder), "--stabilize", "pose", "--out", str(tmp_path / "o")) == 2
+    assert "a video has no pose or IMU" in capfd.readouterr().err

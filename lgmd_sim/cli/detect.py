@@ -7,6 +7,17 @@ import argparse
 from lgmd_sim.cli.args import non_negative_int
 
 
+def fov_degrees(text: str) -> float:
+    """A vertical field of view in degrees, 1 to 179."""
+    try:
+        value = float(text)
+    except ValueError:
+        value = float("nan")
+    if not 1.0 <= value <= 179.0:
+        raise argparse.ArgumentTypeError(f"must be a number of degrees in [1, 179], got {text!r}")
+    return value
+
+
 def add(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "detect",
@@ -51,5 +62,14 @@ def add(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--noise-seed", type=non_negative_int, default=0, metavar="N",
                    help="seed of --noise (default: 0); frame t's noise depends only on the "
                    "seed, SPEC and t")
+    p.add_argument("--stabilize", default="none", metavar="FRONT",
+                   help="ego-motion compensation before every model: 'image' removes the "
+                   "camera's rotation between frames, fitted from the frames alone (it needs "
+                   "the camera's field of view, --fov); 'gain' removes brightness changes "
+                   "between frames; 'image+gain' both (default: none). Recorded per model in "
+                   "the JSON summary")
+    p.add_argument("--fov", type=fov_degrees, default=55.0, metavar="DEG",
+                   help="the camera's vertical field of view in degrees, for --stabilize "
+                   "image (default: 55, the simulator's camera)")
     p.add_argument("--no-progress", action="store_true", help="hide the progress bar")
     p.set_defaults(run="lgmd_sim.detect:run")

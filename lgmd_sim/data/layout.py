@@ -88,7 +88,8 @@ VECTOR_NAMES: dict[str, list[str]] = {
     "camera_angvel": ["x", "y", "z"],
     "camera_linvel": ["x", "y", "z"],
     "observation.state": ["wheel_left", "wheel_right", "gyro_x", "gyro_y", "gyro_z",
-                          "accel_x", "accel_y", "accel_z"],
+                          "accel_x", "accel_y", "accel_z", "imu_rotation_x",
+                          "imu_rotation_y", "imu_rotation_z"],
     "observation.goal": ["distance", "sin_bearing", "cos_bearing"],
     "action": ["v", "omega"],
 }
@@ -119,8 +120,8 @@ COLUMNS: list[tuple[str, str, str]] = [
     ("goal_distance", "float64", "distance to the goal (m; NaN without a goal)"),
     ("goal_bearing", "float64", "bearing of the goal (rad; NaN without a goal)"),
     ("goal_reached", "bool", "the goal is reached on this frame"),
-    ("observation.state", "float32[8]", "proprioception: wheel speeds (rad/s), gyro "
-     "(rad/s), accelerometer (m/s^2)"),
+    ("observation.state", "float32[11]", "proprioception: wheel speeds (rad/s), gyro "
+     "(rad/s), accelerometer (m/s^2), the IMU's camera rotation since the last frame (rad)"),
     ("observation.goal", "float32[3]", "goal observation (NaN without a goal)"),
     ("action", "float32[2]", "the controller's action (v, omega) on seeing this frame "
      "(NaN on the last frame)"),

@@ -10,7 +10,7 @@ from gymnasium import spaces
 
 from lgmd_sim.envs.catalogue import params_for
 from lgmd_sim.envs.params import EnvParams
-from lgmd_sim.world.core import ACCEL_RANGE, GYRO_RANGE, WHEEL_RANGE, JitterWorld
+from lgmd_sim.world.core import PROPRIO_RANGE, JitterWorld
 
 #: Observation bound of the goal distance (m).
 GOAL_RANGE = 1000.0
@@ -22,10 +22,12 @@ class JitterEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
     One step is one camera frame (1/fps s of physics).
 
     - Observation: a Dict of ``frame`` (uint8 (H, W, 3) RGB or (H, W, 1) grey),
-      ``proprio`` (float32: left and right wheel speeds in rad/s, 0 for carriers without
-      wheels; IMU angular velocity in rad/s and specific force in m/s^2, in the carrier's
-      frame) and, when the scenario has a goal, ``goal`` (float32: distance in m, sine and
-      cosine of its bearing from the camera's heading, positive to the left).
+      ``proprio`` (float32 (11,): left and right wheel speeds in rad/s, 0 for carriers
+      without wheels; IMU angular velocity in rad/s and specific force in m/s^2, in the
+      carrier's frame; the IMU's rotation of the camera over the last frame interval,
+      ``info["imu_rotation"]``) and, when the scenario has a goal, ``goal`` (float32:
+      distance in m, sine and cosine of its bearing from the camera's heading, positive
+      to the left).
     - Action: Box [-1, 1]^2, scaled to (linear velocity, angular velocity) by
       ``max_speed`` and ``max_turn``; values outside are clipped; NaN or infinite values
       raise ValueError. A tripod ignores the action.
@@ -36,7 +38,11 @@ class JitterEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
       truncated after ``time_limit * fps`` steps.
     - ``info``: the ground truth of the frame (see `JitterWorld`): time, frame_index, carrier
       and camera pose, camera angular and linear velocity (camera frame: x right, y up,
-      z backwards), the most threatening obstacle's index, distance, bearing, closing
+      z backwards), the camera's rotation since the previous frame (rotation vectors in
+      the previous camera frame, rad; zero on the reset frame) from its poses,
+      ``pose_rotation``, and from its IMU, ``imu_rotation`` (the camera's angular velocity
+      integrated over the frame's physics steps, with ``gyro_noise`` and ``gyro_bias``),
+      the most threatening obstacle's index, distance, bearing, closing
       speed and time to collision, collision flag and first collision frame, SSIM with
       the previous frame, goal distance and bearing, ``goal_reached`` and its alias
       ``is_success`` (the key stable-baselines3 logs as the success rate).
@@ -63,11 +69,8 @@ class JitterEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         channels = 3 if self.params.frame == "rgb" else 1
         obs: dict[str, spaces.Space] = {
             "frame": spaces.Box(0, 255, (h, w, channels), np.uint8),
-            "proprio": spaces.Box(
-                np.array([-WHEEL_RANGE] * 2 + [-GYRO_RANGE] * 3 + [-ACCEL_RANGE] * 3,
-                         np.float32),
-                np.array([WHEEL_RANGE] * 2 + [GYRO_RANGE] * 3 + [ACCEL_RANGE] * 3,
-                         np.float32), dtype=np.float32),
+            "proprio": spaces.Box(-PROPRIO_RANGE.astype(np.float32),
+                                  PROPRIO_RANGE.astype(np.float32), dtype=np.float32),
         }
         self._has_goal = self.params.goal_distance > 0
         if self._has_goal:

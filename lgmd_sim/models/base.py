@@ -194,7 +194,8 @@ class LGMDModel(ABC):
             motion = self.front_end.motion(grey, rotation)
         elif rotation is not None:
             raise ValueError(f"{self.name}: rotation= needs stabilize='pose' or 'imu'")
-        hs, gains = (None, None) if motion is None else motion.per_stream(self._n)
+        hs, gains, horizons, grounds = (None,) * 4 if motion is None else motion.per_stream(
+            self._n)
         shape = (grey.shape[1], grey.shape[2])
         if self.frame_shape is None:
             self.frame_shape = shape
@@ -206,7 +207,7 @@ class LGMDModel(ABC):
                 f"{self.frame_shape[0]}x{self.frame_shape[1]}; call reset() to start a new stream"
             )
         elif hs is not None or gains is not None:
-            self._compensate(grey, hs, gains)
+            self._compensate(grey, hs, gains, horizons, grounds)
         maps = {n: np.empty((self._n, *shape), np.float32) for n in self.layer_names} if (
             layers
         ) else None
@@ -225,10 +226,11 @@ class LGMDModel(ABC):
 
     # -- ego-motion compensation ---------------------------------------------------------
 
-    def _compensate(self, grey: np.ndarray, hs: np.ndarray | None, gains: np.ndarray | None
-                    ) -> None:
+    def _compensate(self, grey: np.ndarray, hs: np.ndarray | None, gains: np.ndarray | None,
+                    horizons: np.ndarray | None, grounds: np.ndarray | None) -> None:
         """Warp every stored map (`_state_maps`) into the current frame by the streams'
-        homographies `hs` (N, 3, 3) and scale the previous frame by their `gains` (N,)."""
+        homographies `hs` (N, 3, 3) (and below their `horizons`, by `grounds`: see
+        `Motion`) and scale the previous frame by their `gains` (N,)."""
         n, height, width = grey.shape
         maps = self._state_maps()
         for m in maps:  # a previous frame holds interpolated grey levels from now on
@@ -240,14 +242,15 @@ class LGMDModel(ABC):
         plan, identity, moved = self._plan, np.eye(3), False
         for i in range(n):
             gain = 1.0 if gains is None else float(gains[i])
-            if hs is None or np.array_equal(hs[i], identity):
+            if hs is None or (np.array_equal(hs[i], identity) and horizons is None):
                 for m in maps:  # no warp: the gain alone (exactly nothing when it is 1)
                     if m.fill == "frame" and gain != 1.0:
                         view = getattr(self, m.attr)[i]
                         view *= np.float32(gain)
                 continue
             moved = True
-            homography_plan(hs[i], plan)
+            homography_plan(hs[i], plan, None if horizons is None else horizons[i],
+                            None if grounds is None else grounds[i])
             fill = grey[i].astype(np.float32)
             for m in maps:
                 view = getattr(self, m.attr)[i]

@@ -40,7 +40,8 @@ from lgmd_sim.models.warp import Motion
 from lgmd_sim.params import CheckedParams, in_range, int_in_range, one_of, param
 
 __all__ = ["FrontEnd", "ImageRotation", "ImageRotationParams", "brightness_gain",
-           "intrinsics", "rotation_homography", "rotation_matrix", "rotation_vector"]
+           "ground_motion", "intrinsics", "rotation_homography", "rotation_matrix",
+           "rotation_vector"]
 
 #: MuJoCo's camera frame (x right, y up, z backwards) to the image's (x right, y down,
 #: z forwards, the frame K works in): flip y and z.
@@ -82,6 +83,36 @@ def rotation_homography(rotvec: np.ndarray, k: np.ndarray) -> np.ndarray:
     turn = rotation_matrix(rotvec)  # columns: the new camera's axes in the old one's
     points = _FLIP @ np.swapaxes(turn, -1, -2) @ _FLIP  # old camera coordinates -> new
     return k @ points @ np.linalg.inv(k)
+
+
+def ground_motion(rotvec: np.ndarray, displacement: np.ndarray, up: np.ndarray,
+                  height: float, k: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The motion of a camera that turns and moves over a ground plane: (rotation
+    homography, horizon line, ground homography), as `Motion` takes them.
+
+    Points at infinity move by the rotation alone (H = K R K^-1); points on the ground by
+    the plane-induced homography H = K R (I - c n^T / d) K^-1 (c the camera's
+    displacement, n the ground's normal towards it and d its height, in the previous
+    camera's frame). The horizon separates them in the current frame.
+
+    Args:
+        rotvec: the camera's turn since the previous frame (as `rotation_homography`).
+        displacement: the camera's move since the previous frame (m), in the previous
+            camera's frame (MuJoCo's camera axes: x right, y up, z backwards).
+        up: the ground's upward normal in the previous camera's frame (MuJoCo's axes).
+        height: the camera's height above the ground (m).
+        k: the camera's intrinsics (`intrinsics`).
+    """
+    turn = rotation_matrix(rotvec)
+    points = _FLIP @ turn.T @ _FLIP  # previous camera coordinates -> current
+    c = _FLIP @ np.asarray(displacement, np.float64)
+    down = -(_FLIP @ np.asarray(up, np.float64))
+    down /= np.linalg.norm(down)
+    k_inv = np.linalg.inv(k)
+    rotation = k @ points @ k_inv
+    ground = k @ points @ (np.eye(3) - np.outer(c, down) / height) @ k_inv
+    horizon = (points @ down) @ k_inv  # rays of the current frame that point down
+    return rotation, horizon, ground
 
 
 # --- image-only rotation --------------------------------------------------------------------
@@ -293,7 +324,9 @@ class FrontEnd:
         self.trackers = ([ImageRotation(self.fovy) for _ in range(n_streams)]
                          if self.source == "image" else [])
         self._prev: list[np.ndarray | None] = [None] * n_streams
-        #: Per stream, the tracks that agreed with the last image fit (image source).
+        #: Per stream, the camera's turn the last image fit found (a rotation vector, rad,
+        #: as ``rotation`` takes them) and the tracks that agreed with it (image source).
+        self.rotations = np.zeros((n_streams, 3))
         self.inliers = np.zeros(n_streams, np.int64)
 
     def reset(self, streams: np.ndarray | None) -> None:
@@ -315,6 +348,7 @@ class FrontEnd:
             hs = np.empty((n, 3, 3))
             for i in range(n):
                 rot, self.inliers[i] = self.trackers[i].update(frames[i])
+                self.rotations[i] = rotation_vector(_FLIP @ rot.T @ _FLIP)
                 hs[i] = k @ rot @ np.linalg.inv(k)
         gains = None
         if self.gain:

@@ -40,22 +40,30 @@ class Motion:
             coordinates; None for no warp.
         gain: the brightness of this frame over the previous one's (a number, or (N,)):
             the previous frame is multiplied by it; None for 1.
+        horizon: a line (a, b, c), or (N, 3): the pixels (x, y) of the current frame with
+            a x + b y + c > 0 (below the horizon, on the ground) move by ``ground``
+            instead of ``homography``; None for none.
+        ground: the homography of the pixels below the horizon, (3, 3) or (N, 3, 3); None
+            with a horizon: those pixels are treated as uncovered (no change there).
     """
 
     homography: np.ndarray | None = None
     gain: float | np.ndarray | None = None
+    horizon: np.ndarray | None = None
+    ground: np.ndarray | None = None
 
-    def per_stream(self, n: int) -> tuple[np.ndarray | None, np.ndarray | None]:
-        """(N, 3, 3) float64 homographies or None, (N,) float64 gains or None; checked."""
-        hs = gains = None
-        if self.homography is not None:
-            h = np.asarray(self.homography, np.float64)
-            if h.shape == (3, 3):
-                h = np.broadcast_to(h, (n, 3, 3))
-            if h.shape != (n, 3, 3) or not np.isfinite(h).all():
-                raise ValueError(f"motion: homography must be finite, of shape (3, 3) or "
-                                 f"({n}, 3, 3), got {np.shape(self.homography)}")
-            hs = h
+    def per_stream(self, n: int) -> tuple[np.ndarray | None, np.ndarray | None,
+                                          np.ndarray | None, np.ndarray | None]:
+        """Per stream, float64, checked: homographies (N, 3, 3) or None, gains (N,) or
+        None, horizons (N, 3) or None, ground homographies (N, 3, 3) or None."""
+        hs = _stack(self.homography, (3, 3), n, "homography")
+        horizons = _stack(self.horizon, (3,), n, "horizon")
+        grounds = _stack(self.ground, (3, 3), n, "ground")
+        if hs is None and (horizons is not None or grounds is not None):
+            raise ValueError("motion: a horizon or ground needs a homography")
+        if grounds is not None and horizons is None:
+            raise ValueError("motion: a ground homography needs a horizon")
+        gains = None
         if self.gain is not None:
             g = np.broadcast_to(np.asarray(self.gain, np.float64), (n,)) if np.ndim(
                 self.gain) == 0 else np.asarray(self.gain, np.float64)
@@ -63,7 +71,21 @@ class Motion:
                 raise ValueError(f"motion: gain must be finite and > 0, a number or {n} of "
                                  f"them, got {self.gain!r}")
             gains = g
-        return hs, gains
+        return hs, gains, horizons, grounds
+
+
+def _stack(value: np.ndarray | None, shape: tuple[int, ...], n: int, what: str
+           ) -> np.ndarray | None:
+    """`value` of `shape`, or n of them, as (n, *shape) float64; None stays None."""
+    if value is None:
+        return None
+    a = np.asarray(value, np.float64)
+    if a.shape == shape:
+        a = np.broadcast_to(a, (n, *shape))
+    if a.shape != (n, *shape) or not np.isfinite(a).all():
+        raise ValueError(f"motion: {what} must be finite, of shape {shape} or {(n, *shape)}, "
+                         f"got {np.shape(value)}")
+    return a
 
 
 class Plan:
@@ -85,17 +107,25 @@ class Plan:
         self.uncovered = np.zeros((height, width), np.float32)
 
 
-def homography_plan(h: np.ndarray, plan: Plan) -> None:
-    """Fill `plan` for the homography `h` (3x3, previous -> current pixel coordinates)."""
-    _plan(np.linalg.inv(np.asarray(h, np.float64)), plan.offset, plan.weights, plan.uncovered)
+def homography_plan(h: np.ndarray, plan: Plan, horizon: np.ndarray | None = None,
+                    ground: np.ndarray | None = None) -> None:
+    """Fill `plan` for the homography `h` (3x3, previous -> current pixel coordinates);
+    with a `horizon` line, the pixels below it by the homography `ground`, or (None)
+    uncovered (see `Motion`)."""
+    hinv = np.linalg.inv(np.asarray(h, np.float64))
+    line = np.array([0.0, 0.0, -1.0]) if horizon is None else np.asarray(horizon, np.float64)
+    ginv = np.zeros((3, 3)) if ground is None else np.linalg.inv(np.asarray(ground, np.float64))
+    _plan(hinv, line, ginv, plan.offset, plan.weights, plan.uncovered)
 
 
 @njit(**_JIT)
-def _plan(hinv, offset, weights, uncovered):
+def _plan(hinv_above, line, hinv_below, offset, weights, uncovered):
     height, width = offset.shape
     w00, w01, w10, w11 = weights[0], weights[1], weights[2], weights[3]
     for y in range(height):
         for x in range(width):
+            # below the horizon: the ground's homography (all zeros: uncovered)
+            hinv = hinv_below if line[0] * x + line[1] * y + line[2] > 0.0 else hinv_above
             den = hinv[2, 0] * x + hinv[2, 1] * y + hinv[2, 2]
             inv = 1.0 / den if den > 1e-12 else 0.0
             sx = (hinv[0, 0] * x + hinv[0, 1] * y + hinv[0, 2]) * inv

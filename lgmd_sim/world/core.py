@@ -43,8 +43,11 @@ GYRO_RANGE = math.radians(2000.0)
 ACCEL_RANGE = 16 * 9.81
 #: Wheel speed bound (rad/s) of the proprioception: beyond any the servos reach.
 WHEEL_RANGE = 100.0
-#: Bounds of the proprioception vector (wheels, gyro, accelerometer).
-PROPRIO_RANGE = np.array([WHEEL_RANGE] * 2 + [GYRO_RANGE] * 3 + [ACCEL_RANGE] * 3)
+#: Bound of each component of a frame-to-frame rotation vector (rad).
+ROTATION_RANGE = math.pi
+#: Bounds of the proprioception vector (wheels, gyro, accelerometer, IMU rotation).
+PROPRIO_RANGE = np.array([WHEEL_RANGE] * 2 + [GYRO_RANGE] * 3 + [ACCEL_RANGE] * 3
+                         + [ROTATION_RANGE] * 3)
 
 
 class JitterWorld:
@@ -87,6 +90,14 @@ class JitterWorld:
                              for i in range(self.scene.n_threats)]
         self._threat_rbound = np.zeros(len(self.scene.threat_geoms))  # per episode
         self._has_mover = params.mover != "none"  # then the last threat owner
+        # The IMU: the camera's rotation over the last frame interval, from the poses and
+        # integrated from the gyro (with its noise and bias, from their own generator).
+        self._camera_quat = np.array([1.0, 0.0, 0.0, 0.0])
+        self._imu_quat = np.empty(4)
+        self._pose_rotation = np.zeros(3)
+        self._imu_rotation = np.zeros(3)
+        self._imu_rng = np.random.default_rng(0)
+        self._gyro_bias = np.zeros(3)
         self.frame_index = 0
         self.first_collision_frame = -1
         self._closed = False
@@ -115,6 +126,12 @@ class JitterWorld:
         self.frame_index = 0
         self.first_collision_frame = -1
         self._ssim.reset()
+        # drawn last, so that the rest of the episode is the same with or without them
+        self._imu_rng = np.random.default_rng(rng.integers(2**63))
+        self._gyro_bias = self._imu_rng.normal(0.0, math.radians(self.params.gyro_bias), 3)
+        self._pose_rotation[:] = 0.0
+        self._imu_rotation[:] = 0.0
+        mujoco.mju_mat2Quat(self._camera_quat, d.cam_xmat[self.scene.camera])
         self._observe(collided=self._touching())
 
     def step(self, v: float, omega: float) -> None:
@@ -136,6 +153,9 @@ class JitterWorld:
         # contacts and sensors all belong to the same instant, so no extra mj_forward.
         if poses is not None:
             mocap_pos, mocap_quat = d.mocap_pos[sc.mocap], d.mocap_quat[sc.mocap]  # views
+        gyro = self._gyro_readings(n)
+        imu, vel = self._imu_quat, self._vel
+        imu[:] = (1.0, 0.0, 0.0, 0.0)
         for k in range(n):
             if poses is not None:
                 mocap_pos[:] = poses[0][k]
@@ -144,8 +164,33 @@ class JitterWorld:
             mujoco.mj_step1(m, d)
             if d.ncon and not collided:
                 collided = self._touching()
+            # The velocity that moved the camera in this physics step (the integrator's
+            # new one), in the camera's frame: integrated, it gives the rotation exactly.
+            mujoco.mj_objectVelocity(m, d, mujoco.mjtObj.mjOBJ_CAMERA, sc.camera, vel, 1)
+            mujoco.mju_quatIntegrate(imu, vel[:3] + gyro[k], m.opt.timestep)
+        mujoco.mju_quat2Vel(self._imu_rotation, imu, 1.0)
+        self._pose_rotation = self._camera_turn()
         self.frame_index += 1
         self._observe(collided)
+
+    def _gyro_readings(self, n: int) -> np.ndarray:
+        """The gyro's error at each of n physics steps: bias plus white noise (rad/s)."""
+        if self.params.gyro_noise == 0:
+            return np.broadcast_to(self._gyro_bias, (n, 3))
+        sigma = math.radians(self.params.gyro_noise) / math.sqrt(self.model.opt.timestep)
+        return self._gyro_bias + self._imu_rng.normal(0.0, sigma, (n, 3))
+
+    def _camera_turn(self) -> np.ndarray:
+        """The camera's rotation since the last call (rotation vector, rad, in the earlier
+        camera frame), from its poses."""
+        q = np.empty(4)
+        mujoco.mju_mat2Quat(q, self.data.cam_xmat[self.scene.camera])
+        inverse, turn, rotation = np.empty(4), np.empty(4), np.empty(3)
+        mujoco.mju_negQuat(inverse, self._camera_quat)
+        mujoco.mju_mulQuat(turn, inverse, q)
+        mujoco.mju_quat2Vel(rotation, turn, 1.0)
+        self._camera_quat = q
+        return rotation
 
     def render_camera(self, out: np.ndarray | None = None) -> np.ndarray:
         """Render the carrier's camera in the current state (RGB); nothing else.
@@ -160,12 +205,15 @@ class JitterWorld:
         return self._render(self.scene.chase_camera, None)
 
     def proprio(self) -> np.ndarray:
-        """Wheel speeds (rad/s; 0 without wheels), gyro (rad/s), accelerometer (m/s^2)."""
+        """Wheel speeds (rad/s; 0 without wheels), gyro (rad/s), accelerometer (m/s^2),
+        and the IMU's rotation of the camera over the last frame interval (``truth
+        ["imu_rotation"]``, rad)."""
         d, sc = self.data, self.scene
-        raw = np.zeros(8)
+        raw = np.zeros(11)
         if sc.wheel_dofs.size:
             raw[:2] = d.qvel[sc.wheel_dofs]
-        raw[2:] = d.sensordata[sc.gyro_adr:sc.gyro_adr + 6]  # gyro, then accelerometer
+        raw[2:8] = d.sensordata[sc.gyro_adr:sc.gyro_adr + 6]  # gyro, then accelerometer
+        raw[8:] = self._imu_rotation
         return np.clip(raw, -PROPRIO_RANGE, PROPRIO_RANGE).astype(np.float32)
 
     def close(self) -> None:
@@ -215,6 +263,8 @@ class JitterWorld:
             "camera_quat": cam_quat,
             "camera_angvel": velocity[:3],
             "camera_linvel": velocity[3:],
+            "pose_rotation": self._pose_rotation.copy(),
+            "imu_rotation": self._imu_rotation.copy(),
             "collision": bool(collided),
             "first_collision_frame": self.first_collision_frame,
             "ssim": ssim,

@@ -143,6 +143,17 @@ class SceneParams(CheckedParams):
                              doc="multisample anti-aliasing samples")
     render_camera: str = param("camera", DESIGN, check=one_of("camera", "chase"),
                                doc="what render() shows: the carrier's camera or a chase view")
+    # -- IMU (info["imu_rotation"] and the proprioception) ------------------------------------
+    gyro_noise: float = param(
+        0.0, "ours: 0, an ideal gyro; MEMS gyros: about 0.004 to 0.015 deg/s/sqrt(Hz) (Bosch "
+        "BMI088 datasheet: 0.014)", check=in_range(0.0, 10.0),
+        doc="white noise density of the gyro integrated into imu_rotation (deg/s/sqrt(Hz)), "
+            "drawn every physics step from the episode's seed")
+    gyro_bias: float = param(
+        0.0, "ours: 0, a calibrated gyro; uncalibrated MEMS zero-rate offsets reach about "
+        "1 deg/s (Bosch BMI088 datasheet: +-1 deg/s)", check=in_range(0.0, 100.0),
+        doc="RMS per axis of the gyro's constant bias (deg/s), drawn once per episode from "
+            "its seed")
     # -- obstacles ---------------------------------------------------------------------------
     n_obstacles: int = param(0, DESIGN, check=int_in_range(0, MAX_OBSTACLES),
                              doc="static obstacles")

@@ -62,8 +62,11 @@ class LGMDFeatures:
     Args:
         n_envs: number of environments (streams of each model).
         model: a name of `lgmd_sim.models.available()`, or a list of them.
-        preset: the models' parameter set (None: each model's default); with several
-            models it, like ``params``, applies to every one of them.
+        preset: the models' parameter set (None: each model's default), optionally with
+            front ends ("published+image", see `lgmd_sim.models.parse_spec`); with several
+            models it, like ``params``, applies to every one of them. A model that
+            compensates the camera's rotation from the pose or the IMU (``stabilize="pose"``
+            or ``"imu"``) reads it from each step's ``info`` (see `rotation_keys`).
         history: number of membrane potentials observed, newest last.
         grid: (rows, cols) of the S-layer summary, or None for none (and no layer maps
             computed: faster).
@@ -110,6 +113,12 @@ class LGMDFeatures:
     def n_envs(self) -> int:
         return len(self._history)
 
+    @property
+    def rotation_keys(self) -> list[str]:
+        """The ``info`` keys the models need each step (the camera's rotation, for
+        ``stabilize="pose"`` or ``"imu"``); empty when the frames are enough."""
+        return sorted({m.rotation_key for m in self.models.values()} - {None})
+
     def observation_space(self, base: gym.Space) -> spaces.Dict:
         """One environment's observation space: `base` (a jitter environment's) with the
         LGMD keys, without the frame unless ``keep_frame``."""
@@ -121,10 +130,15 @@ class LGMDFeatures:
         kept = {k: s for k, s in base.spaces.items() if self.keep_frame or k != "frame"}
         return spaces.Dict({**kept, **self.spaces})
 
-    def step(self, frames: np.ndarray, new: np.ndarray) -> None:
+    def step(self, frames: np.ndarray, new: np.ndarray,
+             infos: Sequence[Mapping[str, Any]] | None = None) -> None:
         """Feed one frame per environment, (n_envs, H, W, C) uint8; ``new`` (n_envs,) marks
-        the environments whose episode starts with this frame (their streams restart)."""
+        the environments whose episode starts with this frame (their streams restart);
+        ``infos``, one per environment, give what `rotation_keys` names."""
         new = np.asarray(new, bool)
+        if self.rotation_keys and infos is None:
+            raise ValueError(f"the models need {', '.join(self.rotation_keys)} from each "
+                             "step's info: pass infos")
         potential = np.empty_like(self.potential)
         alarm = np.empty_like(self.alarm)
         shares = np.empty_like(self._shares)
@@ -133,7 +147,9 @@ class LGMDFeatures:
                 model.reset()  # every stream anew: the frame size may change too
             else:
                 model.reset(np.flatnonzero(new))
-            out = model.step(frames, layers=self.grid is not None)
+            key = model.rotation_key
+            rotation = None if key is None else np.stack([info[key] for info in infos])
+            out = model.step(frames, layers=self.grid is not None, rotation=rotation)
             potential[:, k], alarm[:, k] = out.potential, out.alarm
             if self.grid is not None:
                 shares[:, k] = self._cell_shares(out.layers["S"])
@@ -190,12 +206,13 @@ class LGMDFeatures:
             out[key], out[f"_{key}"] = per_model, mask.copy()
         return out
 
-    def ahead(self, frames: np.ndarray) -> LGMDFeatures:
-        """A copy that has seen one more frame per environment, this one unchanged: the
-        observation of an episode's last frame once the vector environment has reset it
-        (same-step autoreset), every stream's state continued exactly."""
+    def ahead(self, frames: np.ndarray, infos: Sequence[Mapping[str, Any]] | None = None
+              ) -> LGMDFeatures:
+        """A copy that has seen one more frame per environment (and its info), this one
+        unchanged: the observation of an episode's last frame once the vector environment
+        has reset it (same-step autoreset), every stream's state continued exactly."""
         copied = copy.deepcopy(self)
-        copied.step(frames, np.zeros(self.n_envs, bool))
+        copied.step(frames, np.zeros(self.n_envs, bool), infos)
         return copied
 
 
@@ -240,7 +257,7 @@ class LGMDObservation(gym.Wrapper):
 
     def _observe(self, obs: dict[str, np.ndarray], info: dict[str, Any], new: bool
                  ) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
-        self.features.step(obs["frame"][None], np.array([new]))
+        self.features.step(obs["frame"][None], np.array([new]), [info])
         return self.features.observation(obs, 0), {**info, **self.features.info(0)}
 
 
@@ -307,9 +324,12 @@ class LGMDVectorObservation(VectorWrapper):
         """Same-step autoreset: the ended episodes' last observations and infos."""
         final_obs = info["final_obs"].copy()
         last = frames.copy()
+        infos = _per_env(info, self.features.rotation_keys, self.num_envs)
+        final = _per_env(info["final_info"], self.features.rotation_keys, self.num_envs)
         for i in np.flatnonzero(done):
             last[i] = final_obs[i]["frame"]
-        ahead = self.features.ahead(last)
+            infos[i] = final[i]
+        ahead = self.features.ahead(last, infos)
         for i in np.flatnonzero(done):
             final_obs[i] = ahead.observation(final_obs[i], i)
         return {**info, "final_obs": final_obs,
@@ -317,6 +337,12 @@ class LGMDVectorObservation(VectorWrapper):
 
     def _observe(self, obs: dict[str, np.ndarray], info: dict[str, Any], new: np.ndarray
                  ) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
-        self.features.step(obs["frame"], new)
+        self.features.step(obs["frame"], new,
+                           _per_env(info, self.features.rotation_keys, self.num_envs))
         every = np.ones(self.num_envs, bool)
         return self.features.observation(obs), {**info, **self.features.vector_info(every)}
+
+
+def _per_env(info: Mapping[str, Any], keys: Sequence[str], n: int) -> list[dict[str, Any]]:
+    """A vector environment's batched info as one dict per environment, of `keys` only."""
+    return [{k: np.asarray(info[k])[i] for k in keys} for i in range(n)]

@@ -51,7 +51,7 @@ class VecLGMDObservation(_vec_env.VecEnvWrapper):
 
     def reset(self) -> dict[str, np.ndarray]:
         obs = self.venv.reset()
-        self.features.step(obs["frame"], np.ones(self.num_envs, bool))
+        self.features.step(obs["frame"], np.ones(self.num_envs, bool), self.venv.reset_infos)
         self.reset_infos = [{**r, **self.features.info(i)}
                             for i, r in enumerate(self.venv.reset_infos)]
         return self.features.observation(obs)
@@ -64,11 +64,13 @@ class VecLGMDObservation(_vec_env.VecEnvWrapper):
             frames = obs["frame"].copy()
             for i in ended:
                 frames[i] = infos[i]["terminal_observation"]["frame"]
-            last = self.features.ahead(frames)
+            last = self.features.ahead(frames, infos)
             for i in ended:
                 infos[i]["terminal_observation"] = last.observation(
                     infos[i]["terminal_observation"], i)
-        self.features.step(obs["frame"], dones)
+        # an ended environment's observation is its reset one, with its reset info
+        self.features.step(obs["frame"], dones, [self.venv.reset_infos[i] if dones[i] else info
+                                                 for i, info in enumerate(infos)])
         for i, info in enumerate(infos):
             info.update((last if dones[i] else self.features).info(i))
         for i in ended:
