@@ -20,7 +20,8 @@ from lgmd_sim import __version__
 from lgmd_sim.extras import MissingExtra
 
 #: The subcommands, in the order `--help` lists them.
-COMMANDS = ("demo", "detect", "record", "models", "envs", "bench", "calibrate", "speed", "dataset")
+COMMANDS = ("demo", "detect", "record", "models", "envs", "bench", "calibrate", "speed", "dataset",
+            "train", "eval")
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -25,6 +25,7 @@ _REGISTRY: dict[str, str] = {
     "straight": "lgmd_sim.controllers.straight:Straight",
     "reactive": "lgmd_sim.controllers.avoid:ReactiveAvoid",
     "oracle": "lgmd_sim.controllers.avoid:Oracle",
+    "policy": "lgmd_sim.controllers.policy:Policy",  # a trained policy (the 'rl' extra)
 }
 
 

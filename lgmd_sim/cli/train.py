@@ -1,0 +1,58 @@
+"""`lgmd-sim train`: its command-line arguments (the implementation loads when it runs).
+
+Options default to None here so that ``--resume`` can tell the ones given from the ones
+recorded; `lgmd_sim.training.run.DEFAULTS` holds the defaults the help text names.
+"""
+
+from __future__ import annotations
+
+import argparse
+
+from lgmd_sim.cli.args import resolution
+
+
+def add(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "train", help="train an avoidance policy with stable-baselines3 (needs the rl extra)",
+        description="Train a policy that reads an LGMD model's signals (--obs features: its "
+        "potential history, alarm and S-layer grid, with the proprioception and goal; an MLP) "
+        "or small stacked grey frames (--obs pixels; a CNN) to drive to the goal without "
+        "colliding. Vectorised environments, observation normalisation, validation on fixed "
+        "held-out seeds, checkpoints, TensorBoard logs; writes DIR/policy.zip and "
+        "policy.json (a policy for lgmd-sim eval), DIR/best/, DIR/learning_curve.png, "
+        "DIR/summary.md and DIR/run.json. The reward is the environment's (lgmd-sim envs "
+        "NAME).",
+    )
+    p.add_argument("--algo", help="ppo or sac (default ppo)")
+    p.add_argument("--env", metavar="ID", help="Gymnasium id of the environment (default "
+                   "lgmd_sim/RoughTerrainObstacles-v0)")
+    p.add_argument("--obs", help="features or pixels (default features)")
+    p.add_argument("--model", help="the LGMD model of --obs features, MODEL or MODEL/PRESET "
+                   "(default feedback)")
+    p.add_argument("--preset", help="its preset (default: the model's default)")
+    p.add_argument("--resolution", type=resolution,
+                   help="frame size the environment renders: rl (120x160, default, as the "
+                   "benchmark), paper, small or HxW")
+    p.add_argument("--jitter", type=float, help="jitter level of the training episodes "
+                   "(default 1)")
+    p.add_argument("--steps", type=int, help="environment steps in all, over every "
+                   "environment (default 300000); with --resume, the new total")
+    p.add_argument("--envs", type=int, metavar="K",
+                   help="environments stepped in parallel, one worker process each (default 2)")
+    p.add_argument("--seed", type=int, help="seed of the model and of the first training "
+                   "environment (default 0; training seeds stay below 900)")
+    p.add_argument("--eval-every", type=int, metavar="N",
+                   help="validate every N steps (default 25000)")
+    p.add_argument("--eval-seeds", type=int, metavar="N",
+                   help="validation episodes, seeds 900 to 900 + N - 1 (default 10)")
+    p.add_argument("--checkpoint-every", type=int, metavar="N",
+                   help="write a checkpoint every N steps (default 25000)")
+    p.add_argument("--hp", action="append", metavar="KEY=VALUE",
+                   help="override a hyperparameter of the algorithm (repeatable), e.g. "
+                   "--hp n_steps=512 --hp learning_rate=1e-4")
+    p.add_argument("--out", metavar="DIR", help="output folder, new or empty (default "
+                   "./train-ALGO-OBS)")
+    p.add_argument("--resume", metavar="DIR", help="continue the run in DIR from its last "
+                   "checkpoint, up to --steps in all")
+    p.add_argument("--no-progress", action="store_true", help="hide the progress bar")
+    p.set_defaults(run="lgmd_sim.training.run:train")

@@ -1,0 +1,82 @@
+"""`Policy`: a policy trained with `lgmd-sim train`, as a controller."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+
+from lgmd_sim.controllers.base import Controller
+from lgmd_sim.controllers.straight import DESIGN
+from lgmd_sim.params import CheckedParams, param
+
+__all__ = ["Policy", "PolicyParams"]
+
+
+def _text(v: Any) -> str | None:
+    return None if isinstance(v, str) and v else "must be a folder or a shipped policy's name"
+
+
+def _shapes(space: gym.spaces.Dict) -> dict[str, tuple[int, ...]]:
+    return {k: s.shape for k, s in space.spaces.items()}
+
+
+@dataclass(frozen=True)
+class PolicyParams(CheckedParams):
+    path: str = param("shipped", DESIGN, check=_text,
+                      doc="a policy folder (policy.zip and policy.json, as lgmd-sim train "
+                          "writes it), or a shipped policy's name ('shipped': the default)")
+
+
+class Policy(Controller):
+    """A trained stable-baselines3 policy, acting deterministically.
+
+    `wrap_env` applies the observation pipeline the policy was trained with (the LGMD
+    wrapper's features, or stacked small grey frames; read from its policy.json), and
+    `act` normalises the observation with the training statistics, frozen, before
+    ``predict(obs, deterministic=True)``. The environment must be the one it was trained
+    in (same id, frame size): `wrap_env` refuses another frame size. ``alarm`` is the
+    observed LGMD model's alarm on the frame (False for a pixel policy), so that the
+    benchmark's false-alarm columns describe the detector the policy reads.
+    """
+
+    Params = PolicyParams
+    params: PolicyParams
+
+    def __init__(self, **params: Any) -> None:
+        from lgmd_sim.training import policy
+
+        super().__init__(**params)
+        self.policy = policy.load(self.params.path)
+        # one thread: a small network's forward pass, and one controller per core in a sweep
+        import torch
+
+        torch.set_num_threads(1)
+
+    def wrap_env(self, env: gym.Env) -> gym.Env:
+        from lgmd_sim.training.envs import observe
+        from lgmd_sim.world.params import RESOLUTIONS
+
+        res = self.policy.config.resolution
+        trained = RESOLUTIONS[res] if isinstance(res, str) else (int(res[0]), int(res[1]))
+        size = tuple(env.unwrapped.params.size)
+        if size != trained:
+            raise ValueError(f"policy {self.policy.name} was trained on {trained[0]}x"
+                             f"{trained[1]} frames, this environment renders {size[0]}x"
+                             f"{size[1]}: run it at resolution {res}")
+        wrapped = observe(env, self.policy.config)
+        seen, trained = (_shapes(wrapped.observation_space),
+                         _shapes(self.policy.model.observation_space))
+        if seen != trained:
+            raise ValueError(f"policy {self.policy.name} was trained on observations {trained}, "
+                             f"this environment gives {seen}: it changed since; retrain")
+        return wrapped
+
+    def act(self, obs: Mapping[str, np.ndarray], info: Mapping[str, Any]) -> np.ndarray:
+        if "lgmd_alarm" in obs:
+            self.alarm = bool(obs["lgmd_alarm"].any())
+        action, _ = self.policy.model.predict(self.policy.normalize(obs), deterministic=True)
+        return np.asarray(action, np.float32)

@@ -1,0 +1,13 @@
+"""Training avoidance policies with stable-baselines3 (the 'rl' extra), CleanRL-style: each
+step of the job in a module of its own, read top to bottom.
+
+- `lgmd_sim.training.policy`: a trained policy on disk (the model, the pipeline it sees);
+- `lgmd_sim.training.envs`: that pipeline, for one environment and as a training VecEnv;
+- `lgmd_sim.training.algos`: the algorithms' hyperparameters per observation kind;
+- `lgmd_sim.training.callbacks`: progress bar, collision rate, validation, checkpoints;
+- `lgmd_sim.training.curve`: the learning curve from the logs;
+- `lgmd_sim.training.run`: `lgmd-sim train`; `lgmd_sim.training.evaluate`: `lgmd-sim eval`.
+
+A trained policy drives like any controller (`lgmd_sim.controllers.Policy`), so the
+closed-loop benchmark compares it with the hand-made ones on the same seeds.
+"""

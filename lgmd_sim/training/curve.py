@@ -1,0 +1,73 @@
+"""The learning curve of a training run, from its logs (``DIR/logs/session-*/progress.csv``,
+stable-baselines3's CSV log, one per training session)."""
+
+from __future__ import annotations
+
+import csv
+import math
+from pathlib import Path
+
+import numpy as np
+
+from lgmd_sim.fileio import write_files
+from lgmd_sim.plots import figure
+
+__all__ = ["PANELS", "learning_curve", "read_logs"]
+
+#: Panel title -> (training key: the last 100 training episodes, validation key).
+PANELS = {
+    "episode return": ("rollout/ep_rew_mean", "eval/mean_reward"),
+    "success rate": ("rollout/success_rate", "eval/success_rate"),
+    "collision rate": ("rollout/collision_rate", "eval/collision_rate"),
+}
+
+
+def read_logs(folder: Path) -> dict[str, np.ndarray]:
+    """Every logged series of the run in `folder` as (steps, values) rows, sessions
+    concatenated in step order."""
+    series: dict[str, list[tuple[float, float]]] = {}
+    for path in sorted((folder / "logs").glob("session-*/progress.csv")):
+        with path.open(newline="") as f:
+            for row in csv.DictReader(f):
+                step = _number(row.get("time/total_timesteps"))
+                if step is None:
+                    continue
+                for key, text in row.items():
+                    value = _number(text)
+                    if value is not None and key != "time/total_timesteps":
+                        series.setdefault(key, []).append((step, value))
+    return {k: np.array(sorted(v)) for k, v in series.items()}
+
+
+def _number(text: str | None) -> float | None:
+    try:
+        value = float(text) if text else None
+    except ValueError:
+        return None
+    return value if value is not None and math.isfinite(value) else None
+
+
+def learning_curve(folder: Path, title: str = "") -> Path:
+    """Draw ``folder/learning_curve.png``: episode return, success rate and collision rate
+    against environment steps, of the training episodes (a running mean over the last
+    100) and of the validation episodes (fixed held-out seeds, deterministic policy)."""
+    logs = read_logs(folder)
+    fig = figure(figsize=(12, 3.6))
+    for ax, (name, (train_key, eval_key)) in zip(fig.subplots(1, 3), PANELS.items(),
+                                                   strict=True):
+        if train_key in logs:
+            ax.plot(*logs[train_key].T, color="0.55", lw=1.2, label="training (last 100)")
+        if eval_key in logs:
+            ax.plot(*logs[eval_key].T, color="C3", marker="o", ms=4, lw=1.4,
+                    label="validation (held-out seeds)")
+        if "rate" in name:
+            ax.set_ylim(-0.03, 1.03)
+        ax.set_xlabel("environment steps")
+        ax.set_title(name, fontsize="medium")
+        ax.grid(alpha=0.3)
+    ax.legend(fontsize="small")
+    if title:
+        fig.suptitle(title, fontsize="medium")
+    path = folder / "learning_curve.png"
+    write_files({path: lambda tmp: fig.savefig(tmp, format="png", dpi=110)})
+    return path
