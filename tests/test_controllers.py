@@ -35,3 +35,20 @@ def test_rollout_yields_every_frame_with_the_action_taken_on_it():
         obs, reward, *_ = env.step(steps[s.index - 1].action)
         assert np.array_equal(obs["frame"], s.obs["frame"]) and reward == s.reward
     env.close()
+
+
+def test_reactive_avoid_feeds_a_stabilized_model_its_rotation():
+    from lgmd_sim.controllers import make
+
+    env = gym.make("lgmd_sim/HandheldApproach-v0", resolution="small", time_limit=1.0)
+    traces = {}
+    for preset in ("published", "published+imu", "published+pose", "published+image"):
+        controller = make("reactive", model="lgmd1", preset=preset)
+        # a pose- or IMU-stabilized model fails without its rotation: these run through
+        traces[preset] = [controller.potential for _ in rollout(env, controller, seed=2)]
+    assert len(traces["published"]) > 10
+    for preset in ("published+imu", "published+pose", "published+image"):
+        assert traces[preset] != traces["published"], preset  # the shake is taken out
+    with pytest.raises(ValueError, match="front end"):
+        make("reactive", model="lgmd1", preset="published+wobble")
+    env.close()

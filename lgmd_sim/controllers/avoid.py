@@ -114,7 +114,8 @@ class Oracle(Avoider):
 class ReactiveParams(AvoidParams):
     model: str = param("feedback", DESIGN, check=one_of(*models.available()),
                        doc="the LGMD model that triggers the manoeuvre")
-    preset: str | None = param(None, "the model's default preset", doc="its preset")
+    preset: str | None = param(None, "the model's default preset",
+                               doc="its preset, with front ends (e.g. 'calibrated+image')")
     model_params: Mapping[str, Any] = field(
         default_factory=dict, metadata={"source": DESIGN, "check": None,
                                         "doc": "parameter overrides of the model"})
@@ -123,7 +124,9 @@ class ReactiveParams(AvoidParams):
 class ReactiveAvoid(Avoider):
     """The manoeuvre triggered by an LGMD model's alarm (potential above its threshold),
     turning away from the half of the view with more S-layer activity. Reads
-    ``obs["frame"]`` (every frame goes through the model) and ``info["time"]``."""
+    ``obs["frame"]`` (every frame goes through the model), ``info["time"]``, and for a
+    model stabilized by the pose or the IMU (preset "...+pose", "...+imu") the camera's
+    rotation in ``info``."""
 
     Params = ReactiveParams
     params: ReactiveParams
@@ -140,7 +143,9 @@ class ReactiveAvoid(Avoider):
         self.potential = 0.5
 
     def _trigger(self, obs: Mapping[str, np.ndarray], info: Mapping[str, Any]) -> float | None:
-        out = self.model.step(obs["frame"], layers=True)
+        key = self.model.rotation_key  # a pose- or IMU-stabilized model reads its rotation
+        out = self.model.step(obs["frame"], layers=True,
+                              rotation=None if key is None else info[key])
         self.potential = out.potential
         if not out.alarm:
             return None
