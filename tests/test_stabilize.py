@@ -337,3 +337,16 @@ def test_detect_stabilize_image_equals_the_compensated_models(tmp_path, capfd):
                                    expected.models[name].potential, atol=1e-6)
     assert _detect(str(folder), "--stabilize", "pose", "--out", str(tmp_path / "o")) == 2
     assert "a video has no pose or IMU" in capfd.readouterr().err
+
+
+def test_speed_stabilize_prints_every_front_end():
+    """In a process of its own: the benchmark pins itself to one core."""
+    import subprocess
+    import sys
+
+    run = subprocess.run([sys.executable, "-m", "lgmd_sim.cli", "speed", "stabilize",
+                          "--height", "24", "--width", "32", "--frames", "2", "--markdown"],
+                         capture_output=True, text=True, timeout=300)
+    assert run.returncode == 0, run.stderr
+    assert "| image: rotation fit (ImageRotation.update) |" in run.stdout
+    assert all(f"| {name} |" in run.stdout for name in models.available())

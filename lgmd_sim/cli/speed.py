@@ -9,7 +9,7 @@ from lgmd_sim.cli.args import positive_int, resolution
 
 def add(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
-        "speed", help="speed benchmarks (models, environments); print tables",
+        "speed", help="speed benchmarks (models, environments, front ends); print tables",
         description="Speed benchmarks. They print figures and ratios measured in one run; "
         "run them on a quiet machine.",
     )
@@ -35,6 +35,18 @@ def add(sub: argparse._SubParsersAction) -> None:
     b.add_argument("--steps", type=positive_int, default=200, help="steps timed per run")
     b.add_argument("--markdown", action="store_true", help="print the table as Markdown")
     b.set_defaults(run="lgmd_sim.speed.envs:run")
+    b = speed.add_parser(
+        "stabilize", help="ms per frame of each ego-motion front end, alone and per model",
+        description="Milliseconds per frame, on one core, of the image-only rotation fit "
+        "and the brightness gain alone, and of every model without a front end and with "
+        "+pose (the warp of its stored maps), +image and +image+gain, on frames of a "
+        "turning camera.",
+    )
+    b.add_argument("--height", type=positive_int, default=270)
+    b.add_argument("--width", type=positive_int, default=480)
+    b.add_argument("--frames", type=positive_int, default=60, help="frames timed per run")
+    b.add_argument("--markdown", action="store_true", help="print the tables as Markdown")
+    b.set_defaults(run="lgmd_sim.speed.stabilize:run")
     b = speed.add_parser(
         "dataset", help="dataset generation frames/s vs the environment alone; disk per frame",
         description="Per scenario, in one run: frames per second of `dataset generate` "

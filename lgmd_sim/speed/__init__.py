@@ -4,6 +4,7 @@
   batched, against its per-equation reference implementation.
 - `lgmd_sim.speed.envs`: environment steps/s against a bare render loop of the same
   scene, and the scaling of async vector environments.
+- `lgmd_sim.speed.stabilize`: milliseconds per frame of each ego-motion front end.
 """
 
 from __future__ import annotations
