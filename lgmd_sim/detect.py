@@ -206,6 +206,7 @@ def detect(
     window_s: float = 1.0,
     noise: str | Sequence[noise_lib.Noise] | None = None,
     noise_seed: int = 0,
+    infos: Sequence[Mapping[str, Any]] | None = None,
 ) -> Detection:
     """Run models over a clip, frame by frame, and compute the clip's metrics.
 
@@ -222,12 +223,19 @@ def detect(
         noise: corrupt every frame (uint8) before the models and the SSIM see it:
             "kind:level,..." or a list of `lgmd_sim.noise.Noise` (see `lgmd_sim.noise`).
         noise_seed: the noise's seed; frame t's noise depends only on it and t.
+        infos: a simulated clip's ``info`` of every frame, for models that compensate the
+            camera's rotation from the pose or the IMU (``stabilize="pose"`` or
+            ``"imu"``: each frame's ``info[model.rotation_key]``).
     """
     from tqdm import tqdm
 
     if not (math.isfinite(fps) and fps > 0):
         raise ValueError(f"{name or 'clip'}: fps must be a finite number > 0, got {fps!r}")
     built = _build(model_spec)
+    needs = sorted({m.rotation_key for m in built.values()} - {None})
+    if needs and infos is None:
+        raise ValueError(f"{name or 'clip'}: the models need {', '.join(needs)} from each "
+                         "frame's info: pass infos")
     noises = noise_lib.parse(noise)
     if noises:
         frames = noise_lib.corrupt(frames, noises, noise_seed)
@@ -247,7 +255,8 @@ def detect(
             ssims.append(metrics.ssim(prev, grey))
         prev = grey
         for n, model in built.items():
-            out = model.step(grey)
+            key = model.rotation_key
+            out = model.step(grey, rotation=None if key is None else infos[len(ssims) - 1][key])
             potentials[n].append(out.potential)
             alarms[n].append(out.alarm)
     n_frames = 0 if prev is None else len(ssims)

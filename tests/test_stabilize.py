@@ -350,3 +350,17 @@ def test_speed_stabilize_prints_every_front_end():
     assert run.returncode == 0, run.stderr
     assert "| image: rotation fit (ImageRotation.update) |" in run.stdout
     assert all(f"| {name} |" in run.stdout for name in models.available())
+
+
+def test_detect_takes_the_rotation_from_infos():
+    from lgmd_sim.detect import detect
+
+    frames, turns = _scene(5, (48, 64), seed=8)
+    infos = [{"imu_rotation": r} for r in turns]
+    d = detect(frames, 30.0, {"a": models.make("lgmd1", preset="published+imu")},
+               infos=infos)
+    m = models.make("lgmd1", stabilize="imu")
+    expected = [m.step(f, rotation=r).potential for f, r in zip(frames, turns, strict=True)]
+    assert d.models["a"].potential.tolist() == expected
+    with pytest.raises(ValueError, match="need imu_rotation from each frame's info"):
+        detect(frames, 30.0, {"a": models.make("lgmd1", preset="published+imu")})
