@@ -40,3 +40,33 @@ def resolution(text: str) -> str | list[int]:
         raise argparse.ArgumentTypeError(
             f"must be {', '.join(RESOLUTIONS)} or HEIGHTxWIDTH (e.g. 270x480), got {text!r}")
     return size
+
+
+def add_parallel_options(p: argparse.ArgumentParser, unit: str = "episodes") -> None:
+    """--workers, --ray and --no-progress: how a command's independent jobs run."""
+    p.add_argument("--workers", type=positive_int, default=None,
+                   help="local worker processes (default: every core)")
+    p.add_argument("--ray", metavar="ADDRESS", default=None,
+                   help=f"run the {unit} as Ray tasks: 'local' starts Ray here, 'auto' or "
+                   "HOST:PORT joins a cluster (needs the ray extra)")
+    p.add_argument("--no-progress", action="store_true", help="hide the progress bar")
+
+
+def add_run_folder_options(p: argparse.ArgumentParser, default: str) -> None:
+    """--out and --resume of a command that keeps its results in a run folder."""
+    p.add_argument("--out", default=default, metavar="DIR",
+                   help=f"output folder (default ./{default})")
+    p.add_argument("--resume", action="store_true",
+                   help="complete the run in DIR (same configuration): finished jobs are "
+                   "kept")
+
+
+def add_detector_options(p: argparse.ArgumentParser) -> None:
+    """--models and --presets: the detectors a benchmark compares."""
+    p.add_argument("--models", default="all",
+                   help="'all' or a comma-separated list of MODEL or MODEL/PRESET, each "
+                   "optionally with front ends (e.g. lgmd1/calibrated+image); default all, "
+                   "each at its default preset")
+    p.add_argument("--presets", default=None,
+                   help="comma-separated presets: each model listed without a preset runs "
+                   "each of these it has (its default when it has none of them)")

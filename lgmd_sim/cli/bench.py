@@ -8,7 +8,14 @@ from __future__ import annotations
 
 import argparse
 
-from lgmd_sim.cli.args import non_negative_int, positive_int, resolution
+from lgmd_sim.cli.args import (
+    add_detector_options,
+    add_parallel_options,
+    add_run_folder_options,
+    non_negative_int,
+    positive_int,
+    resolution,
+)
 
 
 def add(sub: argparse._SubParsersAction) -> None:
@@ -32,12 +39,7 @@ def add(sub: argparse._SubParsersAction) -> None:
                    help="comma-separated scenario names (default RoughTerrainObstacles)")
     b.add_argument("--controllers", default="straight,oracle,reactive",
                    help="comma-separated controllers (default straight,oracle,reactive)")
-    b.add_argument("--models", default="all",
-                   help="detectors of the reactive controller: 'all' or a comma-separated "
-                   "list of MODEL or MODEL/PRESET (default all, each at its default preset)")
-    b.add_argument("--presets", default=None,
-                   help="comma-separated presets: each model listed without a preset runs "
-                   "each of these it has (its default when it has none of them)")
+    add_detector_options(b)
     b.add_argument("--jitter", default="0,1,2", help="comma-separated jitter levels "
                    "(default 0,1,2)")
     b.add_argument("--seeds", type=positive_int, default=50,
@@ -51,17 +53,8 @@ def add(sub: argparse._SubParsersAction) -> None:
     b.add_argument("--horizon", type=float, default=2.0,
                    help="an alarm is false when no obstacle is within this time to "
                    "collision (s, default 2)")
-    b.add_argument("--out", default="bench-closed-loop", metavar="DIR",
-                   help="output folder (default ./bench-closed-loop)")
-    b.add_argument("--resume", action="store_true",
-                   help="complete the run in DIR (same configuration): finished episodes "
-                   "are kept")
-    b.add_argument("--workers", type=positive_int, default=None,
-                   help="local worker processes (default: every core)")
-    b.add_argument("--ray", metavar="ADDRESS", default=None,
-                   help="run the episodes as Ray tasks: 'local' starts Ray here, 'auto' or "
-                   "HOST:PORT joins a cluster (needs the ray extra)")
-    b.add_argument("--no-progress", action="store_true", help="hide the progress bar")
+    add_run_folder_options(b, "bench-closed-loop")
+    add_parallel_options(b)
     b.set_defaults(run="lgmd_sim.bench.cli:closed_loop")
 
     b = bench.add_parser(
@@ -80,11 +73,7 @@ def add(sub: argparse._SubParsersAction) -> None:
     b.add_argument("--scenarios", default="all",
                    help="comma-separated scenario names, or all (default)")
     b.add_argument("--jitter", default="0,1", help="comma-separated jitter levels (default 0,1)")
-    b.add_argument("--models", default="all",
-                   help="'all' or a comma-separated list of MODEL or MODEL/PRESET")
-    b.add_argument("--presets", default=None,
-                   help="comma-separated presets: each model listed without a preset runs "
-                   "each of these it has (its default when it has none of them)")
+    add_detector_options(b)
     b.add_argument("--seeds", type=positive_int, default=8, help="clips per scenario and "
                    "jitter level (default 8)")
     b.add_argument("--first-seed", type=non_negative_int, default=0,
@@ -104,13 +93,6 @@ def add(sub: argparse._SubParsersAction) -> None:
     b.add_argument("--window", type=float, default=1.0,
                    help="a first alarm within this many seconds before the collision is a "
                    "hit (s, default 1)")
-    b.add_argument("--out", default="bench-open-loop", metavar="DIR",
-                   help="output folder (default ./bench-open-loop)")
-    b.add_argument("--resume", action="store_true",
-                   help="complete the run in DIR (same configuration)")
-    b.add_argument("--workers", type=positive_int, default=None,
-                   help="local worker processes (default: every core)")
-    b.add_argument("--ray", metavar="ADDRESS", default=None,
-                   help="run the clips as Ray tasks: 'local', 'auto' or HOST:PORT")
-    b.add_argument("--no-progress", action="store_true", help="hide the progress bar")
+    add_run_folder_options(b, "bench-open-loop")
+    add_parallel_options(b, "clips")
     b.set_defaults(run="lgmd_sim.bench.cli:open_loop")

@@ -4,7 +4,13 @@ from __future__ import annotations
 
 import argparse
 
-from lgmd_sim.cli.args import non_negative_int, positive_int, resolution
+from lgmd_sim.cli.args import (
+    add_parallel_options,
+    add_run_folder_options,
+    non_negative_int,
+    positive_int,
+    resolution,
+)
 
 
 def add(sub: argparse._SubParsersAction) -> None:
@@ -36,15 +42,9 @@ def add(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--resolution", type=resolution, default="rl",
                    help="frame size of the clips: rl (120x160, default: the size of the "
                    "closed-loop task), paper, small or HxW")
-    p.add_argument("--out", default="calibration", metavar="DIR",
-                   help="output folder (default ./calibration)")
     p.add_argument("--save-presets", action="store_true",
                    help="also write the package's calibrated presets (lgmd_sim/models/"
                    "calibrated.json)")
-    p.add_argument("--resume", action="store_true", help="complete the run in DIR")
-    p.add_argument("--workers", type=positive_int, default=None,
-                   help="local worker processes (default: every core)")
-    p.add_argument("--ray", metavar="ADDRESS", default=None,
-                   help="run the jobs as Ray tasks: 'local', 'auto' or HOST:PORT")
-    p.add_argument("--no-progress", action="store_true", help="hide the progress bars")
+    add_run_folder_options(p, "calibration")
+    add_parallel_options(p, "clips and candidates")
     p.set_defaults(run="lgmd_sim.calibration.run:main")

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from lgmd_sim.cli.args import non_negative_int, positive_int, resolution
+from lgmd_sim.cli.args import add_parallel_options, non_negative_int, positive_int, resolution
 
 
 def add(sub: argparse._SubParsersAction) -> None:
@@ -48,12 +48,7 @@ def add(sub: argparse._SubParsersAction) -> None:
     g.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
                    help="an environment parameter for every scenario, e.g. time_limit=2 or "
                    "miss_distance=0.5 (repeatable; see lgmd-sim envs NAME)")
-    g.add_argument("--workers", type=positive_int, default=None,
-                   help="local worker processes (default: every core)")
-    g.add_argument("--ray", metavar="ADDRESS", default=None,
-                   help="run the episodes as Ray tasks: auto, HOST:PORT, or local (needs "
-                   "the 'ray' extra)")
-    g.add_argument("--no-progress", action="store_true", help="hide the progress bar")
+    add_parallel_options(g)
     g.set_defaults(run="lgmd_sim.data.generate:run")
     v = what.add_parser(
         "verify", help="check a dataset: counts, checksums, label consistency",
