@@ -80,30 +80,36 @@ def closed_loop_section(run: Path, title: str, tag: str) -> list[str]:
 
 
 def _verdict(cell: list[dict[str, str]]) -> str:
-    """Plain sentences from one scenario and jitter level: the reactive detectors ranked
-    by collision rate, ties where the 95% intervals overlap, Oracle and Straight beside."""
+    """Plain sentences from one scenario and jitter level: the reactive detectors with the
+    fewest collisions and with the most successes (and those tied with them within the 95%
+    intervals), Oracle and Straight beside."""
     def name(r):
-        return f"{r['model']}/{r['preset']}" if r["model"] else r["controller"]
+        return f"{r['model']}/{r['preset']}" if r["model"] else (r["tag"] or r["controller"])
 
-    reactive = sorted((r for r in cell if r["controller"] == "reactive"),
-                      key=lambda r: float(r["collision_rate"]))
+    def rate(r, what):
+        return (f"{_pct(r[what + '_rate']):.0f}% [{_pct(r[what + '_ci_low']):.0f}, "
+                f"{_pct(r[what + '_ci_high']):.0f}]")
+
+    reactive = [r for r in cell if r["controller"] == "reactive"]
     by = {r["controller"]: r for r in cell if not r["model"]}
     parts = []
     if reactive:
-        best = reactive[0]
-        ties = [name(r) for r in reactive[1:]
-                if float(r["collision_ci_low"]) <= float(best["collision_ci_high"])]
-        worse = [name(r) for r in reactive[1:] if name(r) not in ties]
+        safest = min(reactive, key=lambda r: float(r["collision_rate"]))
+        ties = [name(r) for r in reactive if r is not safest
+                and float(r["collision_ci_low"]) <= float(safest["collision_ci_high"])]
         parts.append(
-            f"with ReactiveAvoid, {name(best)} collides least ({_pct(best['collision_rate']):.0f}%"
-            f", succeeds {_pct(best['success_rate']):.0f}%, "
-            f"{float(best['false_alarms_per_min']):.1f} false alarms/min)"
-            + (f"; tied within the 95% intervals: {', '.join(ties)}" if ties else "")
-            + (f"; worse: {', '.join(worse)}" if worse else "") + ".")
+            f"with ReactiveAvoid, the fewest collisions come with {name(safest)} "
+            f"({rate(safest, 'collision')}; tied within the intervals: "
+            f"{', '.join(ties) or 'none'}), which reaches the goal in "
+            f"{_pct(safest['success_rate']):.0f}% at "
+            f"{float(safest['false_alarms_per_min']):.1f} false alarms a minute.")
+        best = max(reactive, key=lambda r: float(r["success_rate"]))
+        parts.append(f"The most successes: {name(best)} ({rate(best, 'success')}, "
+                     f"{_pct(best['collision_rate']):.0f}% collisions).")
     for ctrl in ("oracle", "straight"):
         if ctrl in by:
-            parts.append(f"{ctrl.capitalize()}: {_pct(by[ctrl]['collision_rate']):.0f}% "
-                         f"collisions, {_pct(by[ctrl]['success_rate']):.0f}% successes.")
+            parts.append(f"{ctrl.capitalize()}: {rate(by[ctrl], 'collision')} collisions, "
+                         f"{rate(by[ctrl], 'success')} successes.")
     return " ".join(parts)
 
 
@@ -152,11 +158,15 @@ def _paper_sentences(clean: list[dict[str, str]]) -> list[str]:
             paper_si = [p[4][k] for p in PAPER if p[1] == paper_kind]
             si = [float(r["si"]) for r in mine]
             crossed = [float(r["crossed"]) for r in mine]
-            out.append(f"- {label} clips, {mine[0]['detector']}: SI {min(si):.2f} to "
-                       f"{max(si):.2f} here (crossed the threshold in "
-                       f"{100 * min(crossed):.0f}-{100 * max(crossed):.0f}% of clips), "
-                       f"{min(paper_si):.2f} to {max(paper_si):.2f} in the paper.")
+            out.append(f"- {label} clips, {mine[0]['detector']}: SI {_span(si, '.2f')} here "
+                       f"(crossed the threshold in {_span([100 * c for c in crossed], '.0f')}"
+                       f"% of clips), {_span(paper_si, '.2f')} in the paper.")
     return out
+
+
+def _span(values: list[float], fmt: str) -> str:
+    lo, hi = format(min(values), fmt), format(max(values), fmt)
+    return lo if lo == hi else f"{lo} to {hi}"
 
 
 def calibration_section(run: Path) -> list[str]:

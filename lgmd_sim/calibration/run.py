@@ -88,9 +88,12 @@ def _figure(path: Path, chosen: Sequence[dict[str, Any]]) -> None:
         for k, set_name in enumerate(("search", "heldout")):
             values = [c[set_name][what] for c in chosen]
             colours = [model_style(n.split("-")[0])["color"] for n in names]
-            ax.bar(x + (k - 0.5) * 0.38, values, 0.38, color=colours,
-                   alpha=1.0 if k == 0 else 0.45, edgecolor="black", lw=0.5,
-                   label="search seeds" if k == 0 else "held-out seeds")
+            bars = ax.bar(x + (k - 0.5) * 0.38, values, 0.38, color=colours,
+                          alpha=1.0 if k == 0 else 0.45, edgecolor="black", lw=0.5,
+                          label="search seeds" if k == 0 else "held-out seeds")
+            for bar, n in zip(bars, names, strict=True):
+                if "open-loop" in n:  # the feedback LGMD's control: its colour, hatched
+                    bar.set_hatch("//")
         ax.set_xticks(x, names, rotation=45, ha="right", fontsize="small")
         ax.set_title(what.replace("_", " ") + (" (hit rate)" if what != "objective" else ""),
                      fontsize="medium")
