@@ -161,3 +161,14 @@ def test_speed_closed_loop_prints_both_tables(capsys):
     out = capsys.readouterr().out
     assert "environment alone" in out and "+ ReactiveAvoid(feedback)" in out
     assert "speed-up" in out
+
+
+def test_open_loop_runs_detectors_with_front_ends(tmp_path):
+    out = tmp_path / "front"
+    assert cli.main(["bench", "open-loop", "--scenarios", "HandheldApproach", "--jitter", "1",
+                     "--seeds", "1", "--models", "lgmd1,lgmd1/published+pose",
+                     "--resolution", "small", "--noise-levels", "", "--workers", "1",
+                     "--no-progress", "--out", str(out)]) == 0
+    rows = {r["detector"]: r for r in csv.DictReader((out / "summary.csv").open())}
+    assert set(rows) == {"lgmd1/published", "lgmd1/published+pose"}
+    assert rows["lgmd1/published"]["mpsi"] != rows["lgmd1/published+pose"]["mpsi"]

@@ -52,14 +52,20 @@ class Clip:
         return f"{self.scenario}-j{self.jitter:g}-s{self.seed}"
 
 
-def _frames(clip: Clip, resolution: Any) -> tuple[list[np.ndarray], np.ndarray, int | None, float]:
-    """The clip's RGB frames, each frame's time to collision, its collision frame and fps."""
+def _frames(clip: Clip, resolution: Any
+            ) -> tuple[list[np.ndarray], np.ndarray, int | None, float, list[dict] | None]:
+    """The clip's RGB frames, each frame's time to collision, its collision frame, fps, and
+    each frame's ground truth (for front ends fed by the pose or the IMU; None when the
+    clip's labels do not carry the rotations)."""
     if clip.dataset is not None:
         from lgmd_sim import data
 
         ep = data.open(clip.dataset).episode(clip.index)
-        ttc = np.asarray(ep.labels.column("threat_ttc").to_numpy(zero_copy_only=False), float)
-        return list(ep.frames()), ttc, ep.collision_frame, ep.fps
+        columns = [c for c in ("pose_rotation", "imu_rotation") if c in ep.labels.column_names]
+        table = ep.labels.select(["threat_ttc", *columns]).to_pylist()
+        ttc = np.array([row["threat_ttc"] for row in table], float)
+        infos = [{c: np.asarray(row[c]) for c in columns} for row in table] if columns else None
+        return list(ep.frames()), ttc, ep.collision_frame, ep.fps, infos
     import gymnasium as gym
 
     from lgmd_sim.controllers import Straight, rollout
@@ -74,7 +80,7 @@ def _frames(clip: Clip, resolution: Any) -> tuple[list[np.ndarray], np.ndarray, 
     frames = [s.obs["frame"] for s in steps]
     ttc = np.array([s.info["threat_ttc"] for s in steps], float)
     hit = steps[-1].info["first_collision_frame"]
-    return frames, ttc, (int(hit) if hit >= 0 else None), fps
+    return frames, ttc, (int(hit) if hit >= 0 else None), fps, [s.info for s in steps]
 
 
 def clip_job(clip: Clip, detectors: Sequence[tuple[str, str]], noises: Sequence[str], *,
@@ -83,7 +89,7 @@ def clip_job(clip: Clip, detectors: Sequence[tuple[str, str]], noises: Sequence[
     from lgmd_sim import models, noise
     from lgmd_sim.detect import detect
 
-    frames, ttc, collision, fps = _frames(clip, resolution)
+    frames, ttc, collision, fps, infos = _frames(clip, resolution)
     record: dict[str, Any] = {
         "scenario": clip.scenario, "jitter": clip.jitter, "seed": clip.seed,
         "episode": clip.index, "frames": len(frames), "fps": fps,
@@ -97,7 +103,7 @@ def clip_job(clip: Clip, detectors: Sequence[tuple[str, str]], noises: Sequence[
         else:
             seen = frames
         built = {f"{m}/{p}": models.make(m, preset=p) for m, p in detectors}
-        d = detect(seen, fps, built, collision, name=clip.key, window_s=window)
+        d = detect(seen, fps, built, collision, name=clip.key, window_s=window, infos=infos)
         for label, tr in d.models.items():
             record["rows"].append({
                 "noise": variant, "detector": label, "isi": d.isi, "mpsi": tr.mpsi,
