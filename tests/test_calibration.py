@@ -37,15 +37,17 @@ def test_each_kind_is_judged_as_declared():
 
 def test_a_tiny_calibration_writes_presets_that_models_take(tmp_path, monkeypatch):
     out = tmp_path / "cal"
-    assert cli.main(["calibrate", "--detectors", "lgmd1,feedback-open-loop", "--budget", "2",
-                     "--seeds", "1", "--resolution", "small", "--workers", "1",
-                     "--no-progress", "--out", str(out)]) == 0
+    assert cli.main(["calibrate", "--detectors", "lgmd1,feedback-open-loop,lgmd1+image",
+                     "--budget", "2", "--seeds", "1", "--resolution", "small",
+                     "--workers", "1", "--no-progress", "--out", str(out)]) == 0
     data = json.loads((out / "calibrated.json").read_text())
     assert data["command"].startswith("lgmd-sim calibrate") and data["budget"] == 2
     entry = data["presets"]["lgmd1"]["calibrated"]
     assert entry["from"] == "published" and 0.5 < entry["params"]["threshold"] < 1
     assert set(entry["heldout"]) == {"objective", "jitter", "stationary", "near_miss"}
     assert "calibrated-open-loop" in data["presets"]["feedback"]
+    stabilized = data["presets"]["lgmd1"]["calibrated-image"]
+    assert stabilized["params"]["stabilize"] == "image"
     assert (out / "calibration.png").stat().st_size > 10_000
     # the data file makes them presets of the models
     from lgmd_sim.models import presets
@@ -62,5 +64,21 @@ def test_a_tiny_calibration_writes_presets_that_models_take(tmp_path, monkeypatc
         assert m.params.threshold == entry["params"]["threshold"]
         loop = models.make("feedback", preset="calibrated-open-loop")
         assert loop.params.feedback_gain == 0.0
+        # the stabilized preset, run on its own, scores what the calibration scored
+        from lgmd_sim.calibration import clips, search
+
+        records = [json.loads(p.read_text()) for p in sorted((out / "records").glob("clip-*"))]
+        heldout = [r for r in records if r["key"].endswith("-s100")]
+        model = models.make("lgmd1", preset="calibrated-image")
+        potentials = []
+        for r in heldout:
+            frames, _ = clips.load_clip(out / "clips", r["key"])
+            model.reset()
+            potentials.append(np.array([model.step(f).potential for f in frames]))
+        at = np.array([stabilized["params"]["threshold"]])
+        hit = obj.hits([clips.label(r) for r in heldout], potentials, at)
+        score, _ = obj.objective([clips.label(r) for r in heldout], hit)
+        assert score[0] == pytest.approx(stabilized["heldout"]["objective"])
+        assert search.THRESHOLDS.size > 50
     finally:
         presets._load.cache_clear()

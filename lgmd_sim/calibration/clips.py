@@ -18,7 +18,12 @@ import numpy as np
 from lgmd_sim.calibration.objective import ClipLabel
 from lgmd_sim.fileio import atomic_output
 
-__all__ = ["DEFAULT_GROUPS", "ClipSpec", "load_clip", "record_clip"]
+__all__ = ["DEFAULT_GROUPS", "FRONT_ENDS", "ClipSpec", "clip_motions", "label", "load_clip",
+           "record_clip", "specs"]
+
+#: The front ends the calibration also tunes every detector with (see
+#: `lgmd_sim.models.stabilize`): the rotation fitted from the frames, or the IMU's.
+FRONT_ENDS = ("image", "imu")
 
 #: The clips of the calibration, by kind: (scenario, jitter levels). The jitter clips are
 #: the paper's jitter streams (ISI 0.69 to 0.76 at these levels), the stationary ones its
@@ -56,7 +61,7 @@ def record_clip(spec: ClipSpec, folder: str, resolution: Any) -> dict[str, Any]:
     env = gym.make(scenario(spec.scenario).env_id, jitter=spec.jitter, resolution=resolution)
     try:
         steps = list(rollout(env, Straight(), seed=spec.seed))
-        fps = float(env.unwrapped.params.fps)
+        fps, fovy = float(env.unwrapped.params.fps), float(env.unwrapped.params.fovy)
     finally:
         env.close()
     grey = np.stack([cv2.cvtColor(s.obs["frame"], cv2.COLOR_RGB2GRAY) for s in steps])
@@ -66,17 +71,36 @@ def record_clip(spec: ClipSpec, folder: str, resolution: Any) -> dict[str, Any]:
         if value.dtype.kind in "fiub" and value.size <= 16:  # per-frame numbers only
             truth[name] = np.stack([np.asarray(s.info[name], np.float64) for s in steps])
     hit = int(steps[-1].info["first_collision_frame"])
+    motions = {f"motion_{front}": clip_motions(grey, truth, front, fovy)
+               for front in FRONT_ENDS}
     with atomic_output(Path(folder) / f"{spec.key}.npz") as tmp, open(tmp, "wb") as f:
-        np.savez(f, frames=grey, fps=fps, **{f"truth_{k}": v for k, v in truth.items()})
+        np.savez(f, frames=grey, fps=fps, **motions,
+                 **{f"truth_{k}": v for k, v in truth.items()})
     return {"kind": spec.kind, "frames": len(steps),
             "collision_frame": hit if hit >= 0 else None}
 
 
-def load_clip(folder: str | Path, key: str) -> tuple[np.ndarray, dict[str, np.ndarray], float]:
-    """A recorded clip: grey frames (T, H, W), ground truth per frame, fps."""
+def clip_motions(grey: np.ndarray, truth: dict[str, np.ndarray], front: str, fovy: float
+                 ) -> np.ndarray:
+    """Each frame's homography (T, 3, 3) from the front end `front` ("image": fitted from
+    the frames; "imu": from the IMU's rotations), exactly as a model with that front end
+    computes it: a candidate then runs the plain model with ``motion=`` and gets the
+    potentials of the stabilized one, without fitting the same clip again."""
+    from types import SimpleNamespace
+
+    from lgmd_sim.models.stabilize import FrontEnd
+
+    front_end = FrontEnd(SimpleNamespace(stabilize=front, fovy=fovy, gain=False), 1)
+    rotations = truth.get(f"{front}_rotation")
+    return np.stack([front_end.motion(g[None], None if rotations is None else rotations[t])
+                     .homography[0] for t, g in enumerate(grey)])
+
+
+def load_clip(folder: str | Path, key: str, front: str | None = None
+              ) -> tuple[np.ndarray, np.ndarray | None]:
+    """A recorded clip: its grey frames (T, H, W), and with `front` its homographies."""
     with np.load(Path(folder) / f"{key}.npz") as z:
-        truth = {k[6:]: z[k] for k in z.files if k.startswith("truth_")}
-        return z["frames"], truth, float(z["fps"])
+        return z["frames"], (z[f"motion_{front}"] if front else None)
 
 
 def specs(groups: dict[str, list[tuple[str, tuple[float, ...]]]], seeds: Sequence[int]

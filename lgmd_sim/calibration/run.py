@@ -30,13 +30,14 @@ from lgmd_sim.calibration.search import SPACES, THRESHOLDS, candidates, evaluate
 from lgmd_sim.fileio import write_files, write_text_atomic
 from lgmd_sim.parallel import Job, run_jobs
 
-__all__ = ["PRESET_NAMES", "choose", "run"]
+__all__ = ["choose", "preset_name", "run"]
 
-#: The preset each calibrated detector becomes: (model, preset name).
-PRESET_NAMES = {"feedback": ("feedback", "calibrated"),
-                "feedback-open-loop": ("feedback", "calibrated-open-loop"),
-                "lgmd1": ("lgmd1", "calibrated"), "lgmd2": ("lgmd2", "calibrated"),
-                "f_on": ("f_on", "calibrated"), "f_off": ("f_off", "calibrated")}
+def preset_name(detector: str) -> tuple[str, str]:
+    """The (model, preset) a calibrated detector becomes: "calibrated", the feedback
+    LGMD's control "calibrated-open-loop", with a front end "calibrated-image" ..."""
+    model, _preset, _sample, front = SPACES[detector]
+    name = "calibrated-open-loop" if detector.startswith("feedback-open-loop") else "calibrated"
+    return model, name + (f"-{front}" if front else "")
 
 
 def _unpack(bits: list, clips: int) -> np.ndarray:
@@ -80,7 +81,7 @@ def _markdown(chosen: Sequence[dict[str, Any]]) -> str:
 def _figure(path: Path, chosen: Sequence[dict[str, Any]]) -> None:
     from lgmd_sim.plots import figure, model_style
 
-    fig = figure(figsize=(11, 4))
+    fig = figure(figsize=(4 + 0.55 * len(chosen) * 4, 4.4))
     axes = fig.subplots(1, 4, sharey=True)
     names = [c["detector"] for c in chosen]
     x = np.arange(len(names))
@@ -143,14 +144,15 @@ def run(args: argparse.Namespace) -> int:
         "command": args.command_line, "objective": obj.__doc__.strip(),
         "search_seeds": config["search_seeds"], "heldout_seeds": config["heldout_seeds"],
         "resolution": args.resolution, "budget": args.budget, "figure": "calibration.png",
-        "presets": {PRESET_NAMES[c["detector"]][0]: {} for c in chosen},
+        "presets": {preset_name(c["detector"])[0]: {} for c in chosen},
     }
     for c in chosen:
-        model, name = PRESET_NAMES[c["detector"]]
-        base = SPACES[c["detector"]][1]
-        presets["presets"][model][name] = {
-            "from": base, "params": {**c["params"], "threshold": c["threshold"]},
-            "search": c["search"], "heldout": c["heldout"]}
+        model, name = preset_name(c["detector"])
+        _model, base, _sample, front = SPACES[c["detector"]]
+        params = {**c["params"], "threshold": c["threshold"],
+                  **({"stabilize": front} if front else {})}
+        presets["presets"][model][name] = {"from": base, "params": params,
+                                           "search": c["search"], "heldout": c["heldout"]}
     text = json.dumps(presets, indent=2) + "\n"
     write_text_atomic(folder.path / "calibrated.json", text)
     if args.save_presets:

@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from lgmd_sim.calibration.clips import label, load_clip
+from lgmd_sim.calibration.clips import FRONT_ENDS, label, load_clip
 from lgmd_sim.calibration.objective import hits
 
 __all__ = ["SPACES", "THRESHOLDS", "Candidate", "candidates", "evaluate"]
@@ -53,15 +53,22 @@ def _scale(rng: np.random.Generator) -> dict[str, Any]:
 
 #: Parameters every candidate of a detector has, its starting one included.
 FIXED: dict[str, dict[str, Any]] = {"feedback-open-loop": {"feedback_gain": 0.0}}
-#: Per calibrated detector: the model, the preset the candidates start from, and the
-#: sampler of the parameters searched.
-SPACES: dict[str, tuple[str, str, Callable[[np.random.Generator], dict[str, Any]]]] = {
+_BASES: dict[str, tuple[str, str, Callable[[np.random.Generator], dict[str, Any]]]] = {
     "feedback": ("feedback", "paper", _feedback),
     "feedback-open-loop": ("feedback", "paper", _open_loop),
     "lgmd1": ("lgmd1", "published", _scale),
     "lgmd2": ("lgmd2", "published", _scale),
     "f_on": ("f_on", "published", _scale),
     "f_off": ("f_off", "published", _scale),
+}
+#: Per calibrated detector ("lgmd1", or with a front end "lgmd1+image"): the model, the
+#: preset the candidates start from, the sampler of the parameters searched, and the front
+#: end (None, or one of `FRONT_ENDS`).
+SPACES: dict[str, tuple[str, str, Callable[[np.random.Generator], dict[str, Any]],
+                        str | None]] = {
+    **{key: (*base, None) for key, base in _BASES.items()},
+    **{f"{key}+{front}": (*base, front) for key, base in _BASES.items()
+       for front in FRONT_ENDS},
 }
 
 
@@ -80,8 +87,8 @@ class Candidate:
 
 def candidates(detector: str, budget: int, seed: int) -> list[Candidate]:
     """The starting preset and `budget` - 1 samples of the detector's space (seeded)."""
-    _model, _preset, sample = SPACES[detector]
-    fixed = FIXED.get(detector, {})
+    _model, _preset, sample, _front = SPACES[detector]
+    fixed = FIXED.get(detector.split("+")[0], {})
     rng = np.random.default_rng([seed, sum(map(ord, detector))])
     return [Candidate(detector, 0, dict(fixed))] + [
         Candidate(detector, i, {**fixed, **sample(rng)}) for i in range(1, budget)]
@@ -92,20 +99,25 @@ def evaluate(candidate: Candidate, folder: str, clip_sets: Mapping[str, Sequence
     """Run a candidate over every clip; per set, each clip's hits at every threshold (a
     job, packed as bits: one row per clip)."""
     from lgmd_sim import models
+    from lgmd_sim.models.warp import Motion
 
-    name, preset, _ = SPACES[candidate.detector]
+    name, preset, _, front = SPACES[candidate.detector]
     out: dict[str, Any] = {"detector": candidate.detector, "index": candidate.index,
                            "params": dict(candidate.params), "sets": {}}
     for set_name, records in clip_sets.items():
-        clips = [load_clip(folder, rec["key"])[0] for rec in records]
+        clips = [load_clip(folder, rec["key"], front) for rec in records]
         # One batched model runs every clip of the set as its own stream (bit-identical to
-        # separate streams); a clip that has ended repeats its last frame, unread.
+        # separate streams); a clip that has ended repeats its last frame, unread. A front
+        # end's motions were computed once, with the clip (`clips.clip_motions`).
         model = models.make(name, preset=preset, n_streams=len(clips), **candidate.params)
-        lengths = np.array([len(c) for c in clips])
+        lengths = np.array([len(frames) for frames, _ in clips])
         potentials = np.empty((len(clips), lengths.max()))
         for t in range(lengths.max()):
-            potentials[:, t] = model.step(np.stack([c[min(t, len(c) - 1)] for c in clips]))\
-                .potential
+            at = [min(t, n - 1) for n in lengths]
+            motion = None if front is None else Motion(
+                np.stack([hs[i] for (_, hs), i in zip(clips, at, strict=True)]))
+            frames = np.stack([f[i] for (f, _), i in zip(clips, at, strict=True)])
+            potentials[:, t] = model.step(frames, motion=motion).potential
         hit = hits([label(r) for r in records],
                    [p[:n] for p, n in zip(potentials, lengths, strict=True)], THRESHOLDS)
         out["sets"][set_name] = np.packbits(hit, axis=1).tolist()
