@@ -70,7 +70,8 @@ def test_a_batch_is_warped_exactly_as_separate_streams(name, preset, clip):
     n = 3
     k = intrinsics(55.0, *SHAPE)
     turns = _turns(len(clip) * n, seed=2, degrees=2.0).reshape(len(clip), n, 3)
-    gains = 1.0 + 0.05 * np.random.default_rng(3).normal(size=(len(clip), n))
+    gains = (1.0 + 0.05 * np.random.default_rng(3).normal(size=(len(clip), n, *SHAPE))
+             ).astype(np.float32)  # gain fields
     frames = np.stack([np.roll(clip, 3 * i, axis=2) for i in range(n)], axis=1)
     batch = models.make(name, preset=preset, n_streams=n)
     alone = [models.make(name, preset=preset) for _ in range(n)]
@@ -132,14 +133,19 @@ def test_image_front_end_matches_the_given_rotation():
     assert image.front_end.inliers[0] >= 20
 
 
-def test_brightness_gain_is_found_and_removed():
+def test_brightness_gain_is_found_where_the_light_changes_and_removed():
     frames, _ = _scene(2, (72, 96))
-    darker = np.clip(frames[1] * 0.8 + 0.5, 0, 255).astype(np.uint8)
-    assert brightness_gain(frames[1], darker, None) == pytest.approx(0.8, abs=0.01)
+    darker = frames[1].astype(np.float32)
+    darker[36:] *= 0.8  # the lower half in shade, the upper half (the sky) as it was
+    darker = np.clip(darker + 0.5, 0, 255).astype(np.uint8)
+    field = brightness_gain(frames[1], darker, None)
+    assert field.shape == (72, 96)
+    assert np.allclose(field[:24], 1.0, atol=0.01) and np.allclose(field[48:], 0.8, atol=0.01)
     plain, gain = models.make("lgmd1"), models.make("lgmd1", gain=True)
     for f in (frames[1], darker):
         a, b = plain.step(f, layers=True), gain.step(f, layers=True)
-    assert np.abs(b.layers["P"]).mean() < 0.1 * np.abs(a.layers["P"]).mean()
+    p_plain, p_gain = np.abs(a.layers["P"]), np.abs(b.layers["P"])
+    assert p_gain[:24].mean() < 0.1 and p_gain[48:].mean() < 0.1 * p_plain[48:].mean()
 
 
 def test_rotations_round_trip():

@@ -230,8 +230,11 @@ class LGMDModel(ABC):
                     horizons: np.ndarray | None, grounds: np.ndarray | None) -> None:
         """Warp every stored map (`_state_maps`) into the current frame by the streams'
         homographies `hs` (N, 3, 3) (and below their `horizons`, by `grounds`: see
-        `Motion`) and scale the previous frame by their `gains` (N,)."""
+        `Motion`) and scale the previous frame by their `gains` ((N, 1, 1) or (N, H, W))."""
         n, height, width = grey.shape
+        if gains is not None and gains.shape[1:] not in ((1, 1), (height, width)):
+            raise ValueError(f"{self.name}: gain fields of {gains.shape[1]}x{gains.shape[2]} "
+                             f"for frames of {height}x{width}")
         maps = self._state_maps()
         for m in maps:  # a previous frame holds interpolated grey levels from now on
             if m.fill == "frame" and getattr(self, m.attr).dtype != np.float32:
@@ -241,24 +244,26 @@ class LGMDModel(ABC):
             self._scratch = np.zeros((height + 1, width + 1), np.float32)
         plan, identity, moved = self._plan, np.eye(3), False
         for i in range(n):
-            gain = 1.0 if gains is None else float(gains[i])
-            if hs is None or (np.array_equal(hs[i], identity) and horizons is None):
-                for m in maps:  # no warp: the gain alone (exactly nothing when it is 1)
-                    if m.fill == "frame" and gain != 1.0:
+            gain = None if gains is None or (gains[i] == 1).all() else np.broadcast_to(
+                gains[i], (height, width))  # a gain of 1 changes exactly nothing
+            if hs is not None and not (np.array_equal(hs[i], identity) and horizons is None):
+                moved = True
+                homography_plan(hs[i], plan, None if horizons is None else horizons[i],
+                                None if grounds is None else grounds[i])
+                fill = grey[i].astype(np.float32)  # uncovered: P = 0, whatever the gain
+                for m in maps:
+                    view = getattr(self, m.attr)[i]
+                    if m.padded is not None:
+                        view = view[..., :height, 1:width + 1]
+                    frame = m.fill == "frame"
+                    for k in np.ndindex(view.shape[:-2]):
+                        apply_plan(plan, view[k], fill if frame else None, self._scratch,
+                                   gain if frame else None)
+            elif gain is not None:
+                for m in maps:
+                    if m.fill == "frame":
                         view = getattr(self, m.attr)[i]
-                        view *= np.float32(gain)
-                continue
-            moved = True
-            homography_plan(hs[i], plan, None if horizons is None else horizons[i],
-                            None if grounds is None else grounds[i])
-            fill = grey[i].astype(np.float32)
-            for m in maps:
-                view = getattr(self, m.attr)[i]
-                if m.padded is not None:
-                    view = view[..., :height, 1:width + 1]
-                for k in np.ndindex(view.shape[:-2]):
-                    apply_plan(plan, view[k], fill if m.fill == "frame" else None,
-                               gain if m.fill == "frame" else 1.0, self._scratch)
+                        view *= gain
         if moved:
             for m in maps:
                 if m.padded is not None:

@@ -21,9 +21,10 @@ Where R comes from (the model parameter ``stabilize``):
   become pairs of rays K^-1 x; a small RANSAC over 2-point minimal samples fits a pure
   3-D rotation, refined by least squares (Kabsch) on its inliers.
 
-``gain=True`` also fits the brightness gain between frames (`brightness_gain`: the
-median ratio of this frame to the warped previous one), and the previous frame is
-scaled by it: auto-exposure, a passing shade or flicker then do not read as motion.
+``gain=True`` also fits the brightness gain between frames (`brightness_gain`: a smooth
+field of the median ratios of this frame to the warped previous one, block by block),
+and the previous frame is scaled by it: auto-exposure, a passing shade or flicker then
+do not read as motion.
 """
 
 from __future__ import annotations
@@ -277,32 +278,49 @@ def _kabsch(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 # --- brightness -------------------------------------------------------------------------------
 
-#: The gain is fitted on frames shrunk by this factor: a global quantity needs no detail.
-_GAIN_SCALE = 4
+#: The gain field's grid (rows, columns): a gain per block of about 30 x 30 pixels at
+#: 270 x 480, smooth in between. Lighting changes are not global: a passing shade or a
+#: flickering sun changes the lit ground, not the sky, and one gain for the whole frame
+#: then turned the sky into P (measured: docs/models.md, "Brightness").
+GAIN_GRID = (9, 16)
+#: Each block is judged on this many x this many pixels of the frames shrunk to the grid.
+_GAIN_CELL = 8
 #: Pixels this dark or this bright in either frame say little about a gain (noise,
-#: clipping) and are left out of it.
+#: clipping) and are left out; a block needs a quarter of its pixels to have a gain of
+#: its own, else it takes the frame's.
 _GAIN_RANGE = (8.0, 247.0)
+_GAIN_MIN_SHARE = 0.25
 
 
-def brightness_gain(prev: np.ndarray, cur: np.ndarray, homography: np.ndarray | None) -> float:
+def brightness_gain(prev: np.ndarray, cur: np.ndarray, homography: np.ndarray | None
+                    ) -> np.ndarray:
     """The brightness of `cur` over the previous frame `prev` warped into it (uint8 grey
-    frames; homography previous -> current pixels, None for none): the median ratio of
-    their pixels, robust to the part of the frame that moves on its own; 1 when no pixel
-    qualifies."""
-    s = 1.0 / _GAIN_SCALE
-    small = [cv2.resize(f, None, fx=s, fy=s, interpolation=cv2.INTER_AREA) for f in (prev, cur)]
-    h, w = small[1].shape
-    before = small[0].astype(np.float32)
-    covered = np.ones((h, w), np.uint8)
-    if homography is not None:  # INTER_AREA: small pixel i covers full pixels 4i..4i+3
-        scale = np.array([[s, 0, 0.5 * s - 0.5], [0, s, 0.5 * s - 0.5], [0, 0, 1]])
+    frames; homography previous -> current pixels, None for none), as a smooth gain field
+    (H, W) float32: per block of `GAIN_GRID` the median ratio of their pixels (robust to
+    what moves on its own within the block), interpolated between the blocks' centres."""
+    rows, cols = GAIN_GRID
+    h, w = rows * _GAIN_CELL, cols * _GAIN_CELL
+    small = [cv2.resize(f, (w, h), interpolation=cv2.INTER_AREA).astype(np.float32)
+             for f in (prev, cur)]
+    before, after = small
+    covered = np.ones((h, w), np.float32)
+    if homography is not None:  # into the shrunk frames' pixel coordinates
+        sx, sy = w / cur.shape[1], h / cur.shape[0]
+        scale = np.array([[sx, 0, 0.5 * sx - 0.5], [0, sy, 0.5 * sy - 0.5], [0, 0, 1]])
         hs = scale @ homography @ np.linalg.inv(scale)
         before = cv2.warpPerspective(before, hs, (w, h), flags=cv2.INTER_LINEAR)
         covered = cv2.warpPerspective(covered, hs, (w, h), flags=cv2.INTER_NEAREST)
-    after = small[1].astype(np.float32)
     lo, hi = _GAIN_RANGE
     ok = (covered > 0) & (before > lo) & (before < hi) & (after > lo) & (after < hi)
-    return float(np.median(after[ok] / before[ok])) if ok.any() else 1.0
+    if not ok.any():
+        return np.ones(cur.shape, np.float32)
+    ratio = np.where(ok, after / np.where(ok, before, 1.0), np.nan)
+    blocks = ratio.reshape(rows, _GAIN_CELL, cols, _GAIN_CELL).transpose(0, 2, 1, 3)
+    blocks = blocks.reshape(rows, cols, -1)
+    enough = np.isfinite(blocks).mean(axis=-1) >= _GAIN_MIN_SHARE
+    gains = np.full((rows, cols), np.median(ratio[ok]), np.float32)
+    gains[enough] = np.nanmedian(blocks[enough], axis=-1)
+    return cv2.resize(gains, (cur.shape[1], cur.shape[0]), interpolation=cv2.INTER_LINEAR)
 
 
 # --- the front end of a model -------------------------------------------------------------------
@@ -352,7 +370,7 @@ class FrontEnd:
                 hs[i] = k @ rot @ np.linalg.inv(k)
         gains = None
         if self.gain:
-            gains = np.ones(n)
+            gains = np.ones((n, height, width), np.float32)
             for i in range(n):
                 if self._prev[i] is not None and self._prev[i].shape == frames[i].shape:
                     gains[i] = brightness_gain(self._prev[i], frames[i],
