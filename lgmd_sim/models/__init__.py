@@ -114,7 +114,7 @@ def _split_preset(name: str, preset: str | None) -> tuple[str, dict[str, Any]]:
     """A preset with its front-end suffixes: the preset's name and the suffixes'
     parameters. None is the model's default preset."""
     cls = model_class(name)
-    base, *suffixes = (preset or next(iter(cls.presets))).split("+")
+    base, *suffixes = (next(iter(cls.presets)) if preset is None else preset).split("+")
     if base not in cls.presets:
         raise ValueError(f"unknown preset {base!r} for model {name!r}; available: "
                          f"{', '.join(cls.presets)}")
