@@ -29,6 +29,12 @@ def test_wheel_carries_envs_assets_and_markers(wheel):
             relative = path.relative_to(ROOT / "assets").as_posix()
             assert f"lgmd_sim/_data/assets/{relative}" in shipped_assets
     assert {"lgmd_sim/cli/__init__.py", "lgmd_sim/py.typed"} <= set(names)
+    from lgmd_sim import policies
+
+    for name in policies.available():  # the shipped policies, each a whole policy folder
+        assert {f"lgmd_sim/policies/{name}/{f}" for f in ("policy.zip", "policy.json",
+                                                         "POLICY.md")} <= set(names)
+    assert policies.DEFAULT in policies.available()
     assert any(n.endswith(".dist-info/licenses/LICENSE") or n.endswith("/LICENSE")
                for n in names)
 

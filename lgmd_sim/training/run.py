@@ -177,7 +177,10 @@ def train(args: argparse.Namespace) -> int:
     if resume is None:
         _prepare_folder(out)
     sessions = record["sessions"] if record else []
-    first_seed = o["seed"] + sum(s["envs"] for s in sessions)
+    if resume is not None and o["steps"] <= _checkpoint_steps(resume / "checkpoints"):
+        raise ValueError(f"--steps {o['steps']}: the run is at "
+                         f"{_checkpoint_steps(resume / 'checkpoints')} steps already")
+    first_seed = o["seed"] + sum(s["env_seeds"][1] for s in sessions)
     if first_seed + o["envs"] > VALIDATION_SEED:
         raise ValueError(f"training seeds {first_seed} to {first_seed + o['envs'] - 1} would "
                          f"reach the validation seeds (from {VALIDATION_SEED}): use a lower "
@@ -205,9 +208,6 @@ def _train(out: Path, o: dict[str, Any], config: PolicyConfig, kwargs: dict[str,
     validation = None
     try:
         bare = _bare_speed(envs, config.env_id)
-        if resuming and o["steps"] <= _checkpoint_steps(checkpoints):
-            raise ValueError(f"--steps {o['steps']}: the run is at "
-                             f"{_checkpoint_steps(checkpoints)} steps already")
         keys = _normalize_keys(envs.venv.observation_space, config.obs)
         if resuming:
             venv, model = _load_checkpoint(checkpoints, envs.venv, config.algo)
@@ -219,7 +219,7 @@ def _train(out: Path, o: dict[str, Any], config: PolicyConfig, kwargs: dict[str,
         started = time.time()
         session = {"command": args.command_line, "started": time.strftime("%Y-%m-%d %H:%M:%S"),
                    "versions": _versions(), "machine": machine(),
-                   "env_seeds": [first_seed, o["envs"]], "envs": o["envs"]}
+                   "env_seeds": [first_seed, o["envs"]]}
         out.mkdir(parents=True, exist_ok=True)
         options = {**o, "resolution": json.loads(json.dumps(o["resolution"]))}
         _write_record(out, options, config, kwargs, [*sessions, session], "running")
