@@ -12,6 +12,7 @@ from __future__ import annotations
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
+from matplotlib.colors import to_rgb
 
 from lgmd_sim import metrics
 
@@ -38,11 +39,19 @@ THRESHOLD: dict[str, Any] = {"color": "0.45", "ls": "--", "lw": 1.0}
 
 
 def model_style(name: str) -> dict[str, Any]:
-    """Line style of a model; variants ("feedback/calibrated") take their base's colour."""
-    base = name.split("/")[0].split("+")[0]
-    if base in _STYLES:
-        return dict(_STYLES[base])
-    return {"color": _OTHERS[sum(map(ord, name)) % len(_OTHERS)], "ls": "-", "lw": 1.6}
+    """Line style of a detector ("model", "model/preset", with front ends): the model's
+    own; a calibrated preset in a darker shade of its colour, a front end (a camera
+    stabilized by "image", "imu" or "pose") dashed, so that variants of one model differ."""
+    head, *fronts = name.split("+")
+    base, _, preset = head.partition("/")
+    if base not in _STYLES:
+        return {"color": _OTHERS[sum(map(ord, name)) % len(_OTHERS)], "ls": "-", "lw": 1.6}
+    style = dict(_STYLES[base])
+    if preset.startswith("calibrated"):
+        style["color"] = tuple(0.6 * c for c in to_rgb(style["color"]))
+    if fronts or any(f in preset.split("-") for f in ("image", "imu", "pose")):
+        style["ls"] = (0, (4, 1.5)) if base != "f_off" else (0, (1, 2.5))
+    return style
 
 
 def alarm_label(name: str, first_alarm: int | None, event: metrics.EventResult | None) -> str:

@@ -27,7 +27,7 @@ _CONTROLLER_STYLES = {
 def _style(row: dict[str, Any]) -> dict[str, Any]:
     if row["model"] is None:
         return dict(_CONTROLLER_STYLES.get(row["controller"], {"color": "0.3", "marker": "^"}))
-    return {**model_style(row["model"]), "marker": "o"}
+    return {**model_style(f"{row['model']}/{row['preset']}"), "marker": "o"}
 
 
 def _save(fig, path: Path) -> None:
