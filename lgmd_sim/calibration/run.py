@@ -78,11 +78,17 @@ def _markdown(chosen: Sequence[dict[str, Any]]) -> str:
     return "\n".join(lines) + "\n"
 
 
+TITLES = {"objective": "objective (mean of the three)",
+          "jitter": "jitter clips: first alarm late, before collision",
+          "stationary": "stationary clips: alarm before collision",
+          "near_miss": "near misses: no alarm"}
+
+
 def _figure(path: Path, chosen: Sequence[dict[str, Any]]) -> None:
     from lgmd_sim.plots import figure, model_style
 
-    fig = figure(figsize=(4 + 0.55 * len(chosen) * 4, 4.4))
-    axes = fig.subplots(1, 4, sharey=True)
+    fig = figure(figsize=(3 + 0.55 * len(chosen) * 2, 8.5))
+    axes = fig.subplots(2, 2, sharey=True).ravel()
     names = [c["detector"] for c in chosen]
     x = np.arange(len(names))
     for ax, what in zip(axes, ("objective", *obj.KINDS), strict=True):
@@ -96,11 +102,13 @@ def _figure(path: Path, chosen: Sequence[dict[str, Any]]) -> None:
                 if "open-loop" in n:  # the feedback LGMD's control: its colour, hatched
                     bar.set_hatch("//")
         ax.set_xticks(x, names, rotation=45, ha="right", fontsize="small")
-        ax.set_title(what.replace("_", " ") + (" (hit rate)" if what != "objective" else ""),
-                     fontsize="medium")
+        ax.set_title(TITLES[what], fontsize="medium")
         ax.set_ylim(0, 1.02)
         ax.grid(axis="y", alpha=0.3)
-    axes[0].legend(fontsize="small", loc="lower left")
+    handles, labels = axes[0].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="outside upper center", ncols=2, fontsize="small",
+               title="bars in each detector's colour; hatched: the feedback LGMD's open-loop "
+               "control", title_fontsize="small")
     write_files({path: lambda tmp: fig.savefig(tmp, format="png", dpi=110)})
 
 
