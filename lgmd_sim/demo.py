@@ -2,11 +2,13 @@
 
 One episode of RoughTerrainObstacles at the paper's 270 x 480: a proportional heading
 controller keeps the robot on the line to the goal, with an obstacle standing in the way,
-while an LGMD model (the feedback LGMD by default) watches the camera. Writes
+while LGMD detectors watch the camera: by default the best one on this task (from the
+closed-loop benchmark in docs/results.md) beside the paper's feedback LGMD
+(`lgmd_sim.cli.demo.DETECTORS`). Writes
 
-- ``demo.mp4``: the camera view beside the model's S layer, and below them the membrane
-  potential so far, with the threshold and the collision frame;
-- ``demo.png``: a summary: frames at key moments, the membrane potential against the
+- ``demo.mp4``: the camera view beside the first detector's S layer, and below them every
+  detector's membrane potential so far, with its threshold and the collision frame;
+- ``demo.png``: a summary: frames at key moments, the membrane potentials against the
   distance and time to collision of the obstacle, and the camera's shake.
 """
 
@@ -36,47 +38,55 @@ TRACE_HEIGHT = 210
 
 @dataclass
 class Episode:
-    """What the demo recorded, frame by frame."""
+    """What the demo recorded, frame by frame; detectors by their spec, in order."""
 
     frames: list[np.ndarray]
-    s_layers: list[np.ndarray]
-    potential: np.ndarray
-    threshold: float
+    s_layers: list[np.ndarray]  # the first detector's
+    potentials: dict[str, np.ndarray]
+    thresholds: dict[str, float]
     distance: np.ndarray
     ttc: np.ndarray
     shake: np.ndarray  # camera angular speed (rad/s)
     ssim: np.ndarray
     collision_frame: int | None
     fps: float
-    model: str
 
     @property
     def before_collision(self) -> int:
         """The frame 0.5 s before the collision (or the last frame): at contact the
         obstacle fills the whole view."""
         if self.collision_frame is None:
-            return len(self.potential) - 1
+            return len(self.frames) - 1
         return max(self.collision_frame - round(0.5 * self.fps), 0)
 
+    def first_alarm(self, name: str) -> int | None:
+        return metrics.first_alarm(self.potentials[name], threshold=self.thresholds[name])
 
-def drive(seed: int, jitter: float, model_name: str) -> Episode:
-    """Run one episode with the robot heading for the goal through the obstacle ahead."""
+
+def drive(seed: int, jitter: float, detectors: list[str], resolution: str = "paper") -> Episode:
+    """Run one episode with the robot heading for the goal through the obstacle ahead,
+    each detector ("model/preset+front", `models.parse_spec`) watching the camera."""
     import gymnasium as gym
 
     import lgmd_sim  # noqa: F401  (registers the scenarios)
 
-    model = models.make(model_name)
-    env = gym.make(SCENARIO, jitter=jitter, resolution="paper")
-    rec: dict[str, list] = {k: [] for k in ("frames", "s", "mp", "dist", "ttc", "shake",
-                                            "ssim")}
+    specs = {d: models.parse_spec(d) for d in detectors}
+    built = {d: models.make(name, preset=preset) for d, (name, preset) in specs.items()}
+    env = gym.make(SCENARIO, jitter=jitter, resolution=resolution)
+    rec: dict[str, list] = {k: [] for k in ("frames", "s", "dist", "ttc", "shake", "ssim")}
+    potentials: dict[str, list[float]] = {d: [] for d in detectors}
     collision = None
     try:
         for step in rollout(env, Straight(cruise=CRUISE, heading_gain=HEADING_GAIN), seed):
             obs, info = step.obs, step.info
-            out = model.step(obs["frame"], layers=True)
+            for k, (name, model) in enumerate(built.items()):
+                key = model.rotation_key  # a pose- or IMU-stabilized model reads its rotation
+                out = model.step(obs["frame"], layers=k == 0,
+                                 rotation=None if key is None else info[key])
+                potentials[name].append(out.potential)
+                if k == 0:
+                    rec["s"].append(out.layers["S"])
             rec["frames"].append(obs["frame"])
-            rec["s"].append(out.layers["S"])
-            rec["mp"].append(out.potential)
             rec["dist"].append(info["threat_distance"])
             rec["ttc"].append(info["threat_ttc"])
             rec["shake"].append(float(np.linalg.norm(info["camera_angvel"])))
@@ -86,17 +96,21 @@ def drive(seed: int, jitter: float, model_name: str) -> Episode:
     finally:
         env.close()
     return Episode(
-        rec["frames"], rec["s"], np.array(rec["mp"]), model.params.threshold,
+        rec["frames"], rec["s"], {d: np.array(v) for d, v in potentials.items()},
+        {d: m.params.threshold for d, m in built.items()},
         np.array(rec["dist"]), np.array(rec["ttc"]), np.array(rec["shake"]),
         np.array(rec["ssim"], dtype=float), collision, float(env.metadata["render_fps"]),
-        model_name,
     )
 
 
+def _rgb(name: str) -> tuple[int, ...]:
+    return tuple(round(255 * c) for c in to_rgb(model_style(name)["color"]))
+
+
 def _trace_panel(ep: Episode, upto: int, width: int) -> np.ndarray:
-    """The membrane potential up to frame `upto`, drawn with OpenCV (fast, per frame)."""
+    """The membrane potentials up to frame `upto`, drawn with OpenCV (fast, per frame)."""
     panel = np.full((TRACE_HEIGHT, width, 3), 255, np.uint8)
-    n = len(ep.potential)
+    n = len(ep.frames)
     left, right, top, bottom = 50, width - 10, 10, TRACE_HEIGHT - 25
 
     def xy(t: float, v: float) -> tuple[int, int]:
@@ -108,18 +122,25 @@ def _trace_panel(ep: Episode, upto: int, width: int) -> np.ndarray:
     cv2.rectangle(panel, (left, top), (right, bottom), (180, 180, 180), 1)
     for v in (0.5, 0.75, 1.0):
         cv2.putText(panel, f"{v:.2f}", (5, xy(0, v)[1] + 4), font, 0.4, (80, 80, 80), 1)
-    cv2.line(panel, xy(0, ep.threshold), xy(n - 1, ep.threshold), (115, 115, 115), 1)
-    cv2.putText(panel, f"threshold {ep.threshold:g}", (left + 5, xy(0, ep.threshold)[1] - 5),
-                font, 0.4, (0, 0, 0), 1)
+    for threshold in sorted(set(ep.thresholds.values())):
+        cv2.line(panel, xy(0, threshold), xy(n - 1, threshold), (115, 115, 115), 1)
+        cv2.putText(panel, f"threshold {threshold:g}", (left + 5, xy(0, threshold)[1] - 5),
+                    font, 0.4, (0, 0, 0), 1)
     if ep.collision_frame is not None:
         x = xy(ep.collision_frame, 0.5)[0]
         cv2.line(panel, (x, top), (x, bottom), (0, 0, 0), 1)
         cv2.putText(panel, "collision", (max(left, x - 70), top + 12), font, 0.4, (0, 0, 0), 1)
-    pts = np.array([xy(t, v) for t, v in enumerate(ep.potential[: upto + 1])], np.int32)
-    colour = tuple(round(255 * c) for c in to_rgb(model_style(ep.model)["color"]))
-    cv2.polylines(panel, [pts.reshape(-1, 1, 2)], False, colour, 2, cv2.LINE_AA)
-    cv2.putText(panel, f"frame {upto}   membrane potential {ep.potential[upto]:.3f}",
-                (left, TRACE_HEIGHT - 8), font, 0.45, (0, 0, 0), 1, cv2.LINE_AA)
+    x = left
+    for name, potential in reversed(ep.potentials.items()):  # the first detector on top
+        pts = np.array([xy(t, v) for t, v in enumerate(potential[: upto + 1])], np.int32)
+        cv2.polylines(panel, [pts.reshape(-1, 1, 2)], False, _rgb(name), 2, cv2.LINE_AA)
+    cv2.putText(panel, f"frame {upto}", (x, TRACE_HEIGHT - 8), font, 0.45, (0, 0, 0), 1,
+                cv2.LINE_AA)
+    x += 90
+    for name, potential in ep.potentials.items():
+        text = f"{name} {potential[upto]:.3f}"
+        cv2.putText(panel, text, (x, TRACE_HEIGHT - 8), font, 0.45, _rgb(name), 1, cv2.LINE_AA)
+        x += cv2.getTextSize(text, font, 0.45, 1)[0][0] + 25
     return panel
 
 
@@ -133,9 +154,11 @@ class _Compositor:
 
     def __call__(self, t: int) -> np.ndarray:
         frame, s = self.ep.frames[t], self.ep.s_layers[t]
+        s = np.maximum(s, 0)  # LGMD1's S is negative where inhibition wins
         s8 = np.clip(255.0 * np.sqrt(s / self.s_scale), 0, 255).astype(np.uint8)
         s_rgb = cv2.cvtColor(cv2.applyColorMap(s8, cv2.COLORMAP_INFERNO), cv2.COLOR_BGR2RGB)
-        cv2.putText(s_rgb, "S layer", (8, 20), cv2.FONT_HERSHEY_SIMPLEX, 0.55,
+        cv2.putText(s_rgb, f"S layer of {next(iter(self.ep.potentials))}", (8, 20),
+                    cv2.FONT_HERSHEY_SIMPLEX, 0.55,
                     (255, 255, 255), 1, cv2.LINE_AA)
         return np.vstack([np.hstack([frame, s_rgb]), _trace_panel(self.ep, t, 2 * s.shape[1])])
 
@@ -158,38 +181,40 @@ def _imwrite(path: Path, bgr: np.ndarray) -> None:
 
 
 def write_summary(ep: Episode, path: Path, title: str) -> None:
-    """Key frames in time order, the potential against distance and time to collision of
+    """Key frames in time order, the potentials against distance and time to collision of
     the obstacle, and the camera's shake."""
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure
+    from lgmd_sim.plots import COLLISION, THRESHOLD, alarm_label, figure
 
-    from lgmd_sim.plots import COLLISION, THRESHOLD, model_style
-
-    n = len(ep.potential)
-    alarm = metrics.first_alarm(ep.potential, threshold=ep.threshold)
+    n = len(ep.frames)
+    first = next(iter(ep.potentials))
+    alarm = ep.first_alarm(first)
     end = ep.collision_frame if ep.collision_frame is not None else n - 1
     keys = {"start": 0, "midway": end // 2,
             "0.5 s before collision" if ep.collision_frame is not None else "last frame":
                 ep.before_collision}
     if alarm is not None:
-        keys["first alarm"] = alarm
+        keys[f"first alarm of {first}"] = alarm
     keys = dict(sorted(keys.items(), key=lambda kv: kv[1]))  # in time order
-    fig = Figure(figsize=(11, 9), layout="constrained")
-    FigureCanvasAgg(fig)
+    fig = figure(figsize=(11, 9))
     grid = fig.add_gridspec(4, len(keys), height_ratios=[1.1, 1.4, 1, 0.8])
     for i, (label, t) in enumerate(keys.items()):
         ax = fig.add_subplot(grid[0, i])
         ax.imshow(ep.frames[t])
-        ax.set_title(f"{label} (frame {t}, {t / ep.fps:.2f} s)", fontsize="small")
+        ax.set_title(f"{label}\n(frame {t}, {t / ep.fps:.2f} s)", fontsize="small")
         ax.axis("off")
     time = np.arange(n) / ep.fps
     mp = fig.add_subplot(grid[1, :])
-    style = model_style(ep.model)
-    mp.plot(time, ep.potential, label="membrane potential", **style)
-    if alarm is not None:
-        mp.plot(time[alarm], ep.potential[alarm], marker="v", ms=9, color=style["color"],
-                mec="black", ls="none", label=f"first alarm ({time[alarm]:.2f} s)")
-    mp.axhline(ep.threshold, label=f"threshold {ep.threshold:g}", **THRESHOLD)
+    for name, potential in ep.potentials.items():
+        style = model_style(name)
+        t = ep.first_alarm(name)
+        event = (None if ep.collision_frame is None else metrics.evaluate_clip(
+            potential, ep.collision_frame, ep.fps, threshold=ep.thresholds[name]))
+        mp.plot(time, potential, label=alarm_label(name, t, event), **style)
+        if t is not None:
+            mp.plot(time[t], potential[t], marker="v", ms=9, color=style["color"],
+                    mec="black", ls="none")
+    for threshold in sorted(set(ep.thresholds.values())):
+        mp.axhline(threshold, label=f"threshold {threshold:g}", **THRESHOLD)
     mp.set_ylim(0.45, 1.02)
     mp.set_ylabel("membrane potential")
     gt = fig.add_subplot(grid[2, :], sharex=mp)
@@ -208,31 +233,37 @@ def write_summary(ep: Episode, path: Path, title: str) -> None:
         if ep.collision_frame is not None:
             ax.axvline(ep.collision_frame / ep.fps, **COLLISION,
                        label="collision" if ax is mp else None)
-    mp.legend(loc="upper left", fontsize="small")
+    mp.legend(loc="upper left", fontsize="small", title="first alarm (frame), outcome"
+              if ep.collision_frame is not None else "first alarm (frame)",
+              title_fontsize="small")
     lines = gt.get_legend_handles_labels()
     twin = ttc.get_legend_handles_labels()
     gt.legend(lines[0] + twin[0], lines[1] + twin[1], loc="upper right", fontsize="small")
     isi = float(np.nanmean(ep.ssim[1:])) if n > 1 else math.nan
-    fig.suptitle(f"{title}: ISI {isi:.3f}, MpSI {metrics.mpsi(ep.potential):.3f}")
+    mpsi = ", ".join(f"{name} {metrics.mpsi(p):.3f}" for name, p in ep.potentials.items())
+    fig.suptitle(f"{title}\nISI {isi:.3f}; MpSI: {mpsi}")
     with atomic_output(path) as tmp:
         fig.savefig(tmp, format="png", dpi=100)
 
 
 def run(args: argparse.Namespace) -> int:
-    if args.model not in models.available():
-        raise ValueError(f"unknown model {args.model!r}; available: "
-                         f"{', '.join(models.available())}")
+    detectors = [d.strip() for d in args.models.split(",") if d.strip()]
+    if not detectors:
+        raise ValueError("--models: give at least one detector")
+    for d in detectors:
+        models.parse_spec(d)  # an unknown model, preset or front end: before the episode
     out = Path(args.out)
-    ep = drive(args.seed, args.jitter, args.model)
+    ep = drive(args.seed, args.jitter, detectors)
     video, summary, still = out / "demo.mp4", out / "demo.png", out / "demo_frame.png"
     write_video(ep, video, still)
-    title = f"{args.model} LGMD, RoughTerrainObstacles, jitter {args.jitter:g}, seed {args.seed}"
-    write_summary(ep, summary, title)
+    write_summary(ep, summary, f"RoughTerrainObstacles, jitter {args.jitter:g}, "
+                               f"seed {args.seed}")
     hit = (f"collision at frame {ep.collision_frame}" if ep.collision_frame is not None
            else "no collision")
-    alarm = metrics.first_alarm(ep.potential, threshold=ep.threshold)
-    print(f"{len(ep.frames)} frames, {hit}, first alarm "
-          f"{'none' if alarm is None else f'at frame {alarm}'}")
+    print(f"{len(ep.frames)} frames, {hit}")
+    for name in detectors:
+        alarm = ep.first_alarm(name)
+        print(f"  {name}: first alarm {'none' if alarm is None else f'at frame {alarm}'}")
     print(f"video:   {video.resolve()}")
     print(f"summary: {summary.resolve()}")
     print(f"still:   {still.resolve()}")

@@ -6,19 +6,28 @@ import argparse
 
 from lgmd_sim.cli.args import non_negative_float, non_negative_int
 
+#: The detector with the fewest collisions in the closed-loop benchmark (docs/results.md).
+BEST = "feedback/calibrated-image"
+#: What the demo shows by default: the best detector, then the paper's model.
+DETECTORS = (BEST, "feedback/paper")
+
 
 def add(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
-        "demo", help="drive the robot at an obstacle over rough ground, with the feedback LGMD",
+        "demo", help="drive the robot at an obstacle over rough ground, LGMDs watching",
         description="One episode of RoughTerrainObstacles: the robot drives straight at an "
-        "obstacle over rough ground while the feedback LGMD watches its camera. Writes an MP4 "
-        "(camera view, the LGMD's S layer, the membrane potential with the collision frame) "
-        "and a PNG summary, and prints where they are.",
+        "obstacle over rough ground while LGMD detectors watch its camera: by default the "
+        "best detector of the closed-loop benchmark beside the paper's feedback LGMD. Writes "
+        "an MP4 (camera view, the first detector's S layer, every membrane potential with "
+        "the collision frame), a PNG summary and a still, and prints where they are.",
     )
     p.add_argument("--out", default="demo-out", metavar="DIR",
                    help="output folder (default: ./demo-out)")
     p.add_argument("--seed", type=non_negative_int, default=0, help="episode seed (default 0)")
     p.add_argument("--jitter", type=non_negative_float, default=1.0,
                    help="terrain roughness on the common jitter scale (default 1.0)")
-    p.add_argument("--model", default="feedback", help="LGMD model to run (default feedback)")
+    p.add_argument("--models", default=",".join(DETECTORS), metavar="DETECTORS",
+                   help="comma-separated detectors, MODEL[/PRESET][+FRONT END] (default "
+                   f"{','.join(DETECTORS)}: the best detector, then the paper's model); "
+                   "the first one's S layer is shown")
     p.set_defaults(run="lgmd_sim.demo:run")
