@@ -24,7 +24,14 @@ _CONTROLLER_STYLES = {
 }
 
 
-def _style(row: dict[str, Any]) -> dict[str, Any]:
+#: Colours of trained policies' cells, by the order of their tags in the run.
+_POLICY_COLOURS = ["#56B4E9", "#7F3C8D", "#17BECF", "#8C564B", "#BCBD22", "#E15759"]
+
+
+def _style(row: dict[str, Any], tags: Sequence[str] = ()) -> dict[str, Any]:
+    if row.get("tag") in tags:  # a trained policy: a colour of its own, dash-dotted
+        colour = _POLICY_COLOURS[list(tags).index(row["tag"]) % len(_POLICY_COLOURS)]
+        return {"color": colour, "ls": "-.", "lw": 1.8, "marker": "^"}
     if row["model"] is None:
         return dict(_CONTROLLER_STYLES.get(row["controller"], {"color": "0.3", "marker": "^"}))
     return {**model_style(f"{row['model']}/{row['preset']}"), "marker": "o"}
@@ -39,12 +46,14 @@ def closed_loop(folder: Path, rows: Sequence[dict[str, Any]],
     """The closed-loop figures (`CLOSED_LOOP`) from the summary rows and the records that
     carry a top view (one seed per cell)."""
     scenarios = sorted({r["scenario"] for r in rows})
-    _rates_vs_jitter(folder / CLOSED_LOOP[0], rows, scenarios)
-    _false_alarms_vs_collisions(folder / CLOSED_LOOP[1], rows, scenarios)
-    _trajectories(folder / CLOSED_LOOP[2], examples, scenarios)
+    tags = sorted({r["tag"] for r in rows if r.get("tag")})
+    _rates_vs_jitter(folder / CLOSED_LOOP[0], rows, scenarios, tags)
+    _false_alarms_vs_collisions(folder / CLOSED_LOOP[1], rows, scenarios, tags)
+    _trajectories(folder / CLOSED_LOOP[2], examples, scenarios, tags)
 
 
-def _rates_vs_jitter(path: Path, rows: Sequence[dict[str, Any]], scenarios: list[str]) -> None:
+def _rates_vs_jitter(path: Path, rows: Sequence[dict[str, Any]], scenarios: list[str],
+                     tags: Sequence[str]) -> None:
     fig = figure(figsize=(11, 3.6 * len(scenarios)))
     axes = fig.subplots(len(scenarios), 2, squeeze=False)
     for (ax_col, ax_suc), sc in zip(axes, scenarios, strict=True):
@@ -55,7 +64,7 @@ def _rates_vs_jitter(path: Path, rows: Sequence[dict[str, Any]], scenarios: list
         for cell, rs in sorted(lines.items()):
             rs.sort(key=lambda r: r["jitter"])
             jit = np.array([r["jitter"] for r in rs])
-            style = _style(rs[0])
+            style = _style(rs[0], tags)
             for ax, rate, ci in ((ax_col, "collision_rate", "collision_ci"),
                                  (ax_suc, "success_rate", "success_ci")):
                 y = np.array([r[rate] for r in rs])
@@ -72,7 +81,7 @@ def _rates_vs_jitter(path: Path, rows: Sequence[dict[str, Any]], scenarios: list
 
 
 def _false_alarms_vs_collisions(path: Path, rows: Sequence[dict[str, Any]],
-                                scenarios: list[str]) -> None:
+                                scenarios: list[str], tags: Sequence[str]) -> None:
     fig = figure(figsize=(8.5, 4.2 * len(scenarios)))
     axes = fig.subplots(len(scenarios), 1, squeeze=False)[:, 0]
     markers = ["o", "s", "^", "D", "v", "P"]
@@ -81,13 +90,13 @@ def _false_alarms_vs_collisions(path: Path, rows: Sequence[dict[str, Any]],
         for r in rows:
             if r["scenario"] != sc:
                 continue
-            style = _style(r)
+            style = _style(r, tags)
             ax.plot(r["false_alarms_per_min"], r["collision_rate"], ls="none", ms=8,
                     marker=markers[jitters.index(r["jitter"]) % len(markers)],
                     color=style["color"], mec="black", mew=0.5)
         for cell in sorted({r["cell"] for r in rows if r["scenario"] == sc}):
             r = next(x for x in rows if x["cell"] == cell)
-            ax.plot([], [], ls="none", marker="o", color=_style(r)["color"], label=cell)
+            ax.plot([], [], ls="none", marker="o", color=_style(r, tags)["color"], label=cell)
         for k, j in enumerate(jitters):
             ax.plot([], [], ls="none", marker=markers[k % len(markers)], color="white",
                     mec="black", label=f"jitter {j:g}")
@@ -100,7 +109,8 @@ def _false_alarms_vs_collisions(path: Path, rows: Sequence[dict[str, Any]],
     _save(fig, path)
 
 
-def _trajectories(path: Path, examples: Sequence[dict[str, Any]], scenarios: list[str]) -> None:
+def _trajectories(path: Path, examples: Sequence[dict[str, Any]], scenarios: list[str],
+                  tags: Sequence[str]) -> None:
     """Top views of one seed per jitter level: terrain, obstacles, each controller's path."""
     from matplotlib.patches import Circle, Polygon
 
@@ -125,8 +135,9 @@ def _trajectories(path: Path, examples: Sequence[dict[str, Any]], scenarios: lis
             ax.add_patch(patch)
         for r in sorted(group, key=lambda r: (r["model"] is None, r["controller"])):
             xy = np.array(r["top_view"]["path"])
-            style = {k: v for k, v in _style(r).items() if k != "marker"}
-            label = r["controller"] + (f": {r['model']}/{r['preset']}" if r["model"] else "")
+            style = {k: v for k, v in _style(r, tags).items() if k != "marker"}
+            label = r["controller"] + (f": {r['model']}/{r['preset']}" if r["model"] else
+                                       f": {r['tag']}" if r.get("tag") else "")
             ax.plot(xy[:, 0], xy[:, 1], label=label, **style)
             hit = r["top_view"]["collision_frame"]
             if hit is not None:
