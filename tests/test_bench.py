@@ -81,6 +81,13 @@ def test_resume_keeps_finished_episodes_and_refuses_other_runs(one_worker, tmp_p
     assert "--resume" in capsys.readouterr().err
     assert _bench(out, "--workers", "1", "--resume") == 0
     assert records[0].stat().st_mtime_ns == kept  # not run again
+    run = json.loads((out / "run.json").read_text())
+    first = json.loads((one_worker / "run.json").read_text())
+    assert run["command"] == first["command"]  # the command that started the run
+    assert [s["command"] for s in run["sessions"]] == [first["command"], run["sessions"][1][
+        "command"]] and "--resume" in run["sessions"][1]["command"]
+    assert run["wall_time_s"] == pytest.approx(sum(s["wall_time_s"] for s in run["sessions"]),
+                                               abs=0.2)
     for name in TABLES:
         assert (out / name).read_bytes() == (one_worker / name).read_bytes(), name
     capsys.readouterr()

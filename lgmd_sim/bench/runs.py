@@ -89,12 +89,19 @@ class RunFolder:
             if not resume:
                 raise ValueError(f"output folder {self.path} already holds this run: add "
                                  "--resume to complete it, or choose another folder")
+            # the earlier sessions of this run: the command that started it stays its command
+            earlier = json.loads(run_json.read_text()).get("sessions", [])
+        else:
+            earlier = []
         self.started = time.time()
+        self._sessions = [*earlier, {"command": command,
+                                     "started": time.strftime("%Y-%m-%d %H:%M:%S")}]
         self._meta: dict[str, Any] = {
             "config": self.config,
-            "command": command,
+            "command": self._sessions[0]["command"],
             "version": __version__,
             "machine": machine(),
+            "sessions": self._sessions,
         }
         self.records_dir.mkdir(parents=True, exist_ok=True)
         write_text_atomic(run_json, json.dumps({**self._meta, "status": "running"}, indent=2))
@@ -114,7 +121,10 @@ class RunFolder:
         return [json.loads((self.records_dir / f"{k}.json").read_text()) for k in wanted]
 
     def finish(self, **facts: Any) -> None:
-        """Mark the run complete in run.json, with its wall time and any other facts."""
+        """Mark the run complete in run.json, with its wall time (summed over the sessions
+        that ran it, each session's own kept) and any other facts."""
+        self._sessions[-1]["wall_time_s"] = round(time.time() - self.started, 1)
+        total = sum(s.get("wall_time_s", 0.0) for s in self._sessions)
         write_text_atomic(self.path / "run.json", json.dumps(
-            {**self._meta, "status": "complete",
-             "wall_time_s": round(time.time() - self.started, 1), **facts}, indent=2))
+            {**self._meta, "status": "complete", "wall_time_s": round(total, 1), **facts},
+            indent=2))
