@@ -2,9 +2,9 @@
 
 One episode of RoughTerrainObstacles at the paper's 270 x 480: a proportional heading
 controller keeps the robot on the line to the goal, with an obstacle standing in the way,
-while LGMD detectors watch the camera: by default the best one on this task (from the
-closed-loop benchmark in docs/results.md) beside the paper's feedback LGMD
-(`lgmd_sim.cli.demo.DETECTORS`). Writes
+while LGMD detectors watch the camera: by default the best one of the calibration
+(docs/results.md) beside the paper's feedback LGMD (`lgmd_sim.cli.demo.DETECTORS`).
+Writes
 
 - ``demo.mp4``: the camera view beside the first detector's S layer, and below them every
   detector's membrane potential so far, with its threshold and the collision frame;
@@ -131,9 +131,11 @@ def _trace_panel(ep: Episode, upto: int, width: int) -> np.ndarray:
         cv2.line(panel, (x, top), (x, bottom), (0, 0, 0), 1)
         cv2.putText(panel, "collision", (max(left, x - 70), top + 12), font, 0.4, (0, 0, 0), 1)
     x = left
-    for name, potential in reversed(ep.potentials.items()):  # the first detector on top
+    for k, (name, potential) in reversed(list(enumerate(ep.potentials.items()))):
         pts = np.array([xy(t, v) for t, v in enumerate(potential[: upto + 1])], np.int32)
-        cv2.polylines(panel, [pts.reshape(-1, 1, 2)], False, _rgb(name), 2, cv2.LINE_AA)
+        # the first detector on top and thicker: variants of one model share a hue
+        cv2.polylines(panel, [pts.reshape(-1, 1, 2)], False, _rgb(name), 3 if k == 0 else 1,
+                      cv2.LINE_AA)
     cv2.putText(panel, f"frame {upto}", (x, TRACE_HEIGHT - 8), font, 0.45, (0, 0, 0), 1,
                 cv2.LINE_AA)
     x += 90
@@ -215,7 +217,8 @@ def write_summary(ep: Episode, path: Path, title: str) -> None:
                     mec="black", ls="none")
     for threshold in sorted(set(ep.thresholds.values())):
         mp.axhline(threshold, label=f"threshold {threshold:g}", **THRESHOLD)
-    mp.set_ylim(0.45, 1.02)
+    mp.set_ylim(0.45, 1.2)  # the band above 1 holds the legend: potentials stay below it
+    mp.set_yticks(np.arange(0.5, 1.01, 0.1))
     mp.set_ylabel("membrane potential")
     gt = fig.add_subplot(grid[2, :], sharex=mp)
     finite = np.isfinite(ep.distance)
@@ -233,9 +236,9 @@ def write_summary(ep: Episode, path: Path, title: str) -> None:
         if ep.collision_frame is not None:
             ax.axvline(ep.collision_frame / ep.fps, **COLLISION,
                        label="collision" if ax is mp else None)
-    mp.legend(loc="upper left", fontsize="small", title="first alarm (frame), outcome"
-              if ep.collision_frame is not None else "first alarm (frame)",
-              title_fontsize="small")
+    mp.legend(loc="upper center", ncols=2, fontsize="small", title_fontsize="small",
+              title="first alarm (frame), outcome" if ep.collision_frame is not None
+              else "first alarm (frame)")
     lines = gt.get_legend_handles_labels()
     twin = ttc.get_legend_handles_labels()
     gt.legend(lines[0] + twin[0], lines[1] + twin[1], loc="upper right", fontsize="small")
