@@ -17,10 +17,15 @@ ROOT = Path(__file__).resolve().parents[1]
 def wheel(tmp_path_factory) -> Path:
     """A wheel built from the checkout."""
     out = tmp_path_factory.mktemp("wheel")
-    shutil.rmtree(ROOT / "build", ignore_errors=True)  # stale modules would enter the wheel
+    # From a copy without the checkout's build outputs: a stale build/ or the editable
+    # install's egg-info (its SOURCES.txt) would add modules a user's wheel lacks.
+    source = tmp_path_factory.mktemp("source") / "lgmd-sim"
+    shutil.copytree(ROOT, source, ignore=shutil.ignore_patterns(
+        ".git", ".venv", "build", "dist", "*.egg-info", "runs", "__pycache__", ".*_cache",
+        "*.mp4", "demo-out", "detect-out"))
     subprocess.run(
         [sys.executable, "-m", "pip", "wheel", "--no-deps", "--no-build-isolation", "-q",
-         "-w", str(out), str(ROOT)],
+         "-w", str(out), str(source)],
         check=True, capture_output=True,
     )
     (built,) = out.glob("lgmd_sim-*.whl")

@@ -29,6 +29,9 @@ def test_wheel_carries_envs_assets_and_markers(wheel):
             relative = path.relative_to(ROOT / "assets").as_posix()
             assert f"lgmd_sim/_data/assets/{relative}" in shipped_assets
     assert {"lgmd_sim/cli/__init__.py", "lgmd_sim/py.typed"} <= set(names)
+    modules = {p.relative_to(ROOT).as_posix() for p in (ROOT / "lgmd_sim").rglob("*.py")}
+    assert not modules - set(names), "modules missing from the wheel (a folder without "\
+        "__init__.py?)"
     from lgmd_sim import policies
 
     for name in policies.available():  # the shipped policies, each a whole policy folder
