@@ -130,15 +130,14 @@ def _trace_panel(ep: Episode, upto: int, width: int) -> np.ndarray:
         x = xy(ep.collision_frame, 0.5)[0]
         cv2.line(panel, (x, top), (x, bottom), (0, 0, 0), 1)
         cv2.putText(panel, "collision", (max(left, x - 70), top + 12), font, 0.4, (0, 0, 0), 1)
-    x = left
     for k, (name, potential) in reversed(list(enumerate(ep.potentials.items()))):
         pts = np.array([xy(t, v) for t, v in enumerate(potential[: upto + 1])], np.int32)
         # the first detector on top and thicker: variants of one model share a hue
         cv2.polylines(panel, [pts.reshape(-1, 1, 2)], False, _rgb(name), 3 if k == 0 else 1,
                       cv2.LINE_AA)
-    cv2.putText(panel, f"frame {upto}", (x, TRACE_HEIGHT - 8), font, 0.45, (0, 0, 0), 1,
+    cv2.putText(panel, f"frame {upto}", (left, TRACE_HEIGHT - 8), font, 0.45, (0, 0, 0), 1,
                 cv2.LINE_AA)
-    x += 90
+    x = left + 90
     for name, potential in ep.potentials.items():
         text = f"{name} {potential[upto]:.3f}"
         cv2.putText(panel, text, (x, TRACE_HEIGHT - 8), font, 0.45, _rgb(name), 1, cv2.LINE_AA)
@@ -160,8 +159,7 @@ class _Compositor:
         s8 = np.clip(255.0 * np.sqrt(s / self.s_scale), 0, 255).astype(np.uint8)
         s_rgb = cv2.cvtColor(cv2.applyColorMap(s8, cv2.COLORMAP_INFERNO), cv2.COLOR_BGR2RGB)
         cv2.putText(s_rgb, f"S layer of {next(iter(self.ep.potentials))}", (8, 20),
-                    cv2.FONT_HERSHEY_SIMPLEX, 0.55,
-                    (255, 255, 255), 1, cv2.LINE_AA)
+                    cv2.FONT_HERSHEY_SIMPLEX, 0.55, (255, 255, 255), 1, cv2.LINE_AA)
         return np.vstack([np.hstack([frame, s_rgb]), _trace_panel(self.ep, t, 2 * s.shape[1])])
 
 
