@@ -41,7 +41,7 @@ THRESHOLD: dict[str, Any] = {"color": "0.45", "ls": "--", "lw": 1.0}
 def model_style(name: str) -> dict[str, Any]:
     """Line style of a detector ("model", "model/preset", with front ends): the model's
     own; a calibrated preset in a darker shade of its colour, a front end (a camera
-    stabilized by "image", "imu" or "pose") dashed, so that variants of one model differ."""
+    stabilized by "image", "imu" or "pose") dotted, so that variants of one model differ."""
     head, *fronts = name.split("+")
     base, _, preset = head.partition("/")
     if base not in _STYLES:
@@ -50,7 +50,9 @@ def model_style(name: str) -> dict[str, Any]:
     if preset.startswith("calibrated"):
         style["color"] = tuple(0.6 * c for c in to_rgb(style["color"]))
     if fronts or any(f in preset.split("-") for f in ("image", "imu", "pose")):
-        style["ls"] = (0, (4, 1.5)) if base != "f_off" else (0, (1, 2.5))
+        # dotted (f_off, dotted already: long dashes), unlike every model's own style
+        style["ls"] = (0, (1, 1.2)) if base != "f_off" else (0, (8, 2))
+        style["lw"] = style["lw"] + 0.6
     return style
 
 

@@ -90,7 +90,9 @@ class RunFolder:
                 raise ValueError(f"output folder {self.path} already holds this run: add "
                                  "--resume to complete it, or choose another folder")
             # the earlier sessions of this run: the command that started it stays its command
-            earlier = json.loads(run_json.read_text()).get("sessions", [])
+            record = json.loads(run_json.read_text())
+            earlier = record.get("sessions") or [  # a run.json from before sessions
+                {k: record[k] for k in ("command", "wall_time_s") if k in record}]
         else:
             earlier = []
         self.started = time.time()
