@@ -3,7 +3,7 @@ and evaluation runs: every table and figure made from the runs' files, every sen
 figures computed from them, each run's command beside its results.
 
     .venv/bin/python scripts/training_page.py --train runs/train/sac-feedback \
-        runs/train/sac-lgmd1 --eval runs/eval --bench runs/closed-loop \
+        runs/train/sac-lgmd1 --eval runs/eval-190k --bench runs/closed-loop \
         runs/closed-loop-calibrated \
         --ship runs/train/sac-feedback
 
@@ -166,9 +166,10 @@ def main() -> None:
     args = parser.parse_args()
     lines = [RESULTS, "",
              "All on the development machine (a 2-core Xeon VM, no GPU, Mesa software GL), "
-             "shared with other jobs while these ran: steps per second vary by 20 to 30 "
-             "percent from run to run. Made by `scripts/training_page.py` from the runs; "
-             "every figure below is the runs' own.", "", "### Training runs", ""]
+             "shared with other jobs during some sessions: steps per second vary by 20 to 30 "
+             "percent from run to run, more under load. Made by `scripts/training_page.py` "
+             "from the runs; every figure below is the runs' own.", "", "### Training runs",
+             ""]
     trained_at = None
     for run in args.train:
         record = json.loads((run / "run.json").read_text())
