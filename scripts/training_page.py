@@ -66,7 +66,7 @@ def _best_reactive(benches: list[Path]) -> dict[float, str]:
     cells = {k: v for bench in benches
              for k, v in _cells([r for r in _episodes(bench)
                                  if r["controller"] == "reactive"]).items()}
-    best: dict[float, tuple[tuple[int, int], str]] = {}
+    best: dict[float, tuple[tuple[float, float], str]] = {}
     for (jitter, label), c in cells.items():
         score = (-c["collided"] / c["n"], c["reached"] / c["n"])
         if jitter not in best or score > best[jitter][0]:
@@ -75,6 +75,8 @@ def _best_reactive(benches: list[Path]) -> dict[float, str]:
 
 
 def table(eval_run: Path, benches: list[Path]) -> tuple[list[str], dict, dict[float, str]]:
+    """The evaluation's cells and the benches' best reactive cell on the same seeds: the
+    Markdown table, the cells, and the best cell's label per jitter level."""
     rows = _episodes(eval_run)
     seeds, jitters = {r["seed"] for r in rows}, {float(r["jitter"]) for r in rows}
     best = {j: cell for j, cell in _best_reactive(benches).items() if j in jitters}
