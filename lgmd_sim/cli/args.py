@@ -70,3 +70,20 @@ def add_detector_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--presets", default=None,
                    help="comma-separated presets: each model listed without a preset runs "
                    "each of these it has (its default when it has none of them)")
+
+
+def add_closed_loop_options(p: argparse.ArgumentParser, jitter: str) -> None:
+    """The closed-loop benchmark's episodes: --jitter (default `jitter`), --seeds,
+    --first-seed, --cruise and --horizon (`lgmd-sim bench closed-loop`, `lgmd-sim eval`)."""
+    p.add_argument("--jitter", default=jitter,
+                   help=f"comma-separated jitter levels (default {jitter})")
+    p.add_argument("--seeds", type=positive_int, default=50,
+                   help="episodes per cell (default 50)")
+    p.add_argument("--first-seed", type=non_negative_int, default=1000,
+                   help="the first episode seed; seeds are consecutive (default 1000: "
+                   "never a training or validation seed of `lgmd-sim train`)")
+    p.add_argument("--cruise", type=float, default=0.6,
+                   help="forward action of every controller while cruising (default 0.6)")
+    p.add_argument("--horizon", type=float, default=2.0,
+                   help="an alarm is false when no obstacle is within this time to "
+                   "collision (s, default 2)")

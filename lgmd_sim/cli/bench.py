@@ -9,6 +9,7 @@ from __future__ import annotations
 import argparse
 
 from lgmd_sim.cli.args import (
+    add_closed_loop_options,
     add_detector_options,
     add_parallel_options,
     add_run_folder_options,
@@ -40,19 +41,9 @@ def add(sub: argparse._SubParsersAction) -> None:
     b.add_argument("--controllers", default="straight,oracle,reactive",
                    help="comma-separated controllers (default straight,oracle,reactive)")
     add_detector_options(b)
-    b.add_argument("--jitter", default="0,1,2", help="comma-separated jitter levels "
-                   "(default 0,1,2)")
-    b.add_argument("--seeds", type=positive_int, default=50,
-                   help="episodes per cell (default 50)")
-    b.add_argument("--first-seed", type=non_negative_int, default=1000,
-                   help="the first episode seed; seeds are consecutive (default 1000)")
+    add_closed_loop_options(b, jitter="0,1,2")
     b.add_argument("--resolution", type=resolution, default="rl",
                    help="frame size: rl (120x160, default), paper (270x480), small or HxW")
-    b.add_argument("--cruise", type=float, default=0.6,
-                   help="forward action of every controller while cruising (default 0.6)")
-    b.add_argument("--horizon", type=float, default=2.0,
-                   help="an alarm is false when no obstacle is within this time to "
-                   "collision (s, default 2)")
     add_run_folder_options(b, "bench-closed-loop")
     add_parallel_options(b)
     b.set_defaults(run="lgmd_sim.bench.cli:closed_loop")

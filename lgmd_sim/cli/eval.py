@@ -4,7 +4,12 @@ from __future__ import annotations
 
 import argparse
 
-from lgmd_sim.cli.args import non_negative_int, positive_int
+from lgmd_sim.cli.args import (
+    add_closed_loop_options,
+    add_detector_options,
+    add_parallel_options,
+    add_run_folder_options,
+)
 
 
 def add(sub: argparse._SubParsersAction) -> None:
@@ -23,30 +28,8 @@ def add(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--controllers", default="straight,oracle,reactive",
                    help="the hand-made controllers beside the policies, comma-separated, or "
                    "none (default straight,oracle,reactive)")
-    p.add_argument("--models", default="all",
-                   help="detectors of the reactive controller: 'all' or MODEL[/PRESET],... "
-                   "(default all)")
-    p.add_argument("--presets", default=None,
-                   help="comma-separated presets for the models listed without one")
-    p.add_argument("--jitter", default="1,2", help="comma-separated jitter levels "
-                   "(default 1,2)")
-    p.add_argument("--seeds", type=positive_int, default=50, help="episodes per cell "
-                   "(default 50)")
-    p.add_argument("--first-seed", type=non_negative_int, default=1000,
-                   help="the first episode seed (default 1000: never a training or "
-                   "validation seed)")
-    p.add_argument("--cruise", type=float, default=0.6,
-                   help="forward action of the cruising controllers (default 0.6)")
-    p.add_argument("--horizon", type=float, default=2.0,
-                   help="an alarm is false when no obstacle is within this time to "
-                   "collision (s, default 2)")
-    p.add_argument("--out", default="eval-out", metavar="DIR",
-                   help="output folder (default ./eval-out)")
-    p.add_argument("--resume", action="store_true",
-                   help="complete the run in DIR (same configuration)")
-    p.add_argument("--workers", type=positive_int, default=None,
-                   help="local worker processes (default: every core)")
-    p.add_argument("--ray", metavar="ADDRESS", default=None,
-                   help="run the episodes as Ray tasks: 'local', 'auto' or HOST:PORT")
-    p.add_argument("--no-progress", action="store_true", help="hide the progress bar")
+    add_detector_options(p)
+    add_closed_loop_options(p, jitter="1,2")
+    add_run_folder_options(p, "eval-out")
+    add_parallel_options(p)
     p.set_defaults(run="lgmd_sim.training.evaluate:evaluate")
