@@ -80,9 +80,8 @@ def drive(seed: int, jitter: float, detectors: list[str], resolution: str = "pap
         for step in rollout(env, Straight(cruise=CRUISE, heading_gain=HEADING_GAIN), seed):
             obs, info = step.obs, step.info
             for k, (name, model) in enumerate(built.items()):
-                key = model.rotation_key  # a pose- or IMU-stabilized model reads its rotation
                 out = model.step(obs["frame"], layers=k == 0,
-                                 rotation=None if key is None else info[key])
+                                 rotation=model.rotation_from(info))
                 potentials[name].append(out.potential)
                 if k == 0:
                     rec["s"].append(out.layers["S"])

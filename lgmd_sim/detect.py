@@ -255,8 +255,8 @@ def detect(
             ssims.append(metrics.ssim(prev, grey))
         prev = grey
         for n, model in built.items():
-            key = model.rotation_key
-            out = model.step(grey, rotation=None if key is None else infos[len(ssims) - 1][key])
+            out = model.step(grey, rotation=model.rotation_from(infos[len(ssims) - 1])
+                             if model.rotation_key else None)
             potentials[n].append(out.potential)
             alarms[n].append(out.alarm)
     n_frames = 0 if prev is None else len(ssims)

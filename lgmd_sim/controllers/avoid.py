@@ -143,9 +143,8 @@ class ReactiveAvoid(Avoider):
         self.potential = 0.5
 
     def _trigger(self, obs: Mapping[str, np.ndarray], info: Mapping[str, Any]) -> float | None:
-        key = self.model.rotation_key  # a pose- or IMU-stabilized model reads its rotation
-        out = self.model.step(obs["frame"], layers=True,
-                              rotation=None if key is None else info[key])
+        # a pose- or IMU-stabilized model reads its rotation from info
+        out = self.model.step(obs["frame"], layers=True, rotation=self.model.rotation_from(info))
         self.potential = out.potential
         if not out.alarm:
             return None

@@ -224,6 +224,17 @@ class LGMDModel(ABC):
         ("pose_rotation" or "imu_rotation"), or None: the frames are enough."""
         return {"pose": "pose_rotation", "imu": "imu_rotation"}.get(self.params.stabilize)
 
+    def rotation_from(self, info: Mapping[str, Any] | Sequence[Mapping[str, Any]]
+                      ) -> np.ndarray | None:
+        """The ``rotation`` `step` needs, from an environment step's ``info`` (for a
+        batch, a sequence of infos, one per stream); None when the frames are enough."""
+        key = self.rotation_key
+        if key is None:
+            return None
+        if isinstance(info, Mapping):
+            return info[key]
+        return np.stack([i[key] for i in info])
+
     # -- ego-motion compensation ---------------------------------------------------------
 
     def _compensate(self, grey: np.ndarray, hs: np.ndarray | None, gains: np.ndarray | None,

@@ -147,9 +147,8 @@ class LGMDFeatures:
                 model.reset()  # every stream anew: the frame size may change too
             else:
                 model.reset(np.flatnonzero(new))
-            key = model.rotation_key
-            rotation = None if key is None else np.stack([info[key] for info in infos])
-            out = model.step(frames, layers=self.grid is not None, rotation=rotation)
+            out = model.step(frames, layers=self.grid is not None,
+                             rotation=None if infos is None else model.rotation_from(infos))
             potential[:, k], alarm[:, k] = out.potential, out.alarm
             if self.grid is not None:
                 shares[:, k] = self._cell_shares(out.layers["S"])
