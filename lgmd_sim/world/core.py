@@ -11,29 +11,27 @@
 
 Each episode is seeded: terrain, obstacles, the mover, scenery, light and shake all come
 from ``reset(seed)``; the same seed on the same machine gives bit-identical frames and
-ground truth. The model is compiled once per world; episodes rewrite it in place.
+ground truth. The model is compiled once per world (`lgmd_sim.world.scene`); episodes
+rewrite it in place (`lgmd_sim.world.randomise`).
 """
 
 from __future__ import annotations
 
-import colorsys
 import math
 from typing import Any
 
 import cv2
 import numpy as np
 
+from lgmd_sim.world import randomise, terrain
 from lgmd_sim.world import scene as scene_mod
-from lgmd_sim.world import terrain
-from lgmd_sim.world.carriers import HeldPath, Shake, wheel_speeds
+from lgmd_sim.world.carriers import HeldPath, wheel_speeds
 from lgmd_sim.world.gl import mujoco
 from lgmd_sim.world.params import SceneParams
 from lgmd_sim.world.render import OffscreenRenderer, SSIMStream
 
 #: Physics time to let the robot settle on the terrain before the first frame (s).
 SETTLE_TIME = 0.5
-#: Radius of the carrier's footprint (m) used to aim near misses: robot and camera rig.
-CARRIER_RADIUS = {"robot": 0.17, "handheld": 0.035, "tripod": 0.035}
 #: Terrain tiles are drawn coarse where a fine cell would span fewer pixels than this.
 LOD_PIXELS = 3.0
 #: A distance query returns this when nothing is nearer (m).
@@ -76,7 +74,7 @@ class JitterWorld:
         self._sun_diffuse = self.model.light_diffuse[self.scene.sun].copy()
         self._head = (self.model.vis.headlight.ambient.copy(),
                       self.model.vis.headlight.diffuse.copy())
-        self._light_events = (0.0, 1.0, 1.0, 0.0)
+        self._light_events: randomise.LightEvents = (0.0, 1.0, 1.0, 0.0)
         # Terrain level of detail: the horizontal half field of view (plus a margin for
         # roll) and the distance beyond which a fine cell would span < LOD_PIXELS pixels.
         fovy = math.radians(params.fovy)
@@ -107,19 +105,22 @@ class JitterWorld:
     def reset(self, seed: int | None = None) -> None:
         """Start an episode: seed the world, settle it, render frame 0."""
         rng = np.random.default_rng(seed)
-        m, d = self.model, self.data
+        m, d, sc, p = self.model, self.data, self.scene, self.params
         mujoco.mj_resetData(m, d)
-        self._seed_terrain(rng)
-        self._seed_light(rng)
-        self._seed_scenery(rng)
-        self._seed_obstacles(rng)
-        self._place_carrier(rng)
+        # The order of these calls is the order of the draws from rng (see randomise).
+        self._heights = randomise.seed_terrain(rng, m, sc, p)
+        renderer = self._renderer
+        if self._heights is not None and renderer is not None and not renderer.closed:
+            # a live renderer keeps the last episode's heights; a new one reads the model
+            for h in sc.tile_hfields.ravel():
+                renderer.upload_hfield(int(h))
+        self._light_events = randomise.seed_light(rng, m, sc, p)
+        randomise.seed_scenery(rng, m, sc, p)
+        randomise.seed_obstacles(rng, m, sc, p, self.ground_height)
+        self._held = randomise.place_carrier(rng, m, d, sc, p, self.ground_height)
         self._settle()
-        self._launch_mover(rng)
-        for body in (self.scene.mover_body, self.scene.mover_pivot):
-            if body >= 0:  # resized and moved: its collision bounds follow
-                _refresh_bvh(m, body)
-        self._threat_rbound = m.geom_rbound[self.scene.threat_geoms]
+        randomise.launch_mover(rng, m, d, sc, p, self._heights)
+        self._threat_rbound = m.geom_rbound[sc.threat_geoms]
         d.time = 0.0
         self._apply_light(0.0)
         mujoco.mj_forward(m, d)
@@ -128,11 +129,21 @@ class JitterWorld:
         self._ssim.reset()
         # drawn last, so that the rest of the episode is the same with or without them
         self._imu_rng = np.random.default_rng(rng.integers(2**63))
-        self._gyro_bias = self._imu_rng.normal(0.0, math.radians(self.params.gyro_bias), 3)
+        self._gyro_bias = self._imu_rng.normal(0.0, math.radians(p.gyro_bias), 3)
         self._pose_rotation[:] = 0.0
         self._imu_rotation[:] = 0.0
-        mujoco.mju_mat2Quat(self._camera_quat, d.cam_xmat[self.scene.camera])
+        mujoco.mju_mat2Quat(self._camera_quat, d.cam_xmat[sc.camera])
         self._observe(collided=self._touching())
+
+    def _settle(self) -> None:
+        """Let the robot come to rest on the ground before the episode's first frame."""
+        if not self.scene.wheel_actuators.size:
+            return
+        m, d = self.model, self.data
+        mujoco.mj_step(m, d, nstep=round(SETTLE_TIME / m.opt.timestep))
+        d.qvel[:] = 0.0
+        d.qacc_warmstart[:] = 0.0
+        mujoco.mj_forward(m, d)
 
     def step(self, v: float, omega: float) -> None:
         """Advance one frame under body velocity command (v m/s, omega rad/s).
@@ -192,6 +203,20 @@ class JitterWorld:
         self._camera_quat = q
         return rotation
 
+    def _apply_light(self, t: float) -> None:
+        """Dim the sun and the sky for time t (s): the passing shade and the flicker."""
+        p = self.params
+        if p.shade == 0 and p.flicker == 0:
+            return
+        phase, period, width, flicker_phase = self._light_events
+        u = ((t - phase) % period) / width
+        shade = p.shade * 0.5 * (1 - math.cos(2 * math.pi * u)) if u < 1 else 0.0
+        flicker = 1 + p.flicker * math.sin(2 * math.pi * p.flicker_hz * t + flicker_phase)
+        m = self.model
+        m.light_diffuse[self.scene.sun] = self._sun_diffuse * (1 - shade) * flicker
+        m.vis.headlight.ambient = self._head[0] * flicker
+        m.vis.headlight.diffuse = self._head[1] * flicker
+
     def render_camera(self, out: np.ndarray | None = None) -> np.ndarray:
         """Render the carrier's camera in the current state (RGB); nothing else.
 
@@ -216,6 +241,39 @@ class JitterWorld:
         raw[8:] = self._imu_rotation
         return np.clip(raw, -PROPRIO_RANGE, PROPRIO_RANGE).astype(np.float32)
 
+    def top_view(self) -> dict[str, Any]:
+        """A map of this episode seen from above, for figures: each static obstacle's
+        footprint (a polygon of (x, y) corners, or a circle: centre and radius), the goal,
+        and the terrain heights with the extent (x0, x1, y0, y1) they cover (m)."""
+        m, d = self.model, self.data
+        footprints: list[dict[str, Any]] = []
+        for _body, _kind, geoms in self.scene.obstacles:
+            g = geoms[0]
+            centre, size = d.geom_xpos[g, :2], m.geom_size[g]
+            if m.geom_type[g] == mujoco.mjtGeom.mjGEOM_BOX:
+                corners = np.array([[-1, -1], [1, -1], [1, 1], [-1, 1]]) * size[:2]
+                rot = d.geom_xmat[g].reshape(3, 3)[:2, :2]
+                footprints.append({"polygon": (corners @ rot.T + centre).tolist()})
+            else:  # cylinders and balloons: a circle
+                footprints.append({"circle": [*centre.tolist(), float(size[0])]})
+        goal = (d.xpos[self.scene.goal_body, :2].tolist() if self.scene.goal_body >= 0
+                else None)
+        view: dict[str, Any] = {"obstacles": footprints, "goal": goal}
+        if self._heights is not None:
+            x0, y0 = self.scene.terrain_origin
+            rows, cols = self._heights.shape
+            cell = self.params.terrain_cell
+            view["terrain"] = self._heights.tolist()
+            view["extent"] = [x0, x0 + (cols - 1) * cell, y0, y0 + (rows - 1) * cell]
+        return view
+
+    def ground_height(self, x: np.ndarray | float, y: np.ndarray | float) -> np.ndarray:
+        """Terrain height (m) at world points (x, y) in this episode."""
+        if self._heights is None:
+            return np.zeros(np.broadcast(x, y).shape)
+        return terrain.height_at(self._heights, self.params.terrain_cell,
+                                 self.scene.terrain_origin, x, y)
+
     def close(self) -> None:
         """Free the renderer's GL context; safe to call more than once."""
         if self._renderer is not None:
@@ -234,6 +292,31 @@ class JitterWorld:
             self._renderer = OffscreenRenderer(self.model, self.height, self.width,
                                                shadows=self.params.shadows)
         return self._renderer.render(self.data, camera, out)
+
+    def _choose_tiles(self, camera: int) -> None:
+        """Level of detail of the drawn terrain: tiles out of the camera's horizontal
+        field of view are not drawn, far ones in their coarse version.
+
+        A fine tile switches to coarse where its cells shrink below `LOD_PIXELS` pixels.
+        """
+        sc, m, d = self.scene, self.model, self.data
+        offset = sc.tile_centres - d.cam_xpos[camera, :2]
+        dist = np.sqrt(np.einsum("ij,ij->i", offset, offset))
+        forward = -d.cam_xmat[camera].reshape(3, 3)[:2, 2]
+        norm = math.hypot(forward[0], forward[1])
+        if norm < 1e-6:  # looking straight down or up: draw every tile
+            visible = np.ones(len(dist), bool)
+        else:
+            cos_angle = (offset @ forward) / (norm * np.maximum(dist, 1e-9))
+            # within the half-FOV plus the angle the tile's bounding circle subtends
+            spread = self._half_fov + np.arcsin(np.minimum(self._tile_radius
+                                                           / np.maximum(dist, 1e-9), 1.0))
+            visible = (dist < self._tile_radius) | (np.arccos(np.clip(cos_angle, -1, 1))
+                                                    < spread)
+        fine = visible & (dist - self._tile_radius < self._lod_distance)
+        groups = m.geom_group
+        groups[sc.tile_geoms[:, 0]] = np.where(fine, 0, scene_mod.HIDDEN)
+        groups[sc.tile_geoms[:, 1]] = np.where(visible & ~fine, 0, scene_mod.HIDDEN)
 
     def _observe(self, collided: bool) -> None:
         # Fresh arrays each frame (np.empty is free): callers may keep them as they are.
@@ -338,328 +421,6 @@ class JitterWorld:
         g = self.data.contact.geom
         return bool(self._hit[g[:, 0], g[:, 1]].any())
 
-    # -- seeding -------------------------------------------------------------------------
-
-    def _seed_terrain(self, rng: np.random.Generator) -> None:
-        m, sc, p = self.model, self.scene, self.params
-        material = int(rng.integers(len(sc.ground_materials)))
-        m.geom_matid[sc.ground_geom] = sc.ground_materials[material]
-        if sc.hfield < 0:
-            self._heights = None
-            return
-        m.geom_matid[sc.tile_geoms.ravel()] = sc.terrain_materials[material]
-        nrow, ncol = sc.terrain_shape
-        self._heights = terrain.fractal_heights(rng, nrow, ncol, p.terrain_cell,
-                                                p.resolved_roughness, p.terrain_scale)
-        normalised = np.clip(self._heights / m.hfield_size[sc.hfield, 2], 0, 1)
-        _write_hfield(m, sc.hfield, normalised)
-        n = terrain.TILE_CELLS
-        for (row, col), pair in zip(sc.tile_origin, sc.tile_hfields, strict=True):
-            block = normalised[row:row + n + 1, col:col + n + 1]
-            _write_hfield(m, pair[0], block)
-            _write_hfield(m, pair[1], block[::terrain.COARSE_STEP, ::terrain.COARSE_STEP])
-        if self._renderer is not None and not self._renderer.closed:
-            for h in sc.tile_hfields.ravel():
-                self._renderer.upload_hfield(int(h))
-
-    def _choose_tiles(self, camera: int) -> None:
-        """Level of detail of the drawn terrain: tiles out of the camera's horizontal
-        field of view are not drawn, far ones in their coarse version.
-
-        A fine tile switches to coarse where its cells shrink below `LOD_PIXELS` pixels.
-        """
-        sc, m, d = self.scene, self.model, self.data
-        offset = sc.tile_centres - d.cam_xpos[camera, :2]
-        dist = np.sqrt(np.einsum("ij,ij->i", offset, offset))
-        forward = -d.cam_xmat[camera].reshape(3, 3)[:2, 2]
-        norm = math.hypot(forward[0], forward[1])
-        if norm < 1e-6:  # looking straight down or up: draw every tile
-            visible = np.ones(len(dist), bool)
-        else:
-            cos_angle = (offset @ forward) / (norm * np.maximum(dist, 1e-9))
-            # within the half-FOV plus the angle the tile's bounding circle subtends
-            spread = self._half_fov + np.arcsin(np.minimum(self._tile_radius
-                                                           / np.maximum(dist, 1e-9), 1.0))
-            visible = (dist < self._tile_radius) | (np.arccos(np.clip(cos_angle, -1, 1))
-                                                    < spread)
-        fine = visible & (dist - self._tile_radius < self._lod_distance)
-        groups = m.geom_group
-        groups[sc.tile_geoms[:, 0]] = np.where(fine, 0, scene_mod.HIDDEN)
-        groups[sc.tile_geoms[:, 1]] = np.where(visible & ~fine, 0, scene_mod.HIDDEN)
-
-    def top_view(self) -> dict[str, Any]:
-        """A map of this episode seen from above, for figures: each static obstacle's
-        footprint (a polygon of (x, y) corners, or a circle: centre and radius), the goal,
-        and the terrain heights with the extent (x0, x1, y0, y1) they cover (m)."""
-        m, d = self.model, self.data
-        footprints: list[dict[str, Any]] = []
-        for _body, _kind, geoms in self.scene.obstacles:
-            g = geoms[0]
-            centre, size = d.geom_xpos[g, :2], m.geom_size[g]
-            if m.geom_type[g] == mujoco.mjtGeom.mjGEOM_BOX:
-                corners = np.array([[-1, -1], [1, -1], [1, 1], [-1, 1]]) * size[:2]
-                rot = d.geom_xmat[g].reshape(3, 3)[:2, :2]
-                footprints.append({"polygon": (corners @ rot.T + centre).tolist()})
-            else:  # cylinders and balloons: a circle
-                footprints.append({"circle": [*centre.tolist(), float(size[0])]})
-        goal = (d.xpos[self.scene.goal_body, :2].tolist() if self.scene.goal_body >= 0
-                else None)
-        view: dict[str, Any] = {"obstacles": footprints, "goal": goal}
-        if self._heights is not None:
-            x0, y0 = self.scene.terrain_origin
-            rows, cols = self._heights.shape
-            cell = self.params.terrain_cell
-            view["terrain"] = self._heights.tolist()
-            view["extent"] = [x0, x0 + (cols - 1) * cell, y0, y0 + (rows - 1) * cell]
-        return view
-
-    def ground_height(self, x: np.ndarray | float, y: np.ndarray | float) -> np.ndarray:
-        """Terrain height (m) at world points (x, y) in this episode."""
-        if self._heights is None:
-            return np.zeros(np.broadcast(x, y).shape)
-        return terrain.height_at(self._heights, self.params.terrain_cell,
-                                 self.scene.terrain_origin, x, y)
-
-    def _seed_light(self, rng: np.random.Generator) -> None:
-        m, p = self.model, self.params
-        az, el = rng.uniform(0, 2 * np.pi), math.radians(p.sun_elevation)
-        m.light_dir[self.scene.sun] = [-math.cos(el) * math.cos(az),
-                                       -math.cos(el) * math.sin(az), -math.sin(el)]
-        # Passing shade: one dip per period, at a seeded phase; flicker: a seeded phase.
-        period, width = rng.uniform(4.0, 8.0), rng.uniform(1.0, 2.0)
-        self._light_events = (rng.uniform(0, period), period, width, rng.uniform(0, 2 * np.pi))
-
-    def _apply_light(self, t: float) -> None:
-        p = self.params
-        if p.shade == 0 and p.flicker == 0:
-            return
-        phase, period, width, flicker_phase = self._light_events
-        u = ((t - phase) % period) / width
-        shade = p.shade * 0.5 * (1 - math.cos(2 * math.pi * u)) if u < 1 else 0.0
-        flicker = 1 + p.flicker * math.sin(2 * math.pi * p.flicker_hz * t + flicker_phase)
-        m = self.model
-        m.light_diffuse[self.scene.sun] = self._sun_diffuse * (1 - shade) * flicker
-        m.vis.headlight.ambient = self._head[0] * flicker
-        m.vis.headlight.diffuse = self._head[1] * flicker
-
-    def _seed_scenery(self, rng: np.random.Generator) -> None:
-        m = self.model
-        cx = self.params.arena[0] / 2 - scene_mod.ARENA_BACK
-        for i, (body, geoms) in enumerate(self.scene.scenery):
-            r, a = rng.uniform(14.0, 45.0), rng.uniform(0, 2 * np.pi)
-            x, y = cx + r * math.cos(a), r * math.sin(a)
-            if i % 3 != 2:  # tree: trunk and crown
-                h, crown = rng.uniform(2.0, 5.0), rng.uniform(1.0, 2.5)
-                _set_size(m, geoms[0], [rng.uniform(0.1, 0.25), h / 2])
-                m.geom_pos[geoms[0]] = [0, 0, h / 2]
-                _set_size(m, geoms[1], [crown, crown, rng.uniform(1.2, 1.8) * crown])
-                m.geom_pos[geoms[1]] = [0, 0, h + 0.8 * crown]
-                m.geom_rgba[geoms[1]] = [*_colour(rng, (0.2, 0.4), (0.3, 0.7), (0.3, 0.6)), 1]
-            else:  # building: block and roof
-                hx, hy, hz = rng.uniform(2, 6), rng.uniform(2, 6), rng.uniform(2, 6)
-                _set_size(m, geoms[0], [hx, hy, hz])
-                m.geom_pos[geoms[0]] = [0, 0, hz]
-                _set_size(m, geoms[1], [hx * 1.05, hy * 1.05, 0.3])
-                m.geom_pos[geoms[1]] = [0, 0, 2 * hz + 0.3]
-                m.geom_rgba[geoms[0]] = [*_colour(rng, (0, 1), (0.05, 0.3), (0.6, 0.95)), 1]
-                m.geom_rgba[geoms[1]] = [*_colour(rng, (0, 0.1), (0.3, 0.6), (0.3, 0.5)), 1]
-            m.body_pos[body] = [x, y, 0]
-            m.body_quat[body] = _yaw_quat(rng.uniform(0, 2 * np.pi))
-
-    def _seed_obstacles(self, rng: np.random.Generator) -> None:
-        m, p = self.model, self.params
-        x0, x1, half = p.obstacle_field
-        placed: list[tuple[float, float, float]] = []
-        goal = (p.goal_distance, 0.0) if p.goal_distance > 0 else None
-        for i, (body, kind, geoms) in enumerate(self.scene.obstacles):
-            radius = self._shape_obstacle(rng, kind, geoms)
-            ahead = i == 0 and p.obstacle_ahead > 0
-            if ahead:
-                x, y = p.obstacle_ahead, 0.0
-            else:
-                for _ in range(100):
-                    x, y = rng.uniform(x0, x1), rng.uniform(-half, half)
-                    clear = math.hypot(x, y) > radius + 1.2 and all(
-                        math.hypot(x - a, y - b) > radius + r + 0.6 for a, b, r in placed)
-                    if goal is not None:
-                        clear &= math.hypot(x - goal[0], y - goal[1]) > radius + p.goal_radius + 0.5
-                    if clear:
-                        break
-            placed.append((x, y, radius))
-            if kind == "balloon":  # the pole to one side, seen from the start
-                yaw = math.atan2(y, x) + rng.choice([0.0, np.pi]) + rng.uniform(-0.4, 0.4)
-            elif kind == "wall":
-                yaw = rng.uniform(-0.6, 0.6)  # mostly across the way ahead
-            else:
-                yaw = rng.uniform(0, 2 * np.pi)
-            # Sink obstacles a little so they meet sloped ground without gaps.
-            m.body_pos[body] = [x, y, float(self.ground_height(x, y)) - 0.03]
-            m.body_quat[body] = _yaw_quat(yaw)
-            _refresh_bvh(m, body)
-
-    def _shape_obstacle(self, rng: np.random.Generator, kind: str, geoms: list[int]) -> float:
-        """Seed size, colour and texture of one static obstacle; return its footprint radius."""
-        m, sc = self.model, self.scene
-        main = geoms[0]
-        if kind == "balloon":
-            return self._shape_hanging_balloon(rng, geoms)
-        if kind == "box":
-            size = [rng.uniform(0.15, 0.5), rng.uniform(0.15, 0.5), rng.uniform(0.15, 0.6)]
-        elif kind == "cylinder":
-            size = [rng.uniform(0.08, 0.3), rng.uniform(0.2, 0.8), 0.0]
-        else:  # wall
-            size = [rng.uniform(0.06, 0.12), rng.uniform(0.8, 2.0), rng.uniform(0.25, 0.7)]
-        _set_size(m, main, size)
-        top = size[2] if kind != "cylinder" else size[1]
-        m.geom_pos[main] = [0, 0, top]
-        materials = (-1, *sc.obstacle_materials)
-        m.geom_matid[main] = materials[int(rng.integers(len(materials)))]
-        m.geom_rgba[main] = [*_colour(rng, (0, 1), (0.3, 0.9), (0.35, 0.9)), 1]
-        return float(math.hypot(size[0], size[1]) if kind != "cylinder" else size[0])
-
-    def _shape_hanging_balloon(self, rng: np.random.Generator, geoms: list[int]) -> float:
-        """A balloon hanging on a string from an arm on a wooden pole (Sec. 4.1.2 b)."""
-        m = self.model
-        balloon, pole, arm, string = geoms
-        r = rng.uniform(0.15, 0.25)
-        if self.params.carrier == "robot":
-            centre = r + rng.uniform(0.02, 0.25)
-        else:
-            centre = self.params.camera_height + rng.uniform(-0.12, 0.12)
-        offset = r + rng.uniform(0.35, 0.6)  # pole to one side (local +y)
-        top = centre + 1.15 * r + rng.uniform(0.4, 0.8)
-        _set_size(m, balloon, [r, r, 1.15 * r])
-        m.geom_pos[balloon] = [0, 0, centre]
-        m.geom_rgba[balloon] = [*_colour(rng, (0, 1), (0.7, 0.95), (0.6, 0.95)), 1]
-        _set_size(m, pole, [0.025, top / 2])
-        m.geom_pos[pole] = [0, offset, top / 2]
-        _set_size(m, arm, [0.015, offset / 2, 0.015])
-        m.geom_pos[arm] = [0, offset / 2, top]
-        length = top - centre - 1.15 * r
-        _set_size(m, string, [0.003, length / 2])
-        m.geom_pos[string] = [0, 0, top - length / 2]
-        return r + 0.05
-
-    def _place_carrier(self, rng: np.random.Generator) -> None:
-        m, d, sc, p = self.model, self.data, self.scene, self.params
-        q = sc.carrier_qpos_adr
-        if sc.wheel_actuators.size:
-            xs, ys = np.meshgrid([-0.17, 0.0, 0.17], [-0.14, 0.0, 0.14])
-            ground = float(self.ground_height(xs, ys).max())
-            d.qpos[q:q + 3] = [0, 0, ground + 0.1]
-            d.qpos[q + 3:q + 7] = [1, 0, 0, 0]
-            self._held = None
-            return
-        angle, shift = p.resolved_shake
-        self._held = HeldPath(p, Shake(rng, angle, shift, p.shake_band), m.opt.timestep)
-        pos, quat = self._held.start_pose()
-        d.mocap_pos[sc.mocap], d.mocap_quat[sc.mocap] = pos, quat
-        d.qpos[q:q + 3], d.qpos[q + 3:q + 7] = pos, quat
-
-    def _settle(self) -> None:
-        """Let the robot come to rest on the ground before the episode's first frame."""
-        if not self.scene.wheel_actuators.size:
-            return
-        m, d = self.model, self.data
-        mujoco.mj_step(m, d, nstep=round(SETTLE_TIME / m.opt.timestep))
-        d.qvel[:] = 0.0
-        d.qacc_warmstart[:] = 0.0
-        mujoco.mj_forward(m, d)
-
-    def _launch_mover(self, rng: np.random.Generator) -> None:
-        """Seed the moving object and send it at (or, with miss_distance, past) the camera."""
-        sc, p = self.scene, self.params
-        if sc.mover_body < 0:
-            return
-        m, d = self.model, self.data
-        mujoco.mj_forward(m, d)
-        cam = d.cam_xpos[sc.camera].copy()
-        heading = np.array([1.0, 0.0, 0.0])
-        spread = math.radians(p.mover_spread)
-        phi = rng.uniform(-spread, spread)
-        away = np.array([math.cos(phi), math.sin(phi), 0.0])  # from the target to the start
-        side = np.array([-away[1], away[0], 0.0]) * rng.choice([-1.0, 1.0])
-        geoms = sc.mover_geoms
-        kind = sc.mover_kind
-        if kind == "vehicle":
-            length, width = rng.uniform(3.6, 4.6), rng.uniform(1.6, 1.9)
-            self._shape_vehicle(rng, geoms, length, width)
-            half_side = width / 2
-        else:
-            r = rng.uniform(0.15, 0.25) if kind != "ball" else rng.uniform(0.1, 0.14)
-            _set_size(m, geoms[0], [r, 0, 0])
-            mass = m.body_mass[sc.mover_body]
-            m.body_inertia[sc.mover_body] = 0.4 * mass * r * r
-            sat = (0.7, 0.95) if kind != "ball" else (0.0, 0.2)
-            m.geom_rgba[geoms[0]] = [*_colour(rng, (0, 1), sat, (0.6, 0.95)), 1]
-            half_side = r
-        gap = p.miss_distance + half_side + CARRIER_RADIUS[p.carrier] if p.miss_distance > 0 else 0
-        if kind == "swing":
-            self._launch_swing(rng, cam, away, side * gap)
-            return
-        travel = p.mover_distance / p.mover_speed
-        target = cam + heading * p.aim_lead_speed * travel + side * gap
-        start = target + away * p.mover_distance
-        qa, da = sc.mover_qpos_adr, sc.mover_dof_adr
-        if kind == "vehicle":
-            ground = float(self._heights.max()) if self._heights is not None else 0.0
-            m.body_pos[sc.mover_body] = [start[0], start[1], ground]  # clears every bump
-            m.body_quat[sc.mover_body] = _yaw_quat(phi + math.pi)
-            d.qpos[qa], d.qvel[da] = 0.0, p.mover_speed
-            return
-        if kind == "balloon":
-            start[2] = target[2]
-            velocity = (target - start) / travel  # gravity compensated: a straight drift
-        else:  # a thrown ball: a ballistic arc from hand height through the target
-            start[2] = max(target[2], 0.3) + rng.uniform(0.2, 0.8)
-            velocity = (target - start) / travel - 0.5 * m.opt.gravity * travel
-        d.qpos[qa:qa + 3] = start
-        d.qpos[qa + 3:qa + 7] = [1, 0, 0, 0]
-        d.qvel[da:da + 3] = velocity
-        d.qvel[da + 3:da + 6] = rng.normal(0, 0.5, 3)  # a little spin
-
-    def _shape_vehicle(self, rng: np.random.Generator, geoms: list[int], length: float,
-                       width: float) -> None:
-        m = self.model
-        main, cabin, *wheels = geoms
-        _set_size(m, main, [length / 2, width / 2, 0.35])
-        m.geom_pos[main] = [0, 0, 0.45]
-        m.geom_rgba[main] = [*_colour(rng, (0, 1), (0.4, 0.9), (0.4, 0.9)), 1]
-        _set_size(m, cabin, [length * 0.27, width * 0.45, 0.28])
-        m.geom_pos[cabin] = [-0.05 * length, 0, 1.08]
-        for k, w in enumerate(wheels):
-            _set_size(m, w, [0.3, 0.1, 0])
-            m.geom_pos[w] = [(0.32 if k < 2 else -0.32) * length,
-                             (1 if k % 2 else -1) * (width / 2 - 0.05), 0.3]
-
-    def _launch_swing(self, rng: np.random.Generator, cam: np.ndarray, away: np.ndarray,
-                      miss: np.ndarray) -> None:
-        """A ball on a rope from a gallows pole: released in front, its lowest point at
-        the camera (plus the miss offset)."""
-        m, d, sc = self.model, self.data, self.scene
-        length = rng.uniform(2.0, 3.0)
-        bottom = cam + miss
-        pivot = bottom + np.array([0, 0, length])
-        yaw = math.atan2(away[1], away[0])
-        m.body_pos[sc.mover_pivot] = pivot
-        m.body_quat[sc.mover_pivot] = _yaw_quat(yaw)
-        pole, arm = _body_geoms_of(m, sc.mover_pivot)
-        offset = 0.9  # pole beside the swing plane
-        _set_size(m, pole, [0.04, pivot[2] / 2 + 0.1])
-        m.geom_pos[pole] = [0, offset, -pivot[2] / 2 + 0.1]
-        _set_size(m, arm, [0.03, offset / 2, 0.03])
-        m.geom_pos[arm] = [0, offset / 2, 0.1]
-        m.body_pos[sc.mover_body] = [0, 0, -length]
-        joint = m.body_jntadr[sc.mover_body]
-        m.jnt_pos[joint] = [0, 0, length]
-        string = sc.mover_geoms[1]
-        r = m.geom_size[sc.mover_geoms[0], 0]
-        _set_size(m, string, [0.006, (length - r) / 2])
-        m.geom_pos[string] = [0, 0, (length + r) / 2]
-        release = math.asin(min(self.params.mover_distance / length, 0.9))
-        d.qpos[sc.mover_qpos_adr] = -release  # the ball starts out in front (local +x)
-        d.qvel[sc.mover_dof_adr] = 0.0
-
 
 # --- helpers ------------------------------------------------------------------------------
 
@@ -667,74 +428,3 @@ class JitterWorld:
 def _bearing(v: np.ndarray, forward: np.ndarray, left: np.ndarray) -> float:
     """Angle (rad) of direction v from the camera's forward axis, positive to the left."""
     return math.atan2(float(v @ left), float(v @ forward))
-
-
-def _yaw_quat(yaw: float) -> list[float]:
-    return [math.cos(yaw / 2), 0.0, 0.0, math.sin(yaw / 2)]
-
-
-def _colour(rng: np.random.Generator, hue: tuple[float, float], sat: tuple[float, float],
-            val: tuple[float, float]) -> tuple[float, float, float]:
-    return colorsys.hsv_to_rgb(rng.uniform(*hue), rng.uniform(*sat), rng.uniform(*val))
-
-
-def _body_geoms_of(m: mujoco.MjModel, body: int) -> list[int]:
-    start, count = m.body_geomadr[body], m.body_geomnum[body]
-    return list(range(start, start + count))
-
-
-def _write_hfield(m: mujoco.MjModel, hfield: int, heights: np.ndarray) -> None:
-    """Write normalised heights (rows along +y) into a heightfield of the model."""
-    adr = m.hfield_adr[hfield]
-    m.hfield_data[adr:adr + heights.size] = heights.ravel()
-
-
-def _refresh_bvh(m: mujoco.MjModel, body: int) -> None:
-    """Recompute a body's bounding-volume hierarchy after its geoms moved or resized.
-
-    MuJoCo's broad and mid phase test these boxes (compiled once, in the body's inertial
-    frame) before any exact collision test: stale boxes silently lose contacts.
-    """
-    adr, num = m.body_bvhadr[body], m.body_bvhnum[body]
-    if num <= 0:
-        return
-    inertial = np.empty(9)
-    mujoco.mju_quat2Mat(inertial, m.body_iquat[body])
-    inertial = inertial.reshape(3, 3)
-    rot = np.empty(9)
-    lo = np.empty((num, 3))
-    hi = np.empty((num, 3))
-    for k in range(num - 1, -1, -1):  # children come after their parent
-        node = adr + k
-        geom = m.bvh_nodeid[node]
-        if geom >= 0:
-            mujoco.mju_quat2Mat(rot, m.geom_quat[geom])
-            r = inertial.T @ rot.reshape(3, 3)
-            centre = inertial.T @ (m.geom_pos[geom] - m.body_ipos[body]) + r @ m.geom_aabb[geom, :3]
-            half = np.abs(r) @ m.geom_aabb[geom, 3:]
-            lo[k], hi[k] = centre - half, centre + half
-        else:
-            a, b = m.bvh_child[node]
-            lo[k], hi[k] = np.minimum(lo[a], lo[b]), np.maximum(hi[a], hi[b])
-        m.bvh_aabb[node] = [*(lo[k] + hi[k]) / 2, *(hi[k] - lo[k]) / 2]
-
-
-def _set_size(m: mujoco.MjModel, geom: int, size: list[float]) -> None:
-    """Resize a primitive geom, keeping its bounding sphere and box (used by the
-    collision broad phase) consistent."""
-    sx, sy, sz = [*size, 0.0, 0.0][:3]
-    G = mujoco.mjtGeom
-    t = m.geom_type[geom]
-    if t == G.mjGEOM_SPHERE:
-        half, rbound = [sx, sx, sx], sx
-    elif t == G.mjGEOM_CYLINDER:
-        half, rbound = [sx, sx, sy], math.hypot(sx, sy)
-    elif t == G.mjGEOM_CAPSULE:
-        half, rbound = [sx, sx, sx + sy], sx + sy
-    elif t == G.mjGEOM_ELLIPSOID:
-        half, rbound = [sx, sy, sz], max(sx, sy, sz)
-    else:  # box
-        half, rbound = [sx, sy, sz], math.sqrt(sx * sx + sy * sy + sz * sz)
-    m.geom_size[geom] = [sx, sy, sz]
-    m.geom_aabb[geom] = [0, 0, 0, *half]
-    m.geom_rbound[geom] = rbound

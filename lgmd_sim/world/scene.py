@@ -1,11 +1,11 @@
 """Build the MuJoCo model of a jitter world from its parameters.
 
 The model's structure (which bodies and geoms exist) depends only on the parameters, so
-one compiled model serves every episode of an environment: `lgmd_sim.world.core` seeds
-each episode by writing positions, sizes, colours, materials, light and terrain heights
-into the model in place. The layout: the carrier starts at the origin heading along +x;
-the rough terrain patch (a heightfield) spans `arena` from 2 m behind the start and blends
-into a flat ground plane; the goal (if any) lies straight ahead.
+one compiled model serves every episode of an environment: `lgmd_sim.world.randomise`
+seeds each episode by writing positions, sizes, colours, materials, light and terrain
+heights into the model in place. The layout: the carrier starts at the origin heading
+along +x; the rough terrain patch (a heightfield) spans `arena` from 2 m behind the start
+and blends into a flat ground plane; the goal (if any) lies straight ahead.
 """
 
 from __future__ import annotations
