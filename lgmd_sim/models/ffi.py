@@ -21,8 +21,8 @@ from dataclasses import dataclass
 from typing import Any, ClassVar
 
 from lgmd_sim.models.base import ModelParams
-from lgmd_sim.models.lgmd1 import SOURCES
 from lgmd_sim.models.lgmd2 import LGMD2, LGMD2Params
+from lgmd_sim.models.sources import SOURCES
 from lgmd_sim.params import param
 
 __all__ = ["FFIParams", "FOffLGMD", "FOnLGMD"]
@@ -74,27 +74,32 @@ _V01: dict[str, Any] = {
 }
 
 
-class FOnLGMD(LGMD2):
+class _OLGMD(LGMD2):
+    """The oLGMD: LGMD2 with `FFIParams`. F(ONn) and F(OFFp) differ only in the channel
+    their v0.1 preset gates (`_presets`), so each is this class under its own name."""
+
+    Params: ClassVar[type[ModelParams]] = FFIParams
+
+    params: FFIParams
+
+
+def _presets(v01_channel: str) -> dict[str, dict[str, Any]]:
+    """The presets of the oLGMD named after ``v01_channel``, the one channel v0.1 gates."""
+    return {
+        "published": {},  # optimized_LGMD.py (PM_off from the OFF mean: its bug fixed)
+        "v0.1": {**_V01, "ffi_channels": v01_channel},
+    }
+
+
+class FOnLGMD(_OLGMD):
     """F(ONn)-LGMD: the oLGMD (both channels gated); v0.1 gates the ON channel only."""
 
     name: ClassVar[str] = "f_on"
-    Params: ClassVar[type[ModelParams]] = FFIParams
-    presets: ClassVar[dict[str, dict[str, Any]]] = {
-        "published": {},  # optimized_LGMD.py (PM_off from the OFF mean: its bug fixed)
-        "v0.1": {**_V01, "ffi_channels": "on"},
-    }
-
-    params: FFIParams
+    presets: ClassVar[dict[str, dict[str, Any]]] = _presets("on")
 
 
-class FOffLGMD(LGMD2):
+class FOffLGMD(_OLGMD):
     """F(OFFp)-LGMD: the oLGMD (both channels gated); v0.1 gates the OFF channel only."""
 
     name: ClassVar[str] = "f_off"
-    Params: ClassVar[type[ModelParams]] = FFIParams
-    presets: ClassVar[dict[str, dict[str, Any]]] = {
-        "published": {},  # optimized_LGMD.py (PM_off from the OFF mean: its bug fixed)
-        "v0.1": {**_V01, "ffi_channels": "off"},
-    }
-
-    params: FFIParams
+    presets: ClassVar[dict[str, dict[str, Any]]] = _presets("off")

@@ -29,6 +29,7 @@ from numba import njit
 __all__ = [
     "BORDERS",
     "JIT",
+    "JIT_NO_FMA",
     "REFLECT",
     "REPLICATE",
     "TAP_FLOOR",
@@ -49,6 +50,14 @@ __all__ = [
 #: maths vectorised freely (inputs are checked finite before they get here), GIL released
 #: so that threads can run streams side by side.
 JIT = {"cache": True, "fastmath": True, "nogil": True}
+
+#: `JIT` without fused multiply-add contraction: a loop LLVM vectorises falls back to
+#: scalar code when its runtime alias check fails, which depends on where the arrays lie;
+#: with contraction the two paths round differently, and a batched stream would then
+#: differ from a lone one. Kernels that must give a stream the same bits in any batch use
+#: it, and take their sums in read-only loops (no alias check, so always the same path
+#: and order) for the same reason.
+JIT_NO_FMA = {**JIT, "fastmath": {"nnan", "ninf", "nsz", "arcp", "afn", "reassoc"}}
 
 #: Relative size below which a filter tap is dropped: float32's unit roundoff, 2^-24.
 TAP_FLOOR = 2.0**-24

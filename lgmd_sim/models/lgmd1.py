@@ -18,10 +18,11 @@ implementations apart (docs/models.md, "Baselines"):
 
 Presets: ``published`` (the default) is XuelongSun/InsectInspiredNavigation_PI-LGMD's
 model; ``lgmd-single`` and ``plgmd`` are the other two published implementations,
-``v0.1`` this project's first reading. This module also holds what LGMD2 and the F(ON) /
-F(OFF) LGMDs share: the G layer, the sigmoid, border rules and luminance persistence.
-`lgmd_sim.models.reference.baselines` has the per-equation float64 version this one is
-tested against, `lgmd_sim.models.reference.published` ports of the published code.
+``v0.1`` this project's first reading. What LGMD2 and the F(ON) / F(OFF) LGMDs share with
+it (the G layer, the sigmoid, border rules and luminance persistence) is in
+`lgmd_sim.models.baseline`. `lgmd_sim.models.reference.baselines` has the per-equation
+float64 version this one is tested against, `lgmd_sim.models.reference.published` ports
+of the published code.
 """
 
 from __future__ import annotations
@@ -33,126 +34,29 @@ import numpy as np
 from numba import njit
 
 from lgmd_sim.models.base import LGMDModel, ModelParams, StateMap
-from lgmd_sim.models.kernels import (
-    BORDERS,
-    REFLECT,
-    TAP_FLOOR,
-    fill_borders_as,
-    row_index,
-    staggered_arrays,
+from lgmd_sim.models.baseline import (
+    BORDER_DOC,
+    BORDER_RULES,
+    NO_MAP,
+    BaselineParams,
+    boolean,
+    border_code,
+    diff_row,
+    finish_s_row,
+    g_row,
+    g_sum,
+    persist_row,
+    persistence_weights,
+    sigmoid_potential,
+    take_first_frames,
 )
-from lgmd_sim.models.kernels import JIT as _JIT
-from lgmd_sim.params import non_negative, one_of, optional, param, positive, tuple_of
+from lgmd_sim.models.kernels import JIT_NO_FMA, fill_borders_as, row_index, staggered_arrays
+from lgmd_sim.models.sources import SOURCES
+from lgmd_sim.params import non_negative, one_of, optional, param
 
-#: The shared kernel options without fused multiply-add contraction: a loop LLVM vectorises
-#: falls back to scalar code when its runtime alias check fails, which depends on where
-#: the arrays lie; with contraction the two paths round differently, and a batched stream
-#: would then differ from a lone one. Sums are taken in read-only loops (no alias check,
-#: so always the same path and order) for the same reason.
-JIT = {**_JIT, "fastmath": {"nnan", "ninf", "nsz", "arcp", "afn", "reassoc"}}
+__all__ = ["LGMD1", "LGMD1Params"]
 
-__all__ = [
-    "LGMD1",
-    "SOURCES",
-    "BaselineParams",
-    "LGMD1Params",
-    "border_code",
-    "persistence_weights",
-    "sigmoid_potential",
-]
-
-#: Stands in for the layer maps when none are asked for.
-_NO_MAP = np.empty((0, 0, 0), np.float32)
-
-#: The published implementations the baselines reproduce: repository, file and the commit
-#: read (docs/models.md, "Baselines", lists the full commit ids).
-SOURCES = {
-    "pi-lgmd": "XuelongSun/InsectInspiredNavigation_PI-LGMD simulations/models.py @176e097 "
-               "(LobulaGiantMotionDetectorModel.run)",
-    "lgmd-single": "fuqinbing/LGMD-Plus-and-GAs-Open-Source code/LGMDSingle.cs @0dacd1f",
-    "plgmd": "fuqinbing/pLGMD LGMD.m @7158bb3",
-    "lgmd2": "fuqinbing/LGMD2-open-source lgmd2OpenSource.cs @11e4be5",
-    "olgmd": "Ryannnice/Supplementary_Materials_FFI_ON_OFF Core_of_Source_Code/"
-             "Computer_oLGMD_Python/optimized_LGMD.py @dca3097",
-}
 _PI, _SINGLE, _PLGMD = SOURCES["pi-lgmd"], SOURCES["lgmd-single"], SOURCES["plgmd"]
-_ALL_G = f"{_PI}; {SOURCES['lgmd2']}; {SOURCES['olgmd']}"
-
-
-def _boolean(v: Any) -> str | None:
-    return None if isinstance(v, bool | np.bool_) else "must be True or False"
-
-
-#: Values of the ``border`` parameter: the kernel rules, and "interior" (S is only computed
-#: away from the frame's edge, zero on a 1-pixel border; the G layer's Ce reflects).
-BORDER_RULES = (*BORDERS, "interior")
-PERSISTENCE = ("none", "constant", "decaying")
-_BORDER_DOC = (
-    "cells outside the frame in 3x3 neighbourhoods: 'replicate' the edge (C#), 'reflect' "
-    "(OpenCV's default, BORDER_REFLECT_101), 'zero' (MATLAB conv2 'same'), or 'interior' "
-    "(S zero on a 1-pixel border, Ce reflected)")
-
-
-def border_code(border: str) -> tuple[int, bool]:
-    """The kernels' border rule of a ``border`` parameter, and whether S is interior-only."""
-    return (REFLECT, True) if border == "interior" else (BORDERS[border], False)
-
-
-@dataclass(frozen=True)
-class BaselineParams(ModelParams):
-    """What LGMD1, LGMD2 and the F(ON)/F(OFF) LGMDs share: G layer, sigmoid, borders, P."""
-
-    delta_c: float = param(0.01, _ALL_G, check=positive,
-                           doc="Delta_c in the G layer's scale w = delta_c + max|Ce| / c_w")
-    c_w: float = param(4.0, _ALL_G, check=positive, doc="C_w in w = delta_c + max|Ce| / c_w")
-    c_de: float = param(0.5, _ALL_G + f" (0.15 in {_PLGMD})", check=positive,
-                        doc="C_de: G is zeroed where G * c_de < t_de")
-    t_de: float = param(15.0, _ALL_G, check=non_negative,
-                        doc="T_de: G is zeroed where G * c_de < t_de")
-    c_sig: float = param(1.0, f"{_PI}; {_SINGLE}; {_PLGMD}; {SOURCES['lgmd2']} (C_sig = 1)",
-                         check=positive,
-                         doc="C_sig: the potential is sigmoid(sum G / (n_cells * c_sig))")
-    border: str = param("replicate", f"{SOURCES['lgmd2']}, {_SINGLE}: indices clamped",
-                        check=one_of(*BORDER_RULES), doc=_BORDER_DOC)
-    persistence: str = param(
-        "none", f"{_PI}, {_SINGLE}, {SOURCES['lgmd2']}: P(t) = L(t) - L(t-1)",
-        check=one_of(*PERSISTENCE),
-        doc="luminance persistence P(t) = L(t) - L(t-1) + c1 P(t-1) + c2 P(t-2): 'none' "
-            "(c = 0), 'constant' (c = persistence_weights, pLGMD), 'decaying' (c_j = "
-            "1 / (1 + exp(k + 1 - j)) at a stream's frame k = 0, 1, ..., the oLGMD)")
-    persistence_weights: tuple[float, float] = param(
-        (0.5, 0.5), f"{_PLGMD} (p1 = p2 = 1 / (1 + exp(0)))",
-        check=tuple_of(non_negative, 2), doc="(c1, c2) of persistence 'constant'")
-
-
-def _decaying_weights() -> np.ndarray:
-    """(c1, c2) of 'decaying' persistence at a stream's frames k = 0, 1, ... while either
-    is above `TAP_FLOOR` (smaller ones are 0: they could not change P by 2e-5 grey
-    levels), then one row of zeros for every later frame."""
-    k = np.arange(64, dtype=np.float64)[:, None] + 1.0 - np.array([1.0, 2.0])
-    c = 1.0 / (1.0 + np.exp(k))
-    c[c < TAP_FLOOR] = 0.0
-    return c[: np.flatnonzero(c.any(axis=1))[-1] + 2].astype(np.float32)
-
-
-_DECAYING = _decaying_weights()
-
-
-def persistence_weights(
-    mode: str, weights: tuple[float, float], frame_index: np.ndarray
-) -> tuple[np.ndarray, np.ndarray]:
-    """Per stream (c1, c2) float32 at each stream's frame index, and whether to run it.
-
-    'decaying' weights only fall, so a stream whose weights are 0 needs its older P no
-    more ("run" is False: the kernels skip that work).
-    """
-    n = len(frame_index)
-    if mode == "none":
-        return np.zeros((n, 2), np.float32), np.zeros(n, bool)
-    if mode == "constant":
-        return np.tile(np.asarray(weights, np.float32), (n, 1)), np.full(n, any(weights))
-    c = _DECAYING[np.minimum(frame_index, len(_DECAYING) - 1)]
-    return c, (c > 0).any(axis=1)
 
 
 @dataclass(frozen=True)
@@ -175,7 +79,7 @@ class LGMD1Params(BaselineParams):
                           doc="'signed': S is zeroed where S < t_s (so every S < t_s, "
                               "darkening included, is dropped); 'abs': where |S| < t_s")
     coincidence: bool = param(False, f"{_PI}, {_PLGMD}: none (True in {_SINGLE}, which "
-                              "zeroes S where E * I <= 0)", check=_boolean,
+                              "zeroes S where E * I <= 0)", check=boolean,
                               doc="zero S where E * I <= 0: excitation passes only next to "
                                   "same-sign excitation of the previous frame")
     t_ffi: float | None = param(
@@ -184,102 +88,20 @@ class LGMD1Params(BaselineParams):
         doc="feed-forward inhibition: the potential rests at 0.5 while mean |P(t-1)| >= "
             "t_ffi; None: no FFI")
     g_layer: bool = param(True, f"{_PI}; {_PLGMD} (none in {_SINGLE}: K from sum S)",
-                          check=_boolean,
+                          check=boolean,
                           doc="the G layer; without it K = sigmoid(sum S / (n_cells c_sig))")
     border: str = param("reflect", f"{_PI} (cv2.filter2D's default border)",
-                        check=one_of(*BORDER_RULES), doc=_BORDER_DOC)
+                        check=one_of(*BORDER_RULES), doc=BORDER_DOC)
 
 
-def sigmoid_potential(g_sum: np.ndarray, n_cells: int, c_sig: float) -> np.ndarray:
-    """K = 1 / (1 + exp(-sum G / (n_cells c_sig))), kept below 1 (float64 rounds up past 37)."""
-    k = 1.0 / (1.0 + np.exp(-np.asarray(g_sum, np.float64) / (n_cells * c_sig)))
-    return np.minimum(k, np.nextafter(1.0, 0.0))
-
-
-# --- the G layer (shared) -----------------------------------------------------------------
-
-_NINTH = np.float32(1.0 / 9.0)
 #: A t_s that keeps every S (t_s = None), finite: the kernels assume no infinities.
 NO_THRESHOLD = np.float32(np.finfo(np.float32).min)
-
-
-@njit(**JIT)
-def g_row(s_above, s_row, s_below, vsum, q_row, ce_cols):
-    """G layer, one row: q = S Ce with Ce the 3x3 mean of S (Yue & Rind 2006).
-
-    S rows are padded (width + 2, borders filled); ``vsum`` is a width + 2 scratch line.
-    ``ce_cols`` (width) keeps each column's max |Ce| so far, for w in `g_sum`: a running
-    max over x would be a float reduction, which LLVM leaves scalar here (4x slower).
-    """
-    width = q_row.shape[0]
-    for x in range(width + 2):
-        vsum[x] = s_above[x] + s_row[x] + s_below[x]
-    for x in range(width):
-        ce = (vsum[x] + vsum[x + 1] + vsum[x + 2]) * _NINTH
-        q_row[x] = s_row[x + 1] * ce
-        ce_cols[x] = max(ce_cols[x], abs(ce))
-
-
-@njit(**JIT)
-def g_sum(q, ce_cols, delta_c, c_w, c_de, t_de, want, g_out):
-    """Sum of G = q / w over the cells where G c_de >= t_de, w = delta_c + max|Ce| / c_w.
-
-    ``ce_cols`` holds the max |Ce| of each column (`g_row`). With ``want``, ``g_out``
-    (H, W) receives the G map. G is never negative where kept, so this is also sum |G|.
-    """
-    height, width = q.shape
-    ce_max = ce_cols[0]
-    for x in range(width):  # once a frame: scalar is fine
-        ce_max = max(ce_max, ce_cols[x])
-    w = delta_c + ce_max / c_w
-    cut = np.float32(t_de * w / c_de)  # G c_de >= t_de  <=>  q >= t_de w / c_de
-    inv_w = np.float32(1.0 / w)
-    zero = np.float32(0.0)
-    total = 0.0
-    for y in range(height):
-        row = q[y]
-        if want:
-            out = g_out[y]
-            for x in range(width):
-                out[x] = row[x] * inv_w if row[x] >= cut else zero
-        acc = zero
-        for x in range(width):
-            acc += row[x] if row[x] >= cut else zero
-        total += acc
-    return total / w
-
-
-@njit(**JIT)
-def diff_row(fr, pr, out):
-    """One row of P = L(t) - L(t-1)."""
-    for x in range(out.shape[0]):
-        out[x] = np.float32(fr[x]) - np.float32(pr[x])
-
-
-@njit(**JIT)
-def persist_row(fr, pr, p1, p2, c1, c2, out):
-    """One row of P = L(t) - L(t-1) + c1 P(t-1) + c2 P(t-2) (luminance persistence)."""
-    for x in range(out.shape[0]):
-        out[x] = (np.float32(fr[x]) - np.float32(pr[x])) + (c1 * p1[x] + c2 * p2[x])
-
-
-@njit(**JIT)
-def finish_s_row(sr, y, height, width, interior, border):
-    """Zero S on the frame's 1-pixel border (``interior``), then fill the row's padding."""
-    zero = np.float32(0.0)
-    if interior:
-        if y == 0 or y == height - 1:
-            sr[:] = zero
-        else:
-            sr[1] = zero
-            sr[width] = zero
-    fill_borders_as(sr, 1, width, border)
 
 
 # --- LGMD1 --------------------------------------------------------------------------------
 
 
-@njit(**JIT)
+@njit(**JIT_NO_FMA)
 def _lgmd1_frames(frames, prev, e_prev, p_older, persist_w, persist_on, w_i, k_near, k_diag,
                   t_s, ts_sign, coincidence, g_layer, border, interior, delta_c, c_w, c_de,
                   t_de, s_ring, p_ring, vsum, q, ce_cols, want, l_p, l_s, l_g, g_total,
@@ -416,7 +238,7 @@ class LGMD1(LGMDModel):
         border, interior = border_code(p.border)
         weights, persist = persistence_weights(p.persistence, p.persistence_weights,
                                                self._frame_index)
-        maps = [layers[k] for k in self.layer_names] if layers else [_NO_MAP] * 3
+        maps = [layers[k] for k in self.layer_names] if layers else [NO_MAP] * 3
         g_total = np.empty(n)
         abs_p = np.empty(n)
         _lgmd1_frames(
@@ -434,18 +256,4 @@ class LGMD1(LGMDModel):
             potential[self._mean_abs_p >= p.t_ffi] = 0.5  # FFI from mean |P(t-1)|
         self._mean_abs_p = abs_p / (height * width)
         return potential
-
-
-def take_first_frames(grey: np.ndarray, prev: np.ndarray, fresh: np.ndarray) -> np.ndarray:
-    """Make the first frame of each fresh stream its own previous frame (so P = 0).
-
-    ``prev`` is uint8 until a float frame comes; then it becomes float32 for good. Returns
-    the (possibly new) ``prev`` array; clears ``fresh``.
-    """
-    if grey.dtype != np.uint8 and prev.dtype == np.uint8:
-        prev = prev.astype(np.float32)
-    if fresh.any():
-        prev[fresh] = grey[fresh]
-        fresh[:] = False
-    return prev
 

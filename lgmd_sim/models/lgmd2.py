@@ -18,7 +18,7 @@ implementations apart (docs/models.md, "Baselines"):
 - S_on = [ON - W_on I_on]+, S_off = [OFF - W_off I_off]+, S = S_on + S_off +
   onoff_product S_on S_off; a channel's S is gated off (``ffi_channels``) while its PM is
   below ``ffi_gate``.
-- G layer and sigmoid as in LGMD1 (`lgmd_sim.models.lgmd1`), over sum G: K. A global FFI
+- G layer and sigmoid as in LGMD1 (`lgmd_sim.models.baseline`), over sum G: K. A global FFI
   (``global_ffi_base``) sets K to 0.5 when PM_on + PM_off jumps.
 - Spike-frequency adaptation (SFA) of K: the reported potential.
 
@@ -34,12 +34,10 @@ import numpy as np
 from numba import njit
 
 from lgmd_sim.models.base import LGMDModel, ModelParams, StateMap
-from lgmd_sim.models.kernels import fill_borders_as, row_index, staggered_arrays
-from lgmd_sim.models.lgmd1 import (
-    _NO_MAP,
-    JIT,
-    SOURCES,
+from lgmd_sim.models.baseline import (
+    NO_MAP,
     BaselineParams,
+    boolean,
     border_code,
     diff_row,
     finish_s_row,
@@ -50,6 +48,8 @@ from lgmd_sim.models.lgmd1 import (
     sigmoid_potential,
     take_first_frames,
 )
+from lgmd_sim.models.kernels import JIT_NO_FMA, fill_borders_as, row_index, staggered_arrays
+from lgmd_sim.models.sources import SOURCES
 from lgmd_sim.params import (
     finite,
     in_range,
@@ -69,10 +69,6 @@ _OL = SOURCES["olgmd"]
 _SHARED = f"{_SRC}; the same in {_OL}"
 
 
-def _boolean(v: Any) -> str | None:
-    return None if isinstance(v, bool | np.bool_) else "must be True or False"
-
-
 @dataclass(frozen=True)
 class LGMD2Params(BaselineParams):
     """Parameters of LGMD2; defaults: lgmd2OpenSource.cs (preset ``published``)."""
@@ -86,7 +82,7 @@ class LGMD2Params(BaselineParams):
                              doc="frame interval (ms) the time constants are applied with; "
                                  "None: from fps (see dt_integer)")
     dt_integer: bool = param(True, f"{_SRC}: time_interval = 1000 / fps in C# integer "
-                             "arithmetic (33 ms at 30 fps)", check=_boolean,
+                             "arithmetic (33 ms at 30 fps)", check=boolean,
                              doc="with dt None: dt = 1000 // fps whole milliseconds (True) "
                                  "or 1000 / fps (False)")
     carry: float = param(0.1, f"{_SHARED} (dc; a1)", check=in_range(0.0, 1.0),
@@ -104,7 +100,7 @@ class LGMD2Params(BaselineParams):
                                 "W_on from PM_on (mean ON), W_off from PM_off (mean OFF)")
     pm_off_uses_on_mean: bool = param(
         False, f"ours: off; True is {_OL} as written (PM_ff = a4 * pmon + ...), a bug",
-        check=_boolean,
+        check=boolean,
         doc="the current term of PM_off takes the mean of ON instead of OFF")
     t_pm: float = param(8.0, f"{_SRC} (Tpm; 6 in {_OL})", check=positive,
                         doc="T_pm: W = max(w_min, PM / t_pm)")
@@ -140,7 +136,7 @@ class LGMD2Params(BaselineParams):
                             doc="a gated channel's S passes only while its PM >= ffi_gate")
     ffi_gates_history: bool = param(
         True, f"{_OL}: E = P_on / P_off is only set while the gate is open",
-        check=_boolean,
+        check=boolean,
         doc="a gated-off channel also feeds nothing (E = 0) to the next frame's inhibition "
             "(False: the gate zeroes S only; v0.1)")
     global_ffi_base: float | None = param(
@@ -304,7 +300,7 @@ class LGMD2(LGMDModel):
         w_off = np.maximum(p.w_off_min, pm[:, 2 if per_channel else 0] / p.t_pm).astype(f32)
         gates = np.where(self._gated, pm[:, 1:] >= p.ffi_gate, True).astype(f32)
         hist = gates if p.ffi_gates_history else np.ones_like(gates)
-        maps = [layers[k] for k in self.layer_names] if layers else [_NO_MAP] * 5
+        maps = [layers[k] for k in self.layer_names] if layers else [NO_MAP] * 5
         g_total = np.empty(n)
         _onoff_frames(
             grey, self._prev, self._on, self._off, self._lp, self._mix, self._p_hist,
@@ -330,7 +326,7 @@ class LGMD2(LGMDModel):
 # --- kernels ------------------------------------------------------------------------------
 
 
-@njit(**JIT)
+@njit(**JIT_NO_FMA)
 def _p_row(frames, prev, p_hist, n, y, c1, c2, persist, out):
     """Row y of stream n's P into ``out`` (P(t-1), P(t-2) from ``p_hist`` where persisting)."""
     if persist:
@@ -339,7 +335,7 @@ def _p_row(frames, prev, p_hist, n, y, c1, c2, persist, out):
         diff_row(frames[n, y], prev[n, y], out)
 
 
-@njit(**JIT)
+@njit(**JIT_NO_FMA)
 def _rectified_sums(frames, prev, p_hist, persist_w, persist_on, line, out):
     """out[n] = (sum [P]+, sum [-P]+) of stream n's P (nothing is written back)."""
     n_streams, height, width = frames.shape
@@ -361,7 +357,7 @@ def _rectified_sums(frames, prev, p_hist, persist_w, persist_on, line, out):
         out[n, 1] = neg
 
 
-@njit(**JIT)
+@njit(**JIT_NO_FMA)
 def _inhibition(c1, n0, n1, n2, d0, d2, wc, wn, wd, x):
     """I at column x: the 3x3 kernel over the centre (c), near (n) and diagonal (d)
     delayed copies, given as padded rows (index 0, 1, 2: rows y-1, y, y+1)."""
@@ -376,7 +372,7 @@ def _inhibition(c1, n0, n1, n2, d0, d2, wc, wn, wd, x):
 _FLUSH = np.float32(1e-6)
 
 
-@njit(**JIT)
+@njit(**JIT_NO_FMA)
 def _low_pass_row(lp_row, source, alpha, gain, border):
     """One padded row of a first-order low-pass: lp += alpha (gain source - lp)."""
     width = source.shape[0]
@@ -387,7 +383,7 @@ def _low_pass_row(lp_row, source, alpha, gain, border):
     fill_borders_as(lp_row, 1, width, border)
 
 
-@njit(**JIT)
+@njit(**JIT_NO_FMA)
 def _channel_row(p, channel, carry, sign):
     """One row of ON = [P]+ + carry ON(t-1) (sign 1) or OFF = [-P]+ + carry OFF(t-1) (-1).
 
@@ -399,7 +395,7 @@ def _channel_row(p, channel, carry, sign):
         channel[x] = v if v >= _FLUSH else zero
 
 
-@njit(**JIT)
+@njit(**JIT_NO_FMA)
 def _mix_row(out, current, previous, a, b, border):
     """One padded row of a two-frame delayed copy: out = a X(t) + b X(t-1)."""
     width = current.shape[0]
@@ -408,7 +404,7 @@ def _mix_row(out, current, previous, a, b, border):
     fill_borders_as(out, 1, width, border)
 
 
-@njit(**JIT)
+@njit(**JIT_NO_FMA)
 def _onoff_frames(frames, prev, on, off, lp, mix, p_hist, persist_w, persist_on, w_on, w_off,
                   gates, hist_now, hist_prev, carry, weights, alphas, two_frame, onoff, border,
                   interior, delta_c, c_w, c_de, t_de, s_ring, lines, vsum, q, ce_cols,
@@ -504,7 +500,7 @@ def _onoff_frames(frames, prev, on, off, lp, mix, p_hist, persist_w, persist_on,
                            l_g[n] if want else q)
 
 
-@njit(**JIT)
+@njit(**JIT_NO_FMA)
 def _advance_low_passes(lp, on, off, alphas, hist_now, n, row, border):
     """Row ``row`` of stream n's six low-passes takes in ON(t) / OFF(t) (their E)."""
     for k in range(3):

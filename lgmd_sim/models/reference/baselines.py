@@ -12,8 +12,9 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
+from lgmd_sim.models.baseline import BaselineParams
 from lgmd_sim.models.ffi import FOffLGMD, FOnLGMD
-from lgmd_sim.models.lgmd1 import LGMD1, BaselineParams
+from lgmd_sim.models.lgmd1 import LGMD1
 from lgmd_sim.models.lgmd2 import LGMD2
 
 __all__ = ["FOffReference", "FOnReference", "LGMD1Reference", "LGMD2Reference"]
