@@ -18,6 +18,7 @@ paper's jitter streams (0.63 to 0.76, Table 2) at 270 x 480; explicit ``roughnes
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Any
 
@@ -234,7 +235,8 @@ class SceneParams(CheckedParams):
             return 0.0, 0.0
         degrees = self.shake if self.shake is not None else self.jitter * SHAKE_PER_JITTER
         scale = degrees / SHAKE_PER_JITTER  # translation follows rotation on the jitter scale
-        return float(degrees) * 3.141592653589793 / 180.0, scale * SHIFT_PER_JITTER
+        # (degrees * pi) / 180, not math.radians: its degrees * (pi / 180) rounds otherwise
+        return float(degrees) * math.pi / 180.0, scale * SHIFT_PER_JITTER
 
     @property
     def timestep(self) -> float:
