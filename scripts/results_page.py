@@ -6,7 +6,13 @@ every sentence's figures computed from them, each run's command printed beside i
         --closed-loop-calibrated runs/closed-loop-calibrated \
         --open-loop-front-ends runs/open-loop-compensated
 
-The paper's numbers (its Tables 2 and 3) are quoted with their source.
+Only these are typed by hand: the paper's numbers (its Tables 2 and 3, quoted with
+their source), the targets, the descriptions of the measures, and commentary
+(`Commentary`): a reading that no figure computes, printed as a quoted block that names
+the runs it was written for, and only while the conditions it rests on hold on the runs
+given; otherwise the page says that it was withdrawn, and why. The page and its figures
+are written as one set (`lgmd_sim.fileio.write_files`): an interrupted run leaves the
+previous page and figures whole.
 """
 
 from __future__ import annotations
@@ -14,8 +20,15 @@ from __future__ import annotations
 import argparse
 import csv
 import json
+import re
 import shutil
+import sys
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
 from pathlib import Path
+
+from lgmd_sim.fileio import write_files
+from lgmd_sim.world.params import RESOLUTIONS
 
 ROOT = Path(__file__).resolve().parents[1]
 OUT = ROOT / "docs" / "results.md"
@@ -39,33 +52,142 @@ PAPER = [
 ]
 PAPER_MODELS = ("feedback", "lgmd1", "lgmd2", "f_on", "f_off")
 
+#: A page's figures to write beside it: target -> source.
+Figures = dict[Path, Path]
+
+
+@dataclass(frozen=True)
+class Commentary:
+    """A reading of particular runs, typed by hand because no figure of theirs computes it.
+
+    `block` prints it as a quoted block naming the runs it was written for, and only while
+    every condition it rests on holds on the page's runs: a rerun whose data say otherwise
+    gets the commentary withdrawn (saying which condition failed), not carried along."""
+
+    written: str  #: YYYY-MM-DD; runs started later are not the ones it was written for
+    commands: tuple[str, ...]  #: the commands of the runs it was written for
+    text: str
+
+    def block(self, runs: Sequence[Path], conditions: Sequence[tuple[str, bool]]
+              ) -> list[str]:
+        """The quoted block, or the notice of its withdrawal. `conditions`: (what the runs
+        must show, phrased to follow "show that", whether they do)."""
+        named = _and([f"`{m[1]}`" if (m := re.search(r"--out (\S+)", c)) else f"`{c}`"
+                      for c in self.commands])
+        rests_on = "; ".join(what for what, _ in conditions)
+        failed = [what for what, holds in conditions if not holds]
+        if failed:
+            print(f"{Path(sys.argv[0]).name}: the commentary of {self.written} is withdrawn: "
+                  f"the runs do not show that {'; '.join(failed)}", file=sys.stderr)
+            return [f"> **Commentary withdrawn.** Written on {self.written} for the runs "
+                    f"{named}, it holds only while the runs show that {rests_on}. The runs "
+                    f"of this page do not show that {'; '.join(failed)}.", ""]
+        head = (f"> **Commentary**, typed by hand on {self.written} for the runs {named} "
+                "(their commands stand beside their results), printed because the runs of "
+                f"this page show that {rests_on}")
+        others = self._not_named(runs)
+        if others:
+            head += f". They are not the runs it was written for: {'; '.join(others)}"
+        return [head + ".", ">", f"> {self.text}", ""]
+
+    def _not_named(self, runs: Sequence[Path]) -> list[str]:
+        out = []
+        for run in runs:
+            record = json.loads((run / "run.json").read_text())
+            sessions = record.get("sessions") or [record]
+            command = record.get("command") or sessions[0].get("command", "")
+            if command not in self.commands:
+                out.append(f"{run.name} ran `{command}`")
+            later = [s["started"][:10] for s in sessions
+                     if s.get("started", "")[:10] > self.written]
+            if later:
+                out.append(f"{run.name} ran on {_and(sorted(set(later)))}")
+        return out
+
+
+def _and(items: Sequence[str]) -> str:
+    items = list(items)
+    return ", ".join(items[:-1]) + " and " + items[-1] if len(items) > 1 else "".join(items)
+
+
+#: The reading of the closed loop with the calibrated presets (`compensation_verdict`).
+WHY_LATE = Commentary(
+    written="2026-11-30",
+    commands=(
+        "lgmd-sim bench closed-loop --jitter 0,1,2 --seeds 50 --out runs/closed-loop "
+        "--workers 2 --no-progress",
+        "lgmd-sim bench closed-loop --jitter 1,2 --seeds 50 --models feedback/calibrated,"
+        "feedback/calibrated-image,lgmd1/calibrated,lgmd1/calibrated-image,lgmd2/calibrated,"
+        "lgmd2/calibrated-image --out runs/closed-loop-calibrated --workers 2 --no-progress",
+        "lgmd-sim calibrate --budget 16 --detectors feedback,feedback-open-loop,lgmd1,lgmd2,"
+        "f_on,feedback+image,feedback-open-loop+image,lgmd1+image,lgmd2+image,f_on+image "
+        "--out runs/calibration-v3 --workers 1 --no-progress --resume --save-presets"),
+    text=" ".join((
+        "Why: the detectors with a front end alarm too late for the avoidance manoeuvre,",
+        "while those without one that collide least alarm all the time and avoid by backing",
+        "away, never reaching the goal. The calibration tuned them on the walker's clips,",
+        "whose objective asks for an alarm late in the approach; the robot needs one earlier,",
+        "and sees its own ground flow ([models.md](models.md), \"The robot: the ground's own",
+        "flow\"). Calibrating on the robot's own clips is the next step.")))
+
 
 def _rows(path: Path) -> list[dict[str, str]]:
     with path.open() as f:
         return list(csv.DictReader(f))
 
 
+def _record(run: Path) -> dict:
+    return json.loads((run / "run.json").read_text())
+
+
 def _command(run: Path) -> str:
-    return json.loads((run / "run.json").read_text())["command"]
+    return _record(run)["command"]
 
 
-def _copy(run: Path, names: list[str], tag: str) -> list[str]:
-    """Copy a run's figures under docs/results/<tag>/; their paths relative to the page."""
-    folder = FIGURES / tag
-    folder.mkdir(parents=True, exist_ok=True)
+def _copy(run: Path, names: list[str], tag: str, figures: Figures) -> list[str]:
+    """Add a run's figures to those to write under docs/results/<tag>/; their paths
+    relative to the page."""
     out = []
     for name in names:
         if (run / name).is_file():
-            shutil.copyfile(run / name, folder / name)
+            figures[FIGURES / tag / name] = run / name
             out.append(f"results/{tag}/{name}")
     return out
+
+
+def _resolution(value: str | list[int]) -> str:
+    height, width = RESOLUTIONS[value] if isinstance(value, str) else value
+    return f"{height} x {width}"
+
+
+def seed_ranges(seeds: set[int]) -> str:
+    """Seeds as spans of consecutive ones: "0 to 7 and 1000 to 1007"."""
+    spans: list[list[int]] = []
+    for s in sorted(seeds):
+        if spans and s == spans[-1][1] + 1:
+            spans[-1][1] = s
+        else:
+            spans.append([s, s])
+    return _and([f"{a}" if a == b else f"{a} to {b}" for a, b in spans]) if spans else "none"
+
+
+def _clip_seeds(run: Path) -> set[int]:
+    """The episode seeds of an open-loop run's simulated clips (a dataset's have none)."""
+    keys = _record(run)["config"]["clips"]
+    return {int(m[1]) for k in keys if (m := re.search(r"-s(\d+)$", k))}
+
+
+def _calibration_seeds(run: Path) -> set[int]:
+    config = _record(run)["config"]
+    return {s for key in ("search_seeds", "heldout_seeds")
+            for s in range(config[key][0], config[key][0] + config[key][1])}
 
 
 def _pct(x: str) -> float:
     return 100 * float(x)
 
 
-def closed_loop_section(run: Path, title: str, tag: str) -> list[str]:
+def closed_loop_section(run: Path, title: str, tag: str, figures: Figures) -> list[str]:
     rows = _rows(run / "summary.csv")
     lines = [f"## {title}", "", "```bash", _command(run), "```", "",
              (run / "summary.md").read_text().strip(), ""]
@@ -75,7 +197,7 @@ def closed_loop_section(run: Path, title: str, tag: str) -> list[str]:
             lines.append(f"- **{scenario}, jitter {float(jitter):g}:** " + _verdict(cell))
     lines.append("")
     for fig in _copy(run, ["collisions_vs_jitter.png", "false_alarms_vs_collisions.png",
-                           "trajectories.png"], tag):
+                           "trajectories.png"], tag, figures):
         lines += [f"![{fig}]({fig})", ""]
     return lines
 
@@ -114,18 +236,21 @@ def _verdict(cell: list[dict[str, str]]) -> str:
     return " ".join(parts)
 
 
-def compensation_verdict(runs: list[Path]) -> list[str]:
+def compensation_verdict(runs: list[Path], calibration: Path | None = None) -> list[str]:
     """The closed-loop test of the compensation, over every reactive cell of the runs: at
     each jitter level, the compensated detector with the fewest collisions (then the
     fewest false alarms) against the uncompensated one chosen the same way; the target:
-    at most half the collisions at no more false alarms per minute."""
-    cells = [r for run in runs for r in _rows(run / "summary.csv")
-             if r["controller"] == "reactive" and float(r["jitter"]) > 0]
+    at most half the collisions at no more false alarms per minute. Then when they alarm,
+    against the Oracle, and `WHY_LATE` while the runs bear it out."""
+    everything = [r for run in runs for r in _rows(run / "summary.csv")]
+    cells = [r for r in everything if r["controller"] == "reactive" and float(r["jitter"]) > 0]
     out = ["### Compensated against uncompensated, closed loop", "",
-           "Over every ReactiveAvoid cell above (each run's seeds are the same), at each "
+           f"Over every ReactiveAvoid cell above ({_same_seeds(runs)}), at each "
            "jitter level: the detector with a front end with the fewest collisions (then the "
            "fewest false alarms) against the detector without one chosen the same way. "
            "Target: at most half the collisions, at no more false alarms a minute.", ""]
+    # per jitter level: the Oracle's cell, the best without a front end, all those with one
+    levels = []
     for jitter in sorted({r["jitter"] for r in cells}, key=float):
         level = [r for r in cells if r["jitter"] == jitter]
         best = {}
@@ -148,24 +273,105 @@ def compensation_verdict(runs: list[Path]) -> list[str]:
             f"{float(plain['false_alarms_per_min']):.1f} a minute, "
             f"{_pct(plain['success_rate']):.0f}% successes. Target "
             f"{'met' if met else 'not met'}.")
-    out += ["", " ".join((
-        "Why, in the tables above: the compensated detectors are silent on the robot until",
-        "late (their first alarm's median time to collision, against the Oracle's trigger),",
-        "too late for the avoidance manoeuvre, while the uncompensated ones that collide",
-        "least alarm all the time (false alarms a minute) and avoid by backing away, never",
-        "reaching the goal. The calibration tuned them on the walker's clips, whose objective",
-        "asks for an alarm in the last 15% of the approach; the robot needs one earlier, and",
-        "sees its own ground flow ([models.md](models.md), \"The robot: the ground's own",
-        "flow\"). Calibrating on the robot's own clips is the next step."))]
-    return [*out, ""]
+        oracle = next((r for r in everything if r["controller"] == "oracle"
+                       and r["jitter"] == jitter), None)
+        levels.append((jitter, oracle, plain,
+                       [r for r in level if _has_front_end(r["preset"])]))
+    out.append("")
+    out += [_when_they_alarm(*level) for level in levels]
+    facts, conditions = _why_late_conditions(levels, everything, calibration)
+    if facts:
+        out += ["", facts]
+    out += ["", *WHY_LATE.block([*runs, *([calibration] if calibration else [])], conditions)]
+    return out
+
+
+def _same_seeds(runs: list[Path]) -> str:
+    seeds = {tuple(_record(run)["config"]["seeds"]) for run in runs}
+    if len(seeds) == 1:
+        (first, n), = seeds
+        return f"every run on the same seeds, {first} to {first + n - 1}"
+    return ("the runs' seeds differ: " + "; ".join(
+        f"{run.name} {s[0]} to {s[0] + s[1] - 1}"
+        for run in runs for s in [_record(run)["config"]["seeds"]]))
+
+
+def _ttc(r: dict[str, str]) -> float | None:
+    return float(r["median_first_alarm_ttc_s"]) if r["median_first_alarm_ttc_s"] else None
+
+
+def _when_they_alarm(jitter: str, oracle: dict[str, str] | None, plain: dict[str, str],
+                     comps: list[dict[str, str]]) -> str:
+    """When the detectors with a front end alarm and how often they collide, against the
+    Oracle; how often the one without a front end that collides least alarms."""
+    ttc = [t for r in comps if (t := _ttc(r)) is not None]
+    silent = len(comps) - len(ttc)
+    text = (f"- **jitter {float(jitter):g}, when they alarm:** with a front end, the first "
+            + (f"alarm comes a median {_span(ttc, '.2f')} s before the collision" if ttc
+               else "alarm never comes")
+            + (f" ({silent} never alarm)" if ttc and silent else ""))
+    if oracle is not None and _ttc(oracle) is not None:
+        text += f" (the Oracle's trigger: {_ttc(oracle):.2f} s)"
+    text += (f", and {_span([_pct(r['collision_rate']) for r in comps], '.0f')}% of the "
+             "episodes collide")
+    if oracle is not None:
+        text += f" (the Oracle's: {_pct(oracle['collision_rate']):.0f}%)"
+    return (text + f"; without one, {plain['model']}/{plain['preset']} raises "
+            f"{float(plain['false_alarms_per_min']):.1f} false alarms a minute (with a front "
+            f"end: {_span([float(r['false_alarms_per_min']) for r in comps], '.1f')}), "
+            f"reaches the goal in {_pct(plain['success_rate']):.0f}% and makes "
+            f"{float(plain['mean_progress']):.2f} of the way to it (the Oracle: "
+            + (f"{float(oracle['mean_progress']):.2f})." if oracle else "not run)."))
+
+
+def _why_late_conditions(levels: list, everything: list[dict[str, str]],
+                         calibration: Path | None) -> tuple[str, list[tuple[str, bool]]]:
+    """The calibration's clips against the benchmark's (a sentence, when the calibration
+    is given), and what `WHY_LATE` rests on, each checked at every jitter level."""
+    def every(check: Callable[[dict | None, dict, list[dict]], bool]) -> bool:
+        return bool(levels) and all(check(o, p, c) for _, o, p, c in levels)
+
+    def later(o: dict | None, c: dict) -> bool:  # silent counts as late
+        return o is not None and _ttc(o) is not None and (_ttc(c) is None or _ttc(c) < _ttc(o))
+
+    conditions = [
+        ("every detector with a front end alarms first later than the Oracle's trigger (a "
+         "shorter median time to collision), or never",
+         every(lambda o, p, cs: all(later(o, c) for c in cs))),
+        ("every one of them collides more often than the Oracle, beyond the 95% intervals",
+         every(lambda o, p, cs: o is not None and all(
+             float(c["collision_ci_low"]) > float(o["collision_ci_high"]) for c in cs))),
+        ("the detector without a front end that collides least raises more false alarms a "
+         "minute than every one with a front end",
+         every(lambda o, p, cs: all(float(p["false_alarms_per_min"])
+                                    > float(c["false_alarms_per_min"]) for c in cs))),
+        ("it never reaches the goal and makes at most a tenth of the Oracle's progress to it",
+         every(lambda o, p, cs: o is not None and float(p["success_rate"]) == 0
+               and float(p["mean_progress"]) <= float(o["mean_progress"]) / 10)),
+    ]
+    if calibration is None:
+        return "", [*conditions, ("a calibration run (--calibration) holds the clips the "
+                                  "presets were tuned on", False)]
+    config = _record(calibration)["config"]
+    tuned = list(dict.fromkeys(sc for groups in config["groups"].values() for sc, _ in groups))
+    driven = sorted({r["scenario"] for r in everything})
+    shared = [sc for sc in tuned if sc in driven]
+    facts = (f"The calibrated presets were tuned on the calibration's clips of {_and(tuned)}"
+             + (f", {_and(shared)} also driven here" if shared
+                else f", none of them a scenario driven here ({_and(driven)})")
+             + "; its objective asks a jitter clip for the first alarm in the last "
+             f"{100 * config['late']:.0f}% of the approach.")
+    return facts, [*conditions, ("the calibration's clips hold none of the scenarios driven "
+                                 "here", not shared)]
 
 
 def _has_front_end(preset: str) -> bool:
     return "+" in preset or any(f in preset.split("-") for f in ("image", "imu", "pose"))
 
 
-def open_loop_section(run: Path) -> list[str]:
+def open_loop_section(run: Path, figures: Figures) -> list[str]:
     rows = _rows(run / "summary.csv")
+    config = _record(run)["config"]
     clean = [r for r in rows if not r["noise"]]
     lines = ["## Open loop: the paper's Tables 2 and 3, simulated", "", "```bash",
              _command(run), "```", "",
@@ -178,31 +384,55 @@ def open_loop_section(run: Path) -> list[str]:
                      f"{' / '.join(f'{v:.2f}' for v in si)} |")
     lines += ["", "The same measures on the simulated clips (mean over the clips; SI counts a "
               "clip that never crosses the threshold as 1, and `crossed` is the share that "
-              "did; hits and false alarms with a 1 s window; ROC AUC of the per-frame "
-              "potential as a detector of an obstacle within 1 s of collision):", "",
+              f"did; hits and false alarms with a {config['window']:g} s window; ROC AUC of "
+              "the per-frame potential as a detector of an obstacle within "
+              f"{config['horizon']:g} s of collision):", "",
               (run / "summary.md").read_text().strip(), ""]
     lines += _paper_sentences(clean)
     if (run / "noise.md").is_file():
         lines += ["", "### Noise (the paper's dataset d: stationary clips with Gaussian and "
                   "salt-and-pepper noise)", "", (run / "noise.md").read_text().strip(), ""]
-    figures = sorted(p.name for p in run.glob("clip_*.png"))
-    for fig in _copy(run, [*figures, "detection_curves.png", "noise.png"], "open-loop"):
+    clip_figures = sorted(p.name for p in run.glob("clip_*.png"))
+    for fig in _copy(run, [*clip_figures, "detection_curves.png", "noise.png"], "open-loop",
+                     figures):
         lines += [f"![{fig}]({fig})", ""]
     return lines
 
 
-def front_end_section(run: Path) -> list[str]:
-    """The open-loop benchmark of detectors with a front end, on the same scenarios."""
+def front_end_section(run: Path, tables: Path, calibration: Path | None,
+                      figures: Figures) -> list[str]:
+    """The open-loop benchmark of detectors with a front end, on the same scenarios; its
+    seeds and frame size against those of the tables above (`tables`) and the calibration."""
+    config = _record(run)["config"]
+    seeds, used = _clip_seeds(run), {"the tables above": _clip_seeds(tables)}
+    if calibration is not None:
+        used["the calibration"] = _calibration_seeds(calibration)
+    shared = {what: seeds & theirs for what, theirs in used.items() if seeds & theirs}
+    size = _resolution(config["resolution"])
+    if calibration is not None:
+        theirs = _resolution(_record(calibration)["config"]["resolution"])
+        size += " (as the calibration)" if theirs == size else f" (the calibration ran at {theirs})"
+    noisy = any(r["noise"] for r in _rows(run / "summary.csv"))
     lines = ["## Open loop with front ends", "", "```bash", _command(run), "```", "",
              "The same measures as above for detectors that remove the camera's rotation "
              "(+image: fitted from the frames; calibrated-image: the calibrated presets "
-             "with it), on clips of seeds that neither the calibration nor the tables above "
-             "used, at 270 x 480 (the calibration ran at 120 x 160), without noise "
-             "variants:", "",
+             f"with it), on clips of seeds {seed_ranges(seeds)}, "
+             + ("of which " + _and([f"{what} used {seed_ranges(s)}"
+                                    for what, s in shared.items()])
+                if shared else _unused_by(list(used)))
+             + f", at {size}, "
+             + ("with noise variants (the table: the clean clips)" if noisy
+                else "without noise variants") + ":", "",
              (run / "summary.md").read_text().strip(), ""]
-    for fig in _copy(run, ["detection_curves.png"], "open-loop-front-ends"):
+    for fig in _copy(run, ["detection_curves.png"], "open-loop-front-ends", figures):
         lines += [f"![{fig}]({fig})", ""]
     return lines
+
+
+def _unused_by(others: list[str]) -> str:
+    if len(others) == 1:
+        return f"which {others[0]} did not use"
+    return f"which neither {', '.join(others[:-1])} nor {others[-1]} used"
 
 
 def _paper_sentences(clean: list[dict[str, str]]) -> list[str]:
@@ -234,7 +464,7 @@ def _span(values: list[float], fmt: str) -> str:
     return lo if lo == hi else f"{lo} to {hi}"
 
 
-def calibration_section(run: Path) -> list[str]:
+def calibration_section(run: Path, figures: Figures) -> list[str]:
     data = json.loads((run / "calibrated.json").read_text())
     lines = ["## Calibration", "", "```bash", _command(run), "```", "", data["objective"], "",
              f"Each detector's best setting on the search seeds (the same budget of "
@@ -244,7 +474,7 @@ def calibration_section(run: Path) -> list[str]:
     counts = {kind: config["heldout_seeds"][1] * sum(len(j) for _, j in groups)
               for kind, groups in config["groups"].items()}
     lines += _attribution(data["presets"], counts)
-    for fig in _copy(run, ["calibration.png"], "calibration"):
+    for fig in _copy(run, ["calibration.png"], "calibration", figures):
         lines += [f"![{fig}]({fig})", ""]
     return lines
 
@@ -292,23 +522,35 @@ def main() -> None:
     parser.add_argument("--closed-loop-calibrated", type=Path)
     parser.add_argument("--open-loop-front-ends", type=Path)
     args = parser.parse_args()
+    figures: Figures = {}
     lines = ["# Results", "",
              "Made by `scripts/results_page.py` from the runs whose commands stand beside "
-             "their results; nothing here is typed by hand but the paper's quoted numbers. "
+             "their results. Typed by hand: the paper's quoted numbers, the targets, the "
+             "descriptions of the measures, and commentary, set apart as a quoted block that "
+             "names the runs it was written for and is printed only while the conditions it "
+             "states hold on the runs; every other sentence is computed from the runs. "
              "Regenerate it whenever a model or preset changes.", ""]
     lines += closed_loop_section(args.closed_loop, "Closed loop: avoiding obstacles on rough "
-                                 "ground", "closed-loop")
-    lines += open_loop_section(args.open_loop)
+                                 "ground", "closed-loop", figures)
+    lines += open_loop_section(args.open_loop, figures)
     if args.open_loop_front_ends:
-        lines += front_end_section(args.open_loop_front_ends)
+        lines += front_end_section(args.open_loop_front_ends, args.open_loop,
+                                   args.calibration, figures)
     if args.calibration:
-        lines += calibration_section(args.calibration)
+        lines += calibration_section(args.calibration, figures)
     if args.closed_loop_calibrated:
         lines += closed_loop_section(args.closed_loop_calibrated, "Closed loop with the "
-                                     "calibrated presets", "closed-loop-calibrated")
-        lines += compensation_verdict([args.closed_loop, args.closed_loop_calibrated])
-    OUT.write_text("\n".join(lines).rstrip() + "\n")
+                                     "calibrated presets", "closed-loop-calibrated", figures)
+        lines += compensation_verdict([args.closed_loop, args.closed_loop_calibrated],
+                                      args.calibration)
+    text = "\n".join(lines).rstrip() + "\n"
+    write_files({OUT: lambda tmp: tmp.write_text(text),
+                 **{target: _copier(source) for target, source in figures.items()}})
     print(f"wrote {OUT.relative_to(ROOT)} and {FIGURES.relative_to(ROOT)}/")
+
+
+def _copier(source: Path) -> Callable[[Path], None]:
+    return lambda tmp: shutil.copyfile(source, tmp)
 
 
 if __name__ == "__main__":

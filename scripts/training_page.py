@@ -1,17 +1,19 @@
-"""The results section of docs/training.md, and the shipped policy's folder, from training
-and evaluation runs: every table and figure made from the runs' files, every sentence's
-figures computed from them, each run's command beside its results.
+"""The results section of docs/training.md from training and evaluation runs: every table
+and figure made from the runs' files, every sentence computed from them, each run's
+command beside its results.
 
     .venv/bin/python scripts/training_page.py --train runs/train/sac-feedback \
         runs/train/sac-lgmd1 --eval runs/eval-190k --bench runs/closed-loop \
-        runs/closed-loop-calibrated \
-        --ship runs/train/sac-feedback
+        runs/closed-loop-calibrated
 
 --bench: closed-loop benchmark runs on the same scenario and seeds (supersets of the
 evaluation's), whose ReactiveAvoid cell with the fewest collisions (then the most
-successes) stands beside the policies, on the evaluation's seeds only. --ship copies that
-training run's final policy into lgmd_sim/policies/ with a POLICY.md (its command and its
-rows of the table).
+successes) stands beside the policies, on the evaluation's seeds only. The page above
+``## Results`` is kept as it is. The machine is read from the runs' records; what they do
+not record (`MACHINE`) is commentary, printed only while the runs are the ones it was
+written about (see results_page.Commentary). The page and its figures are written as one
+set (`lgmd_sim.fileio.write_files`). Releasing a run's policy as the shipped one is
+scripts/ship_policy.py.
 """
 
 from __future__ import annotations
@@ -21,15 +23,32 @@ import csv
 import json
 import shutil
 from collections import defaultdict
+from collections.abc import Callable
 from pathlib import Path
 
+from results_page import Commentary, seed_ranges
+
+from lgmd_sim.fileio import write_files
 from lgmd_sim.metrics import wilson_interval
-from lgmd_sim.policies import DEFAULT
 
 ROOT = Path(__file__).resolve().parents[1]
 PAGE = ROOT / "docs" / "training.md"
 FIGURES = ROOT / "docs" / "training"
 RESULTS = "## Results"
+
+#: What the runs' records do not say about the machine of the training sessions.
+MACHINE = Commentary(
+    written="2026-11-30",
+    commands=(
+        "lgmd-sim train --algo sac --obs features --model feedback --steps 90000 --envs 2 "
+        "--seed 0 --eval-every 15000 --eval-seeds 8 --checkpoint-every 15000 --out "
+        "runs/train/sac-feedback --no-progress",
+        "lgmd-sim train --algo sac --obs features --model lgmd1 --steps 90000 --envs 2 "
+        "--seed 0 --eval-every 15000 --eval-seeds 8 --checkpoint-every 15000 --out "
+        "runs/train/sac-lgmd1 --no-progress"),
+    text="The machine was a virtual machine without a GPU, rendering with Mesa's software "
+         "GL, and other jobs shared it during some sessions: hence sessions of one run "
+         "differ in speed.")
 
 
 def _episodes(run: Path) -> list[dict[str, str]]:
@@ -134,29 +153,87 @@ def reading(cells: dict, best: dict[float, str], policies: list[str], trained_at
     return out
 
 
-def _summary(run: Path) -> str:
+def run_summary(run: Path) -> str:
+    """A training run's summary.md without its title."""
     return (run / "summary.md").read_text().strip().split("\n", 1)[1].strip()
 
 
-def _copy(src: Path, name: str) -> str:
-    FIGURES.mkdir(parents=True, exist_ok=True)
-    shutil.copyfile(src, FIGURES / name)
+def _copy(src: Path, name: str, figures: dict[Path, Path]) -> str:
+    """Add a figure to those to write under docs/training/; its path relative to the page."""
+    if not src.is_file():
+        raise SystemExit(f"training_page.py: {src} is missing")
+    figures[FIGURES / name] = src
     return f"training/{name}"
 
 
-def ship(run: Path, eval_lines: list[str], name: str = DEFAULT) -> Path:
-    folder = ROOT / "lgmd_sim" / "policies" / name
-    folder.mkdir(parents=True, exist_ok=True)
-    for f in ("policy.zip", "policy.json"):
-        shutil.copyfile(run / f, folder / f)
-    command = json.loads((run / "run.json").read_text())["sessions"][0]["command"]
-    tag = f"policy: {run.name}"
-    mine = [line.replace(tag, f"policy: {name}") for line in eval_lines[2:] if tag in line]
-    (folder / "POLICY.md").write_text(
-        f"# {name}\n\nTrained by\n\n```bash\n{command}\n```\n\n{_summary(run)}\n\n"
-        "Evaluated on held-out seeds by `lgmd-sim eval` (all rows: docs/training.md):\n\n"
-        + "\n".join([*eval_lines[:2], *mine]) + "\n")
-    return folder
+def _machine(m: dict) -> str:
+    return f"{m.get('cpu', '?')}, {m.get('cores', '?')} cores, {m.get('platform', '?')}"
+
+
+def machines(train: dict[str, dict], evaluation: dict, benches: dict[str, dict]) -> str:
+    """Which machine each run's records name, in one sentence."""
+    where: dict[str, list[str]] = defaultdict(list)
+    for name, record in train.items():
+        for k, session in enumerate(record["sessions"]):
+            where[_machine(session.get("machine", {}))].append(f"{name} session {k}")
+    where[_machine(evaluation.get("machine", {}))].append("the evaluation")
+    for name, record in benches.items():
+        where[_machine(record.get("machine", {}))].append(name)
+    if len(where) == 1:
+        return f"Every run below ran on one machine, by the runs' records: {next(iter(where))}."
+    return "The runs' machines, by their records: " + "; ".join(
+        f"{m} ({', '.join(names)})" for m, names in where.items()) + "."
+
+
+def speeds(train: dict[str, dict]) -> str:
+    """How much the bare VecEnv's speed differs between sessions of one run with the same
+    number of environments: the same work, so the difference is the machine's."""
+    parts = []
+    for name, record in train.items():
+        by_envs: dict[int, list[float]] = defaultdict(list)
+        for session in record["sessions"]:
+            if "throughput" in session:
+                by_envs[session["env_seeds"][1]].append(
+                    session["throughput"]["bare_vec_env_steps_per_s"])
+        for envs, rates in by_envs.items():
+            if len(rates) > 1:
+                parts.append(f"{min(rates):.0f} to {max(rates):.0f} in {name}'s "
+                             f"{len(rates)} sessions ({envs} environments, a factor "
+                             f"{max(rates) / min(rates):.1f})")
+    if not parts:
+        return ""
+    return ("The bare VecEnv's steps per second, timed before each session trains, differ "
+            "between sessions of one run: " + "; ".join(parts) + ".")
+
+
+def machine_conditions(train: list[dict]) -> list[tuple[str, bool]]:
+    """What `MACHINE` rests on: the sessions are on the machine it describes, and none
+    started after it was written (what it says of other jobs is of those sessions)."""
+    sessions = [s for record in train for s in record["sessions"]]
+    return [
+        ("every training session ran on a 2-core Intel Xeon", bool(sessions) and all(
+            s.get("machine", {}).get("cores") == 2 and "Xeon" in s.get("machine", {}).get(
+                "cpu", "") for s in sessions)),
+        (f"every one started on or before {MACHINE.written}",
+         all(s.get("started", "")[:10] <= MACHINE.written for s in sessions)),
+    ]
+
+
+def seeds(evaluation: dict, train: list[dict]) -> str:
+    """The evaluation's seeds against those of training and validation."""
+    first, n = evaluation["config"]["seeds"]
+    tested = set(range(first, first + n))
+    env_seeds = {s["env_seeds"][0] + i for r in train for s in r["sessions"]
+                 for i in range(s["env_seeds"][1])}
+    val = {v for r in train for v in range(r["seeds"]["validation"][0],
+                                           sum(r["seeds"]["validation"]))}
+    shared = tested & (env_seeds | val)
+    text = (f"Seeds {first} to {first + n - 1}; training seeded its environments with "
+            f"{seed_ranges(env_seeds)} (their later episodes continue each environment's "
+            f"generator) and validated on {seed_ranges(val)}")
+    if shared:
+        return text + f": the evaluation shares {seed_ranges(shared)} with them."
+    return text + ", none of them the evaluation's."
 
 
 def main() -> None:
@@ -164,43 +241,47 @@ def main() -> None:
     parser.add_argument("--train", type=Path, nargs="+", required=True)
     parser.add_argument("--eval", type=Path, required=True)
     parser.add_argument("--bench", type=Path, nargs="*", default=[])
-    parser.add_argument("--ship", type=Path)
     args = parser.parse_args()
-    lines = [RESULTS, "",
-             "All on the development machine (a 2-core Xeon VM, no GPU, Mesa software GL), "
-             "shared with other jobs during some sessions: steps per second vary by 20 to 30 "
-             "percent from run to run, more under load. Made by `scripts/training_page.py` "
-             "from the runs; every figure below is the runs' own.", "", "### Training runs",
-             ""]
+    figures: dict[Path, Path] = {}
+    records = {run.name: json.loads((run / "run.json").read_text()) for run in args.train}
+    evaluation = json.loads((args.eval / "run.json").read_text())
+    benches = {b.name: json.loads((b / "run.json").read_text()) for b in args.bench}
+    lines = [RESULTS, "", machines(records, evaluation, benches)]
+    if speed := speeds(records):
+        lines[-1] += " " + speed
+    lines += ["", *MACHINE.block(args.train, machine_conditions(list(records.values()))),
+              "Made by `scripts/training_page.py` from the runs: every figure and sentence "
+              "below is computed from the runs' own files.", "", "### Training runs", ""]
     trained_at = None
     for run in args.train:
-        record = json.loads((run / "run.json").read_text())
+        record = records[run.name]
         trained_at = record["options"]["jitter"]
+        curve = _copy(run / "learning_curve.png", f"learning_curve_{run.name}.png", figures)
         lines += ["```bash", *(s["command"] for s in record["sessions"]), "```", "",
-                  _summary(run), "",
-                  f"![learning curve of {run.name}]"
-                  f"({_copy(run / 'learning_curve.png', f'learning_curve_{run.name}.png')})",
-                  ""]
-    evaluation = json.loads((args.eval / "run.json").read_text())
+                  run_summary(run), "", f"![learning curve of {run.name}]({curve})", ""]
     rows, cells, best = table(args.eval, args.bench)
     names = [c["tag"] for c in evaluation["config"]["extra"]]
     policies = list(dict.fromkeys(names))
     lines += ["### Evaluation on held-out seeds", "", "```bash", evaluation["command"]]
-    lines += [json.loads((b / "run.json").read_text())["command"] for b in args.bench]
+    lines += [record["command"] for record in benches.values()]
     lines += ["```", "",
-              "Seeds from 1000, never used in training (0 and up) or validation (900 and "
-              "up). ReactiveAvoid's best detector is the one with the fewest collisions (then "
-              "the most successes) over all the closed-loop benchmark's seeds at that jitter "
-              "level, shown here on the evaluation's seeds.", "", *rows, "",
+              f"{seeds(evaluation, list(records.values()))} ReactiveAvoid's best detector is "
+              "the one with the fewest collisions (then the most successes) over all the "
+              "closed-loop benchmark's seeds at that jitter level, shown here on the "
+              "evaluation's seeds.", "", *rows, "",
               *reading(cells, best, policies, trained_at), ""]
     for fig in ("collisions_vs_jitter.png", "trajectories.png"):
-        lines += [f"![{fig}]({_copy(args.eval / fig, fig)})", ""]
+        lines += [f"![{fig}]({_copy(args.eval / fig, fig, figures)})", ""]
     text = PAGE.read_text()
     head = text[:text.index(f"\n{RESULTS}\n") + 1] if RESULTS in text else text.rstrip() + "\n\n"
-    PAGE.write_text(head + "\n".join(lines).rstrip() + "\n")
+    page = head + "\n".join(lines).rstrip() + "\n"
+    write_files({PAGE: lambda tmp: tmp.write_text(page),
+                 **{target: _copier(source) for target, source in figures.items()}})
     print(f"wrote {PAGE.relative_to(ROOT)} and {FIGURES.relative_to(ROOT)}/")
-    if args.ship is not None:
-        print(f"shipped {ship(args.ship, rows).relative_to(ROOT)}")
+
+
+def _copier(source: Path) -> Callable[[Path], None]:
+    return lambda tmp: shutil.copyfile(source, tmp)
 
 
 if __name__ == "__main__":

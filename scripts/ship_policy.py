@@ -1,0 +1,82 @@
+"""Release a training run's final policy as a shipped policy: lgmd_sim/policies/NAME/.
+
+    .venv/bin/python scripts/ship_policy.py runs/train/sac-feedback --eval runs/eval-190k
+
+Copies the run's policy.zip and policy.json into the package and writes POLICY.md beside
+them: the command that started the training, the run's summary (its sessions and
+validation), and the run's rows of the evaluation's table (the rows of docs/training.md,
+whose page scripts/training_page.py writes from the same runs). NAME (--name) defaults to
+the policy `lgmd-sim eval` and the "policy" controller use (lgmd_sim.policies.DEFAULT),
+so releasing a run without --name replaces it. The three files move into place together
+(lgmd_sim.fileio.write_files): a failed release leaves the shipped policy as it was.
+Run the tests afterwards (tests/test_training.py checks the shipped policy acts in its
+environment; tests/test_packaging.py that it travels in the wheel).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import shutil
+from collections.abc import Callable
+from pathlib import Path
+
+from training_page import ROOT, run_summary, table
+
+from lgmd_sim.fileio import write_files
+from lgmd_sim.policies import DEFAULT
+
+POLICIES = ROOT / "lgmd_sim" / "policies"
+
+
+def policy_md(run: Path, eval_run: Path, name: str) -> str:
+    """POLICY.md of `run` shipped as `name`: its first command, its summary, and its rows
+    of the evaluation's table, renamed to `name`."""
+    rows, _, _ = table(eval_run, [])  # the policy's own rows do not depend on the benches
+    tag = f"policy: {run.name}"
+    mine = [line.replace(tag, f"policy: {name}") for line in rows[2:] if tag in line]
+    if not mine:
+        raise SystemExit(f"ship_policy.py: {eval_run} holds no rows of {run.name} (its "
+                         f"controllers: tag {run.name!r} expected); evaluate it with "
+                         f"`lgmd-sim eval {run}` first")
+    command = json.loads((run / "run.json").read_text())["sessions"][0]["command"]
+    return (f"# {name}\n\nTrained by\n\n```bash\n{command}\n```\n\n{run_summary(run)}\n\n"
+            "Evaluated on held-out seeds by `lgmd-sim eval` (all rows: docs/training.md):\n\n"
+            + "\n".join([*rows[:2], *mine]) + "\n")
+
+
+def ship(run: Path, eval_run: Path, name: str = DEFAULT) -> Path:
+    """Write lgmd_sim/policies/`name`/ from `run` and its evaluation; the folder."""
+    missing = [f for f in ("policy.zip", "policy.json", "run.json", "summary.md")
+               if not (run / f).is_file()]
+    if missing:
+        raise SystemExit(f"ship_policy.py: {run} is not a finished training run (no "
+                         f"{', '.join(missing)})")
+    folder = POLICIES / name
+    text = policy_md(run, eval_run, name)
+    write_files({folder / "policy.zip": _copier(run / "policy.zip"),
+                 folder / "policy.json": _copier(run / "policy.json"),
+                 folder / "POLICY.md": lambda tmp: tmp.write_text(text)})
+    return folder
+
+
+def _copier(source: Path) -> Callable[[Path], None]:
+    return lambda tmp: shutil.copyfile(source, tmp)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("run", type=Path, help="the training run (lgmd-sim train --out DIR)")
+    parser.add_argument("--eval", type=Path, required=True,
+                        help="the run of `lgmd-sim eval` that evaluated it (its rows go "
+                        "into POLICY.md)")
+    parser.add_argument("--name", default=DEFAULT,
+                        help=f"the shipped policy's name (default {DEFAULT}, the one "
+                        "`lgmd-sim eval` uses)")
+    args = parser.parse_args()
+    print(f"shipped {ship(args.run, args.eval, args.name).relative_to(ROOT)}")
+
+
+if __name__ == "__main__":
+    main()
