@@ -66,8 +66,10 @@ def main() -> None:
     args = ap.parse_args()
     shape = (args.height, args.width)
     clips = {
-        "looming dark square": stimuli.approaching(shape, polarity="dark").frames,
-        "looming light square": stimuli.approaching(shape, polarity="light").frames,
+        "looming dark square": stimuli.approaching(
+            shape, look=stimuli.Look(polarity="dark")).frames,
+        "looming light square": stimuli.approaching(
+            shape, look=stimuli.Look(polarity="light")).frames,
         "HandheldApproach, jitter 1": simulated_clip("lgmd_sim/HandheldApproach-v0", shape,
                                                      args.seed),
         "RoughTerrainObstacles, jitter 1": simulated_clip(
@@ -104,8 +106,8 @@ def main() -> None:
             for preset in models.model_class(name).presets:
                 cells = []
                 for polarity in ("dark", "light"):
-                    k = potentials(name, stimuli.approaching(shape, polarity=polarity,
-                                                             contrast=contrast).frames,
+                    look = stimuli.Look(polarity=polarity, contrast=contrast)
+                    k = potentials(name, stimuli.approaching(shape, look=look).frames,
                                    preset=preset)
                     cells += [first_alarm(k), f"{k.max():.3f}"]
                 print(f"| {name} | {preset} | " + " | ".join(cells) + " |")
@@ -118,11 +120,12 @@ def main() -> None:
     print("|---|---|---:|---:|---:|---:|")
     for name in models.available():
         for polarity in ("dark", "light"):
-            kw = {"shape": shape, "contrast": 0.3, "polarity": polarity}
-            app = potentials(name, stimuli.approaching(**kw).frames)
-            rec = potentials(name, stimuli.receding(near_distance=1.5, end_distance=3.0,
-                                                    **kw).frames)
-            tra = potentials(name, stimuli.translating(distance=3.0, speed=2.0, **kw).frames)
+            look = stimuli.Look(polarity=polarity, contrast=0.3)
+            app = potentials(name, stimuli.approaching(shape, look=look).frames)
+            rec = potentials(name, stimuli.receding(shape, near_distance=1.5, end_distance=3.0,
+                                                    look=look).frames)
+            tra = potentials(name, stimuli.translating(shape, distance=3.0, speed=2.0,
+                                                       look=look).frames)
             print(f"| {name} | {polarity} | {first_alarm(app)} | {app.max():.3f} "
                   f"| {rec.max():.3f} | {tra.max():.3f} |")
 

@@ -36,7 +36,7 @@ SHAPE = (48, 64)
 
 def _clip_frames(n: int) -> np.ndarray:
     return stimuli.approaching(SHAPE, start_distance=1.0, speed=2.0, still_frames=2,
-                               background="texture").frames[:n]
+                               look=stimuli.Look(background="texture")).frames[:n]
 
 
 def _write_folder(folder: Path, frames: np.ndarray) -> Path:

@@ -21,7 +21,8 @@ SMALL = (40, 56)
 # object receding from 1.5 to 3 m (the approach's first half, reversed) and crossing the
 # view at 3 m at 2 m/s. With the published sigmoid coefficients, nearer or faster motion
 # of any kind drives every baseline over the threshold (docs/models.md, "Baselines").
-SELECTIVITY = {"shape": (120, 160), "contrast": 0.3}
+SELECTIVITY_SHAPE = (120, 160)
+SELECTIVITY = stimuli.Look(contrast=0.3)
 
 
 def run(model: models.LGMDModel, frames: np.ndarray) -> np.ndarray:
@@ -30,10 +31,12 @@ def run(model: models.LGMDModel, frames: np.ndarray) -> np.ndarray:
 
 def oracle_clips() -> list[np.ndarray]:
     """Clips that drive the models through their whole range, in small frames."""
-    app = stimuli.approaching(SMALL, polarity="light", background="texture", contrast=0.5)
-    dark = stimuli.approaching(SMALL, polarity="dark", background="texture", contrast=0.5)
+    textured = stimuli.Look(background="texture", contrast=0.5)
+    app = stimuli.approaching(SMALL, look=textured.replace(polarity="light"))
+    dark = stimuli.approaching(SMALL, look=textured)
     tra = stimuli.jittered(stimuli.translating(SMALL, speed=2.0, still_frames=2), 1.0, seed=1)
-    shake = stimuli.jittered(stimuli.approaching(SMALL, background="texture"), 2.0, seed=2)
+    shake = stimuli.jittered(
+        stimuli.approaching(SMALL, look=stimuli.Look(background="texture")), 2.0, seed=2)
     flick = stimuli.flicker(SMALL, background="texture", n_frames=12, still_frames=2)
     grat = stimuli.grating(SMALL, waveform="square", n_frames=10, still_frames=1)
     return [app.frames, dark.frames[-25:], tra.frames, shake.frames[:25], flick.frames,
@@ -92,11 +95,13 @@ def test_fast_model_matches_per_equation_reference(name: str, preset: str, param
 @pytest.mark.parametrize(("name", "preset"), PRESETS)
 def test_batch_equals_separate_streams_with_a_mid_stream_reset(name: str, preset: str) -> None:
     clips = [
-        stimuli.approaching(SMALL, polarity="dark").frames[:30],
-        stimuli.jittered(stimuli.translating(SMALL, polarity="light"), 0.5, seed=2).frames[:30],
+        stimuli.approaching(SMALL, look=stimuli.Look(polarity="dark")).frames[:30],
+        stimuli.jittered(stimuli.translating(SMALL, look=stimuli.Look(polarity="light")), 0.5,
+                         seed=2).frames[:30],
         stimuli.grating(SMALL, n_frames=29, still_frames=1).frames,
     ]
-    restart = stimuli.approaching(SMALL, polarity="light", background="texture").frames[:14]
+    restart = stimuli.approaching(
+        SMALL, look=stimuli.Look(polarity="light", background="texture")).frames[:14]
     clips[1] = np.concatenate([clips[1][:16], restart])  # stream 1 starts anew at frame 16
     batch = models.make(name, preset=preset, c_sig=20.0, n_streams=3)
     single = [models.make(name, preset=preset, c_sig=20.0) for _ in clips]
@@ -129,7 +134,8 @@ def test_a_static_scene_gives_exactly_the_resting_potential(name: str, preset: s
 
 @pytest.mark.parametrize(("name", "preset"), PRESETS)
 def test_uint8_and_float_input_agree(name: str, preset: str) -> None:
-    frames = stimuli.approaching(SMALL, contrast=0.5, background="texture").frames
+    frames = stimuli.approaching(SMALL, look=stimuli.Look(contrast=0.5,
+                                                          background="texture")).frames
     a = run(models.make(name, preset=preset, c_sig=20.0), frames)
     b = models.make(name, preset=preset, c_sig=20.0)  # switches from uint8 to float half-way
     mixed = [b.step(f if t < 20 else f / 255.0).potential for t, f in enumerate(frames)]
@@ -150,10 +156,10 @@ RESTING = [(n, "published", "light") for n in ("lgmd2", "f_on", "f_off")]
 def test_approach_crosses_threshold_late_while_recession_and_translation_stay_low(
     name: str, preset: str, polarity: str
 ) -> None:
-    kw = {**SELECTIVITY, "polarity": polarity}
-    app = stimuli.approaching(**kw)  # 3 m at 2 m/s, after 5 still frames
-    rec = stimuli.receding(near_distance=1.5, end_distance=3.0, **kw)
-    tra = stimuli.translating(distance=3.0, speed=2.0, **kw)
+    look = SELECTIVITY.replace(polarity=polarity)
+    app = stimuli.approaching(SELECTIVITY_SHAPE, look=look)  # 3 m at 2 m/s, after 5 still frames
+    rec = stimuli.receding(SELECTIVITY_SHAPE, near_distance=1.5, end_distance=3.0, look=look)
+    tra = stimuli.translating(SELECTIVITY_SHAPE, distance=3.0, speed=2.0, look=look)
     k_app = run(models.make(name, preset=preset), app.frames)
     first = int(np.argmax(k_app > 0.8))
     assert k_app[first] > 0.8, f"{name} never crossed: max {k_app.max():.3f}"
@@ -171,18 +177,20 @@ def test_approach_crosses_threshold_late_while_recession_and_translation_stay_lo
 def test_published_on_off_models_stay_at_rest_on_a_light_approach(
     name: str, preset: str, polarity: str
 ) -> None:
-    for kw in (SELECTIVITY, {"shape": SMALL, "contrast": 0.8, "background": "texture"}):
-        k = run(models.make(name, preset=preset), stimuli.approaching(**kw, polarity=polarity)
-                .frames)
+    for shape, look in ((SELECTIVITY_SHAPE, SELECTIVITY),
+                        (SMALL, stimuli.Look(contrast=0.8, background="texture"))):
+        k = run(models.make(name, preset=preset),
+                stimuli.approaching(shape, look=look.replace(polarity=polarity)).frames)
         assert k.max() < 0.52, f"{name}: peak {k.max():.3f}"
         dark = run(models.make(name, preset=preset),
-                   stimuli.approaching(**kw, polarity="dark").frames)
+                   stimuli.approaching(shape, look=look.replace(polarity="dark")).frames)
         assert dark.max() > 0.8
 
 
 def test_two_frame_inhibition_silences_the_on_channel_of_lgmd2() -> None:
     # The centre weight 2 times a = 33 / 48 exceeds 1: I_on >= 1.375 ON(t), so S_on = 0.
-    frames = stimuli.approaching(SMALL, polarity="light", background="texture").frames
+    frames = stimuli.approaching(SMALL, look=stimuli.Look(polarity="light",
+                                                          background="texture")).frames
     for params, silent in (({}, True), ({"inhibition_filter": "low-pass"}, False)):
         model = models.make("lgmd2", **params)
         s = np.stack([model.step(f, layers=True).layers["S"] for f in frames])
@@ -195,8 +203,8 @@ def test_lgmd2_answers_a_dark_approach_more_strongly_than_a_light_one() -> None:
         response = {}
         first = {}
         for polarity in ("dark", "light"):
-            k = run(models.make("lgmd2", preset=preset),
-                    stimuli.approaching(**SELECTIVITY, polarity=polarity).frames)
+            k = run(models.make("lgmd2", preset=preset), stimuli.approaching(
+                SELECTIVITY_SHAPE, look=SELECTIVITY.replace(polarity=polarity)).frames)
             response[polarity] = (k - 0.5).sum()
             first[polarity] = int(np.argmax(k > 0.8)) if (k > 0.8).any() else len(k)
         assert response["light"] == 0.0 if ratio == np.inf else (
@@ -205,7 +213,7 @@ def test_lgmd2_answers_a_dark_approach_more_strongly_than_a_light_one() -> None:
 
 
 def test_published_sfa_scales_a_rise_by_its_decay() -> None:
-    frames = stimuli.approaching(SMALL, contrast=0.8).frames
+    frames = stimuli.approaching(SMALL, look=stimuli.Look(contrast=0.8)).frames
     decay = 800.0 / 833.0  # tau_sfa / (tau_sfa + dt), dt = 1000 // 30 = 33 ms
     assert frame_interval(models.make("lgmd2").params) == 33.0
     assert frame_interval(models.make("lgmd2", fps=60.0).params) == 16.0
@@ -219,7 +227,8 @@ def test_published_sfa_scales_a_rise_by_its_decay() -> None:
 
 def test_global_ffi_holds_k_at_rest_under_whole_field_change() -> None:
     frames = stimuli.jittered(
-        stimuli.approaching(SMALL, background="texture", contrast=0.8), 2.0, seed=2).frames
+        stimuli.approaching(SMALL, look=stimuli.Look(background="texture", contrast=0.8)), 2.0,
+        seed=2).frames
     on = run(models.make("f_off"), frames)
     off = run(models.make("f_off", global_ffi_base=None), frames)
     rested = (on == 0.5) & (off > 0.7)
@@ -243,8 +252,8 @@ def test_luminance_persistence_carries_half_of_the_last_two_differences() -> Non
 
 @pytest.mark.parametrize("border", ["replicate", "reflect", "zero", "interior"])
 def test_border_rules_change_only_the_frame_edge(border: str) -> None:
-    frames = stimuli.jittered(stimuli.approaching(SMALL, background="texture"), 2.0,
-                              seed=2).frames
+    frames = stimuli.jittered(stimuli.approaching(SMALL, look=stimuli.Look(background="texture")),
+                              2.0, seed=2).frames
     a = models.make("lgmd2", border=border)
     b = models.make("lgmd2", border="replicate")
     sa = np.stack([a.step(f, layers=True).layers["S"] for f in frames])
@@ -259,7 +268,8 @@ def test_border_rules_change_only_the_frame_edge(border: str) -> None:
 
 
 def test_lgmd_single_drops_every_s_below_ts_and_has_no_g_layer() -> None:
-    frames = stimuli.approaching(SELECTIVITY["shape"], polarity="dark", contrast=0.8).frames
+    frames = stimuli.approaching(SELECTIVITY_SHAPE,
+                                 look=stimuli.Look(polarity="dark", contrast=0.8)).frames
     model = models.make("lgmd1", preset="lgmd-single")
     n_cells = frames[0].size
     for f in frames[30:]:
@@ -277,7 +287,8 @@ def test_lgmd_single_drops_every_s_below_ts_and_has_no_g_layer() -> None:
 )
 def test_v01_ffi_gates_only_its_own_polarity(name: str, gated: str, ungated: str) -> None:
     # An approaching light object excites ON cells only, a dark one OFF cells only.
-    frames = {p: stimuli.approaching(**SELECTIVITY, polarity=p).frames for p in (gated, ungated)}
+    frames = {p: stimuli.approaching(SELECTIVITY_SHAPE, look=SELECTIVITY.replace(polarity=p))
+              .frames for p in (gated, ungated)}
 
     def potentials(polarity: str, **params: float) -> np.ndarray:
         return run(models.make(name, preset="v0.1", **params), frames[polarity])
@@ -290,7 +301,8 @@ def test_v01_ffi_gates_only_its_own_polarity(name: str, gated: str, ungated: str
 
 
 def test_published_f_on_and_f_off_are_the_one_published_model() -> None:
-    frames = stimuli.jittered(stimuli.approaching(SMALL, background="texture"), 1.0, seed=4)
+    frames = stimuli.jittered(stimuli.approaching(SMALL, look=stimuli.Look(background="texture")),
+                              1.0, seed=4)
     np.testing.assert_array_equal(run(models.make("f_on"), frames.frames),
                                   run(models.make("f_off"), frames.frames))
     assert models.make("f_on").params.ffi_channels == "both"

@@ -34,7 +34,7 @@ pytestmark = pytest.mark.skipif(not MODELS, reason="no LGMD model module yet")
 @pytest.fixture(scope="module")
 def clip() -> stimuli.Stimulus:
     return stimuli.approaching(SHAPE, start_distance=1.0, speed=2.0, still_frames=3,
-                               background="texture")
+                               look=stimuli.Look(background="texture"))
 
 
 def _write_video(path: Path, frames: np.ndarray, fourcc: str = "mp4v", fps: float = 30.0):

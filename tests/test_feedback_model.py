@@ -85,7 +85,7 @@ def test_spline_forms_agree(order):
 
 @pytest.mark.parametrize("preset", ["paper", "paper-text"])
 def test_static_scene_rests_exactly(preset):
-    s = stimuli.static(background="texture", n_frames=12)
+    s = stimuli.static(n_frames=12, look=stimuli.Look(background="texture"))
     pot, layers = _run(models.make("feedback", preset=preset), s.frames, layers=True)
     assert np.all(pot == 0.5)
     for name in ("P", "S", "D", "Phi"):
@@ -100,8 +100,9 @@ def test_first_frame_of_a_stream_rests():
 
 
 def test_batch_with_resets_equals_streams_with_feedback_active():
-    clips = [stimuli.approaching((40, 56), polarity=p, background="texture", seed=i).frames[-20:]
+    looks = [stimuli.Look(polarity=p, background="texture", seed=i)
              for i, p in enumerate(("dark", "light", "dark", "light"))]
+    clips = [stimuli.approaching((40, 56), look=look).frames[-20:] for look in looks]
     clips[2] = stimuli.jittered(stimuli.approaching((40, 56)), 1.0, seed=5).frames[-20:]
     batch = models.make("feedback", n_streams=4, k_mode="potential", **ACTIVE)
     singles = [models.make("feedback", k_mode="potential", **ACTIVE) for _ in clips]
@@ -136,9 +137,9 @@ CASES = {
 def clips() -> dict[str, np.ndarray]:
     shape = (60, 80)
     return {
-        "approach": stimuli.approaching(shape, background="texture").frames,
-        "jittered": stimuli.jittered(stimuli.approaching(shape, polarity="light"), 1.0,
-                                     seed=2).frames,
+        "approach": stimuli.approaching(shape, look=stimuli.Look(background="texture")).frames,
+        "jittered": stimuli.jittered(
+            stimuli.approaching(shape, look=stimuli.Look(polarity="light")), 1.0, seed=2).frames,
         "grating": stimuli.grating(shape, n_frames=15).frames,
     }
 
@@ -181,7 +182,7 @@ def test_literal_loop_is_silent_when_phi_is_zero():
     # Table 1: the spline terms sit at D = 100 and 300, which these approaches never reach
     # (paper-notes 2): opening the loop changes nothing at all.
     for polarity in ("dark", "light"):
-        frames = stimuli.approaching(polarity=polarity).frames
+        frames = stimuli.approaching(look=stimuli.Look(polarity=polarity)).frames
         closed, layers = _run(models.make("feedback"), frames, layers=True)
         opened, _ = _run(models.make("feedback", feedback_gain=0.0), frames)
         assert all(not lay["Phi"].any() for lay in layers)
@@ -189,7 +190,8 @@ def test_literal_loop_is_silent_when_phi_is_zero():
 
 
 def test_raising_the_gain_changes_the_output():
-    frames = stimuli.jittered(stimuli.approaching(background="texture"), 1.0, seed=1).frames
+    frames = stimuli.jittered(stimuli.approaching(look=stimuli.Look(background="texture")), 1.0,
+                              seed=1).frames
     opened, _ = _run(models.make("feedback", **{**ACTIVE, "feedback_gain": 0.0}), frames)
     closed, layers = _run(models.make("feedback", **{**ACTIVE, "feedback_gain": 3000.0}),
                           frames, layers=True)
@@ -205,15 +207,15 @@ def test_raising_the_gain_changes_the_output():
 @pytest.mark.parametrize("polarity", ["dark", "light"])
 @pytest.mark.parametrize("form", ["square", "disc"])
 def test_selectivity_approach_versus_recession_and_translation(polarity, form):
-    kw = {"polarity": polarity, "form": form}
-    approach = stimuli.approaching(**kw)
+    look = stimuli.Look(polarity=polarity, form=form)
+    approach = stimuli.approaching(look=look)
     pot, _ = _run(models.make("feedback"), approach.frames)
     first_alarm = int(np.argmax(pot > 0.8))
     still = 5
     motion = approach.collision_frame - still
     assert pot[first_alarm] > 0.8
     assert still + 0.8 * motion <= first_alarm < approach.collision_frame
-    for other in (stimuli.receding(**kw), stimuli.translating(**kw)):
+    for other in (stimuli.receding(look=look), stimuli.translating(look=look)):
         p, _ = _run(models.make("feedback"), other.frames)
         assert p.max() < 0.72  # clearly below the threshold
         assert p.max() < pot.max() - 0.2

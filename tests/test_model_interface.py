@@ -31,7 +31,8 @@ SHAPE = (48, 64)
 @pytest.fixture(scope="module")
 def clip() -> np.ndarray:
     """A short textured approach: every model responds to it."""
-    return stimuli.approaching(SHAPE, background="texture", still_frames=2, seed=1).frames[-14:]
+    return stimuli.approaching(SHAPE, still_frames=2,
+                               look=stimuli.Look(background="texture", seed=1)).frames[-14:]
 
 
 def test_feedback_is_available():

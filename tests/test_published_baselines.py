@@ -30,12 +30,14 @@ def clips() -> dict[str, np.ndarray]:
             break
     env.close()
     return {
-        "dark": stimuli.approaching(SHAPE, polarity="dark", contrast=0.3).frames,
-        "light": stimuli.approaching(SHAPE, polarity="light", contrast=0.3).frames,
-        "light on texture": stimuli.approaching(SHAPE, polarity="light",
-                                                background="texture").frames,
-        "faint dark on texture": stimuli.approaching(SHAPE, contrast=0.1,
-                                                     background="texture").frames,
+        "dark": stimuli.approaching(
+            SHAPE, look=stimuli.Look(polarity="dark", contrast=0.3)).frames,
+        "light": stimuli.approaching(
+            SHAPE, look=stimuli.Look(polarity="light", contrast=0.3)).frames,
+        "light on texture": stimuli.approaching(
+            SHAPE, look=stimuli.Look(polarity="light", background="texture")).frames,
+        "faint dark on texture": stimuli.approaching(
+            SHAPE, look=stimuli.Look(contrast=0.1, background="texture")).frames,
         "jittered translation": stimuli.jittered(
             stimuli.translating(SHAPE, speed=2.0, still_frames=2), 0.5, seed=1).frames,
         "hand-held jitter": np.stack(frames),

@@ -51,7 +51,8 @@ def _scene(n_frames: int, shape: tuple[int, int], seed: int = 0) -> tuple[np.nda
 
 @pytest.fixture(scope="module")
 def clip() -> np.ndarray:
-    return stimuli.approaching(SHAPE, background="texture", still_frames=2, seed=1).frames[-8:]
+    return stimuli.approaching(SHAPE, still_frames=2,
+                               look=stimuli.Look(background="texture", seed=1)).frames[-8:]
 
 
 @pytest.mark.parametrize(("name", "preset"), VARIANTS)

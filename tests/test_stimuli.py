@@ -44,12 +44,12 @@ def test_edges_are_anti_aliased():
 
 
 def test_polarity_and_form():
-    dark = stimuli.approaching(SHAPE, polarity="dark")
-    light = stimuli.approaching(SHAPE, polarity="light")
+    dark = stimuli.approaching(SHAPE, look=stimuli.Look(polarity="dark"))
+    light = stimuli.approaching(SHAPE, look=stimuli.Look(polarity="light"))
     assert dark.frames[0, 0, 0] > 128 > dark.frames[-1].mean()
     assert light.frames[0, 0, 0] < 128 < light.frames[-1].mean()
     square = stimuli.approaching(SHAPE, start_distance=0.5)
-    disc = stimuli.approaching(SHAPE, start_distance=0.5, form="disc")
+    disc = stimuli.approaching(SHAPE, start_distance=0.5, look=stimuli.Look(form="disc"))
     # the same half-size: a disc covers pi/4 of its bounding square
     area = lambda s: (255 - s.frames[0].astype(float) - (255 - s.frames[0, 0, 0])).sum()  # noqa: E731
     assert area(disc) / area(square) == pytest.approx(math.pi / 4, rel=0.03)
@@ -84,8 +84,8 @@ def test_static_grating_flicker():
 
 
 @pytest.mark.parametrize("make", [
-    lambda seed: stimuli.approaching(SHAPE, background="texture", seed=seed),
-    lambda seed: stimuli.static(SHAPE, seed=seed),
+    lambda seed: stimuli.approaching(SHAPE, look=stimuli.Look(background="texture", seed=seed)),
+    lambda seed: stimuli.static(SHAPE, look=stimuli.Look(background="texture", seed=seed)),
     lambda seed: stimuli.flicker(SHAPE, background="texture", seed=seed),
     lambda seed: stimuli.jittered(stimuli.approaching(SHAPE), 1.0, seed=seed),
 ])
@@ -109,15 +109,15 @@ def test_jitter_level_zero_is_identity_and_more_jitter_is_less_similar():
 
 
 @pytest.mark.parametrize("call, name", [
-    (lambda: stimuli.approaching(SHAPE, polarity="grey"), "polarity"),
-    (lambda: stimuli.approaching(SHAPE, form="triangle"), "form"),
+    (lambda: stimuli.Look(polarity="grey"), "polarity"),
+    (lambda: stimuli.Look(form="triangle"), "form"),
     (lambda: stimuli.approaching(SHAPE, speed=0), "speed"),
-    (lambda: stimuli.approaching(SHAPE, half_size=float("nan")), "half_size"),
-    (lambda: stimuli.approaching(SHAPE, contrast=1.5), "contrast"),
-    (lambda: stimuli.approaching(SHAPE, background="noise"), "background"),
+    (lambda: stimuli.Look(half_size=float("nan")), "half_size"),
+    (lambda: stimuli.Look(contrast=1.5), "contrast"),
+    (lambda: stimuli.Look(background="noise"), "background"),
     (lambda: stimuli.approaching((60,)), "shape"),
-    (lambda: stimuli.approaching(SHAPE, seed=-1), "seed"),
-    (lambda: stimuli.approaching(SHAPE, fov=200), "fov"),
+    (lambda: stimuli.Look(seed=-1), "seed"),
+    (lambda: stimuli.Look(fov=200), "fov"),
     (lambda: stimuli.approaching(SHAPE, still_frames=-1), "still_frames"),
     (lambda: stimuli.receding(SHAPE, near_distance=2, end_distance=1), "end_distance"),
     (lambda: stimuli.grating(SHAPE, waveform="saw"), "waveform"),
