@@ -5,8 +5,10 @@
 - ``saltpepper:D``: a fraction D of pixels set to black or white with equal odds (the
   paper's densities 0.001 to 0.009, as ``imnoise(I, 'salt & pepper', D)``);
 - ``shake:L``: an extra image-space shake at level L, drawn afresh for every frame: a
-  rotation of N(0, L) degrees about the centre, a translation of N(0, 2L) pixels on each
-  axis and a brightness gain of exp(N(0, 0.05 L)); borders replicated.
+  rotation about the centre, a translation on each axis and a brightness gain, their
+  standard deviations L times `SHAKE_ROTATION_SD` (degrees), `SHAKE_SHIFT_SD` (pixels)
+  and `SHAKE_GAIN_SD` (log gain); borders replicated. The synthetic stimuli shake with it
+  too (`lgmd_sim.stimuli.jittered`).
 
 >>> from lgmd_sim import noise
 >>> noises = noise.parse("gaussian:0.005,saltpepper:0.005")
@@ -25,14 +27,33 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-__all__ = ["KINDS", "Noise", "apply", "corrupt", "parse", "rng_for"]
+__all__ = [
+    "KINDS",
+    "SHAKE_GAIN_SD",
+    "SHAKE_ROTATION_SD",
+    "SHAKE_SHIFT_SD",
+    "Noise",
+    "apply",
+    "corrupt",
+    "parse",
+    "rng_for",
+]
 
 #: Each kind and the range of its level.
 KINDS: dict[str, tuple[float, float]] = {
     "gaussian": (0.0, 1.0),    # variance on the [0, 1] scale
     "saltpepper": (0.0, 1.0),  # fraction of pixels
-    "shake": (0.0, 10.0),      # level: 1 is about 1 degree and 2 pixels per frame
+    "shake": (0.0, 10.0),      # level: a multiple of the SHAKE_* standard deviations
 }
+
+#: Shake at level 1, standard deviations per frame: rotation about the image centre
+#: (degrees), translation on each image axis (pixels) and the log of the brightness gain.
+#: Round values, not fitted to a camera (the calibrated jitter scale is the world's,
+#: `lgmd_sim.world.params`). The shift is in pixels, not a fraction of the width: a level
+#: moves a small frame further across its view than a large one.
+SHAKE_ROTATION_SD = 1.0
+SHAKE_SHIFT_SD = 2.0
+SHAKE_GAIN_SD = 0.05
 
 
 @dataclass(frozen=True)
@@ -67,7 +88,8 @@ class Noise:
             out[(u >= self.level / 2) & (u < self.level)] = 255
             return out
         h, w = frame.shape[:2]
-        angle, dx, dy, log_gain = rng.normal(0.0, [1.0, 2.0, 2.0, 0.05]) * self.level
+        angle, dx, dy, log_gain = rng.normal(0.0, [SHAKE_ROTATION_SD, SHAKE_SHIFT_SD,
+                                                   SHAKE_SHIFT_SD, SHAKE_GAIN_SD]) * self.level
         m = cv2.getRotationMatrix2D(((w - 1) / 2, (h - 1) / 2), angle, 1.0)
         m[:, 2] += (dx, dy)
         moved = cv2.warpAffine(frame, m, (w, h), flags=cv2.INTER_LINEAR,

@@ -252,8 +252,10 @@ def test_luminance_persistence_carries_half_of_the_last_two_differences() -> Non
 
 @pytest.mark.parametrize("border", ["replicate", "reflect", "zero", "interior"])
 def test_border_rules_change_only_the_frame_edge(border: str) -> None:
+    # about 2 pixels of shake a frame drives S at the edge; at level 2 S is silent in all
+    # but 2 of the 51 frames, leaving the border rules nothing to differ on
     frames = stimuli.jittered(stimuli.approaching(SMALL, look=stimuli.Look(background="texture")),
-                              2.0, seed=2).frames
+                              1.0, seed=2).frames
     a = models.make("lgmd2", border=border)
     b = models.make("lgmd2", border="replicate")
     sa = np.stack([a.step(f, layers=True).layers["S"] for f in frames])

@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from lgmd_sim import metrics, stimuli
+from lgmd_sim import metrics, noise, stimuli
 
 SHAPE = (60, 80)
 
@@ -104,8 +104,16 @@ def test_jitter_level_zero_is_identity_and_more_jitter_is_less_similar():
     assert isis[0] == 1.0
     assert all(a > b for a, b in itertools.pairwise(isis))
     shaken = stimuli.jittered(s, 2.0, seed=5).frames
-    # reflected borders: no black (or white) band appears at the edges
+    # replicated borders: no black (or white) band appears at the edges
     assert shaken.min() >= s.frames.min() * 0.5 and shaken.max() <= 255
+
+
+def test_jitter_is_the_noise_modules_shake():
+    s = stimuli.approaching(SHAPE)
+    shaken = stimuli.jittered(s, 1.5, seed=4)
+    shake = noise.parse("shake:1.5")
+    for t in (0, 7, len(s) - 1):
+        np.testing.assert_array_equal(shaken.frames[t], noise.apply(s.frames[t], shake, 4, t))
 
 
 @pytest.mark.parametrize("call, name", [

@@ -12,17 +12,13 @@ from typing import Any
 import cv2
 import numpy as np
 
-from lgmd_sim.params import Check, int_at_least, non_negative, positive
+from lgmd_sim import noise
+from lgmd_sim.params import Check, int_at_least, positive
 
 #: Texture amplitude around the background level (fraction of full scale).
 TEXTURE_AMPLITUDE = 0.1
 #: A uniform grey, or a seeded smooth random texture about it.
 BACKGROUNDS = ("uniform", "texture")
-#: Jitter at level 1: shift s.d. as a fraction of the frame width, rotation s.d. in
-#: degrees, and s.d. of the log brightness gain. A level scales all three.
-JITTER_SHIFT_SD = 0.015
-JITTER_ROTATION_SD = 1.0
-JITTER_GAIN_SD = 0.05
 
 
 @dataclass(frozen=True, eq=False)
@@ -108,34 +104,19 @@ def to_uint8(img: np.ndarray) -> np.ndarray:
 
 
 def jittered(stimulus: Stimulus, level: float, seed: int = 0) -> Stimulus:
-    """The same stimulus seen by a shaking camera.
+    """The same stimulus seen by a shaking camera: `lgmd_sim.noise`'s ``shake:level``.
 
-    Every frame gets an independent random shift (sub-pixel), rotation about the image
-    centre and brightness gain, with standard deviations ``level`` times
-    `JITTER_SHIFT_SD` x width pixels, `JITTER_ROTATION_SD` degrees and `JITTER_GAIN_SD`
-    (log gain). Borders are reflected, so no black edges flash. Level 0 returns the frames
-    unchanged.
+    Every frame gets an independent random rotation about the image centre, shift and
+    brightness gain (their sizes per level: ``noise.SHAKE_*``); borders are replicated, so
+    no black edges flash. Level 0 returns the frames unchanged. Frame t gets the shake
+    that ``noise.apply(frame, [Noise("shake", level)], seed, t)`` draws: a clip and a
+    frame stream corrupted with ``shake:level`` and the same seed shake alike.
 
     :param stimulus: the clip to shake.
-    :param level: jitter level, >= 0.
+    :param level: jitter level, in the range `noise.KINDS` gives ``shake``.
     :param seed: seed of the jitter, >= 0.
     :return: the shaken clip, its name marked with the level.
     """
-    require("level", level, non_negative)
-    rng = np.random.default_rng(count("seed", seed, 0))
-    name = f"{stimulus.name}, jitter {level:g}"
-    if level == 0:
-        return dataclasses.replace(stimulus, frames=stimulus.frames.copy(), name=name)
-    n, h, w = stimulus.frames.shape
-    shifts = rng.normal(0.0, level * JITTER_SHIFT_SD * w, (n, 2))
-    angles = rng.normal(0.0, level * JITTER_ROTATION_SD, n)
-    gains = np.exp(rng.normal(0.0, level * JITTER_GAIN_SD, n))
-    centre = ((w - 1) / 2, (h - 1) / 2)
-    out = np.empty_like(stimulus.frames)
-    for t, frame in enumerate(stimulus.frames):
-        m = cv2.getRotationMatrix2D(centre, float(angles[t]), 1.0)
-        m[:, 2] += shifts[t]
-        warped = cv2.warpAffine(frame.astype(np.float32), m, (w, h), flags=cv2.INTER_LINEAR,
-                                borderMode=cv2.BORDER_REFLECT)
-        out[t] = np.clip(np.rint(warped * gains[t]), 0, 255).astype(np.uint8)
-    return dataclasses.replace(stimulus, frames=out, name=name)
+    shake = [noise.Noise("shake", level)]
+    frames = np.stack(list(noise.corrupt(stimulus.frames, shake, count("seed", seed, 0))))
+    return dataclasses.replace(stimulus, frames=frames, name=f"{stimulus.name}, jitter {level:g}")
