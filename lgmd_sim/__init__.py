@@ -1,19 +1,19 @@
 """lgmd-sim: a Gymnasium jitter-robot testbed for bio-inspired (LGMD) collision detection.
 
-Packages:
-    lgmd_sim.models      the LGMD model family (feedback LGMD, LGMD1, LGMD2, F(ONn), F(OFFp))
-    lgmd_sim.metrics     ISI, MpSI, SI and event metrics (hits, false alarms, lead time)
-    lgmd_sim.stimuli     seeded synthetic stimuli (looming, receding, translating, jitter)
-    lgmd_sim.world       the MuJoCo jitter world: terrain, robot, camera carriers, obstacles
-    lgmd_sim.envs        Gymnasium environments, the scenario catalogue and wrappers
-    lgmd_sim.controllers what drives the camera's carrier; the episode loop
-    lgmd_sim.bench       the model benchmark (`lgmd-sim bench closed-loop|open-loop`)
-    lgmd_sim.calibration `lgmd-sim calibrate`: the same search for every model
-    lgmd_sim.data        labelled datasets: generate, verify, load
-    lgmd_sim.noise       the paper's Gaussian and salt-and-pepper noise, extra shake
-    lgmd_sim.parallel    independent jobs on a local pool or on Ray
-    lgmd_sim.speed       speed benchmarks (`lgmd-sim speed`)
-    lgmd_sim.cli         the `lgmd-sim` command
+Packages, in floors (each imports only from the floors below it):
+    base     lgmd_sim.params (checked parameters), fileio (atomic outputs), machine,
+             runs (the one resumable run folder), parallel (jobs on a pool or on Ray)
+    signals  lgmd_sim.models (the LGMD family: feedback LGMD, LGMD1, LGMD2, F(ONn),
+             F(OFFp)), metrics (ISI, MpSI, SI, events), noise, stimuli, video
+    world    lgmd_sim.world (the MuJoCo jitter world), envs (Gymnasium environments, the
+             scenario catalogue, wrappers)
+    acting   lgmd_sim.policies (trained policies and what they observe), controllers
+             (what drives the carrier; the episode loop), options (the shared options,
+             parsed and checked), plots (figure conventions)
+    jobs     lgmd_sim.detect, record, demo, data (labelled datasets), bench (the model
+             benchmark), calibration, training, speed: each job a function taking a
+             typed, frozen configuration (docs/api.md)
+    command  lgmd_sim.cli (`lgmd-sim`: parses options into a job's configuration)
 
 Importing lgmd_sim registers every scenario of the catalogue as `lgmd_sim/<Name>-v0`.
 """

@@ -14,8 +14,8 @@ Writes
 
 from __future__ import annotations
 
-import argparse
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -182,7 +182,8 @@ def _imwrite(path: Path, bgr: np.ndarray) -> None:
 def write_summary(ep: Episode, path: Path, title: str) -> None:
     """Key frames in time order, the potentials against distance and time to collision of
     the obstacle, and the camera's shake."""
-    from lgmd_sim.plots import COLLISION, THRESHOLD, alarm_label, figure
+    from lgmd_sim.detect.figure import alarm_label
+    from lgmd_sim.plots import COLLISION, THRESHOLD, figure
 
     n = len(ep.frames)
     first = next(iter(ep.potentials))
@@ -246,18 +247,20 @@ def write_summary(ep: Episode, path: Path, title: str) -> None:
         fig.savefig(tmp, format="png", dpi=100)
 
 
-def run(args: argparse.Namespace) -> int:
-    detectors = [d.strip() for d in args.models.split(",") if d.strip()]
+def run(*, out: str | Path = "demo-out", seed: int = 2, jitter: float = 1.0,
+        detectors: Sequence[str] = ("feedback/calibrated-image", "feedback/paper")) -> int:
+    """Drive one episode with `detectors` watching (the first one's S layer shown); write
+    the video, the summary and the still into `out`; print where they are."""
+    detectors = list(detectors)
     if not detectors:
         raise ValueError("--models: give at least one detector")
     for d in detectors:
         models.parse_spec(d)  # an unknown model, preset or front end: before the episode
-    out = Path(args.out)
-    ep = drive(args.seed, args.jitter, detectors)
+    out = Path(out)
+    ep = drive(seed, jitter, detectors)
     video, summary, still = out / "demo.mp4", out / "demo.png", out / "demo_frame.png"
     write_video(ep, video, still)
-    write_summary(ep, summary, f"RoughTerrainObstacles, jitter {args.jitter:g}, "
-                               f"seed {args.seed}")
+    write_summary(ep, summary, f"RoughTerrainObstacles, jitter {jitter:g}, seed {seed}")
     hit = (f"collision at frame {ep.collision_frame}" if ep.collision_frame is not None
            else "no collision")
     print(f"{len(ep.frames)} frames, {hit}")

@@ -10,15 +10,20 @@ of the same output removes those whose process is gone.
 from __future__ import annotations
 
 import contextlib
+import csv
 import glob
+import io
+import json
 import os
 import re
 import shutil
 import tempfile
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from pathlib import Path
+from typing import Any
 
-__all__ = ["atomic_output", "atomic_outputs", "write_files", "write_text_atomic"]
+__all__ = ["atomic_output", "atomic_outputs", "canonical_json", "csv_text", "write_files",
+           "write_text_atomic"]
 
 _PARTIAL = re.compile(r"\.(?P<pid>\d+)-[^.]+\.partial")
 
@@ -150,3 +155,18 @@ def _umask() -> int:
     mask = os.umask(0)
     os.umask(mask)
     return mask
+
+
+def canonical_json(value: Any) -> str:
+    """JSON with sorted keys and a final newline: the same bytes for the same value."""
+    return json.dumps(value, indent=2, sort_keys=True, allow_nan=False) + "\n"
+
+
+def csv_text(rows: Sequence[Mapping[str, Any]], columns: Sequence[str]) -> str:
+    """Rows as CSV with the given columns; None becomes an empty cell."""
+    out = io.StringIO()
+    writer = csv.writer(out)
+    writer.writerow(columns)
+    for r in rows:
+        writer.writerow(["" if r.get(c) is None else r[c] for c in columns])
+    return out.getvalue()

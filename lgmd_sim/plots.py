@@ -1,5 +1,5 @@
 """Figure conventions shared by every plot: one style per model, the threshold and the
-collision marks, and the legend line of a model's response to a clip.
+collision marks, and a figure drawn without any GUI backend.
 
 Colours are the Okabe-Ito palette (distinguishable with colour-vision deficiencies); each
 model also has its own line style and width, so curves that coincide stay visible (f_on
@@ -11,18 +11,12 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING, Any
 
-import numpy as np
 from matplotlib.colors import to_rgb
 
-from lgmd_sim import metrics
-
 if TYPE_CHECKING:
-    from matplotlib.axes import Axes
     from matplotlib.figure import Figure
 
-    from lgmd_sim.detect import Detection
-
-__all__ = ["COLLISION", "THRESHOLD", "alarm_label", "draw_potentials", "figure", "model_style"]
+__all__ = ["COLLISION", "THRESHOLD", "figure", "model_style"]
 
 _STYLES: dict[str, dict[str, Any]] = {
     "feedback": {"color": "#0072B2", "ls": "-", "lw": 2.2, "zorder": 5},
@@ -56,20 +50,6 @@ def model_style(name: str) -> dict[str, Any]:
     return style
 
 
-def alarm_label(name: str, first_alarm: int | None, event: metrics.EventResult | None) -> str:
-    """A model's legend entry: its first alarm and, against a labelled collision, the
-    outcome and lead time."""
-    alarm = "no alarm" if first_alarm is None else f"alarm at {first_alarm}"
-    if event is None:
-        return f"{name}: {alarm}"
-    if event.lead_s is None:
-        return f"{name}: {alarm}, {event.outcome}"
-    when = "early" if event.outcome == "miss" and event.lead_frames > 0 else (
-        "late" if event.outcome == "miss" else "")
-    return (f"{name}: {alarm}, {event.outcome}{' (' + when + ')' if when else ''}, "
-            f"lead {event.lead_s:.2f} s")
-
-
 def figure(**kwargs: Any) -> Figure:
     """A matplotlib figure with a constrained layout, drawn without any GUI backend."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
@@ -78,33 +58,3 @@ def figure(**kwargs: Any) -> Figure:
     fig = Figure(layout="constrained", **kwargs)
     FigureCanvasAgg(fig)
     return fig
-
-
-def draw_potentials(ax: Axes, d: Detection, legend: bool = True) -> None:
-    """Every model's membrane potential over the frames of a clip, its first alarm
-    marked, the threshold, and the labelled collision frame."""
-    frames = np.arange(d.frames)
-    for name, tr in d.models.items():
-        style = model_style(name)
-        ax.plot(frames, tr.potential, label=alarm_label(name, tr.first_alarm, tr.event),
-                **style)
-        if tr.first_alarm is not None:
-            ax.plot(tr.first_alarm, tr.potential[tr.first_alarm], marker="v", ms=9,
-                    color=style["color"], mec="black", mew=0.8, ls="none",
-                    zorder=style.get("zorder", 4) + 1)
-    for threshold in sorted({tr.threshold for tr in d.models.values()}):
-        ax.axhline(threshold, label=f"threshold {threshold:g}", **THRESHOLD)
-    ax.plot([], [], marker="v", color="white", mec="black", ls="none", label="first alarm")
-    if d.collision_frame is not None:
-        ax.axvline(d.collision_frame, **COLLISION)
-        ax.text(d.collision_frame - 0.01 * d.frames, 0.03,
-                f"collision (frame {d.collision_frame})", transform=ax.get_xaxis_transform(),
-                ha="right", va="bottom", fontsize="small",
-                bbox={"fc": "white", "ec": "none", "pad": 1})
-    ax.set_ylabel("membrane potential")
-    ax.set_xlabel("frame")
-    ax.set_ylim(0.45, 1.02)
-    if legend:
-        title = "model: first alarm" + (", outcome" if d.collision_frame is not None else "")
-        ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize="small", title=title,
-                  title_fontsize="small")

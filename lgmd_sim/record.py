@@ -7,7 +7,6 @@ The carrier drives straight at cruise speed (towards the goal where there is one
 
 from __future__ import annotations
 
-import argparse
 import sys
 from dataclasses import dataclass
 from pathlib import Path
@@ -65,17 +64,3 @@ def record(name: str, path: str | Path, *, seed: int = 0, cruise: float = 1.0,
     finally:
         env.close()
     return Recording(path, frames, fps, collision)
-
-
-def run(args: argparse.Namespace) -> int:
-    overrides: dict[str, Any] = {"resolution": args.resolution}
-    if args.jitter is not None:
-        overrides["jitter"] = args.jitter
-    rec = record(args.scenario, args.out, seed=args.seed, cruise=args.cruise,
-                 progress=False if args.no_progress else None, **overrides)
-    hit = (f"collision at frame {rec.collision_frame}" if rec.collision_frame is not None
-           else "no collision")
-    print(f"wrote {rec.path}: {rec.frames} frames at {rec.fps:g} fps, {hit}")
-    if rec.collision_frame is not None:
-        print(f"next: lgmd-sim detect {rec.path} --collision-frame {rec.collision_frame}")
-    return 0

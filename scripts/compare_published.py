@@ -103,7 +103,7 @@ def main() -> None:
               "| light: peak |")
         print("|---|---|---:|---:|---:|---:|")
         for name in models.available():
-            for preset in models.model_class(name).presets:
+            for preset in models.presets_of(name):
                 cells = []
                 for polarity in ("dark", "light"):
                     look = stimuli.Look(polarity=polarity, contrast=contrast)

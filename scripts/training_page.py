@@ -255,7 +255,8 @@ def main() -> None:
     trained_at = None
     for run in args.train:
         record = records[run.name]
-        trained_at = record["options"]["jitter"]
+        # run folders written before lgmd_sim.runs.RunFolder kept them under "options"
+        trained_at = (record.get("config") or record["options"])["jitter"]
         curve = _copy(run / "learning_curve.png", f"learning_curve_{run.name}.png", figures)
         lines += ["```bash", *(s["command"] for s in record["sessions"]), "```", "",
                   run_summary(run), "", f"![learning curve of {run.name}]({curve})", ""]

@@ -194,7 +194,7 @@ def test_sigterm_while_writing_leaves_no_partial_files(tmp_path):
     out = tmp_path / "out"
     code = textwrap.dedent("""
         import os, signal, sys
-        import lgmd_sim.detect as d
+        import lgmd_sim.detect.outputs as d
         write = d._write_figure
         def killed_while_writing(path, detection):
             os.kill(os.getpid(), signal.SIGTERM)
@@ -267,7 +267,7 @@ def test_the_largest_allowed_world_builds():
 
 
 def test_a_full_disk_names_the_file(tmp_path, monkeypatch, capsys):
-    import lgmd_sim.detect as d
+    import lgmd_sim.detect.outputs as d
 
     def full(path, detection):
         raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
@@ -284,7 +284,7 @@ def test_a_full_disk_names_the_file(tmp_path, monkeypatch, capsys):
 
 def test_bad_out_folder_and_collision_frame_are_checked_before_any_frame(
         tmp_path, monkeypatch, capsys):
-    import lgmd_sim.detect as d
+    import lgmd_sim.detect.job as d
 
     def never(*args, **kwargs):
         raise AssertionError("frames were processed before the arguments were checked")

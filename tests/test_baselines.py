@@ -15,7 +15,7 @@ from lgmd_sim.models.reference import make_reference
 
 BASELINES = ["lgmd1", "lgmd2", "f_on", "f_off"]
 #: (model, preset) for every preset of every baseline.
-PRESETS = [(n, p) for n in BASELINES for p in models.model_class(n).presets]
+PRESETS = [(n, p) for n in BASELINES for p in models.presets_of(n)]
 SMALL = (40, 56)
 # Selectivity set: a 0.2 m square, contrast 0.3, approaching from 3 m at 2 m/s; the same
 # object receding from 1.5 to 3 m (the approach's first half, reversed) and crossing the
@@ -48,7 +48,7 @@ def oracle_clips() -> list[np.ndarray]:
 # reference has no front end: a preset with one (calibrated-image) is compared without it
 # (tests/test_stabilize.py checks the front ends).
 SWITCHED = [
-    *[(n, p, {"c_sig": 30.0, **({"stabilize": "none"} if models.model_class(n).presets[p].get(
+    *[(n, p, {"c_sig": 30.0, **({"stabilize": "none"} if models.presets_of(n)[p].get(
         "stabilize", "none") != "none" else {})}) for n, p in PRESETS],
     ("lgmd1", "published", {}),
     ("lgmd1", "v0.1", {"c_sig": 30.0, "coincidence": False, "t_s": 5.37, "w_i": 0.45}),

@@ -54,12 +54,7 @@ def test_a_tiny_calibration_writes_presets_that_models_take(tmp_path, monkeypatc
 
     monkeypatch.setattr(presets, "CALIBRATED", out / "calibrated.json")
     presets._load.cache_clear()
-    monkeypatch.setattr(models, "_DATA_PRESETS_JOINED", set())
-    for name in ("lgmd1", "feedback"):
-        monkeypatch.setattr(models.model_class(name), "presets",
-                            dict(models.model_class(name).presets))
     try:
-        models._DATA_PRESETS_JOINED.clear()
         m = models.make("lgmd1", preset="calibrated")
         assert m.params.threshold == entry["params"]["threshold"]
         loop = models.make("feedback", preset="calibrated-open-loop")

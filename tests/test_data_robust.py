@@ -25,13 +25,13 @@ LGMD_SIM = [sys.executable, "-m", "lgmd_sim.cli", "dataset", "generate"]
 
 
 @pytest.mark.parametrize(("args", "named"), [
-    (["--scenarios", "Nowhere"], "unknown scenario 'Nowhere'"),
+    (["--scenarios", "Nowhere"], "unknown scenario(s) 'Nowhere'"),
     (["--controller", "autopilot"], "unknown controller 'autopilot'"),
     (["--models", "feedback,lgmd9"], "unknown model(s) 'lgmd9'"),
     (["--noise", "gaussian:0.005,fog:1"], "unknown noise 'fog'"),
     (["--noise", "gaussian"], "bad noise 'gaussian'"),
-    (["--jitter", "0,9"], "--jitter: 9.0 is out of range"),
-    (["--jitter", "0,x"], "--jitter: 'x' is not a number"),
+    (["--jitter", "0,9"], "--jitter: jitter level '9' is not a number in [0, 5]"),
+    (["--jitter", "0,x"], "--jitter: jitter level 'x' is not a number"),
     (["--set", "warp=3"], "unknown parameter(s) warp"),
     (["--set", "jitter=3"], "--set jitter: use --jitter"),
 ])

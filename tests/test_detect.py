@@ -12,7 +12,8 @@ import numpy as np
 import pytest
 
 from lgmd_sim import cli, models, stimuli
-from lgmd_sim.detect import detect, detect_video, parse_models
+from lgmd_sim.detect import detect, detect_video
+from lgmd_sim.options import model_names
 from lgmd_sim.video import VideoReader, natural_key
 
 SHAPE = (60, 80)
@@ -160,9 +161,9 @@ def test_unknown_model_and_bad_collision_frame(tmp_path, clip, capsys):
                    "--out", str(tmp_path / "o")) == 2
     assert "999" in capsys.readouterr().err and not (tmp_path / "o").exists()
     with pytest.raises(ValueError, match="valid: all"):
-        parse_models(",")
-    assert parse_models("all") == models.available()
-    assert parse_models(f"{MODELS[0]}, {MODELS[0]}") == [MODELS[0]]
+        model_names(",")
+    assert model_names("all") == models.available()
+    assert model_names(f"{MODELS[0]}, {MODELS[0]}") == [MODELS[0]]
 
 
 def test_single_frame_is_an_error(tmp_path, clip):

@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 
 import lgmd_sim  # noqa: F401 - registers the scenarios
+from lgmd_sim.cli import envs as cli_envs
 from lgmd_sim.envs import catalogue
 
 SCENARIOS = ["StationaryApproach", "HandheldApproach", "MutualApproach",
@@ -35,15 +36,15 @@ def test_catalogue_registers_every_scenario_without_importing_mujoco():
 
 
 def test_envs_command_lists_scenarios_with_parameters(capsys):
-    assert catalogue.run_list(argparse.Namespace(name=None)) == 0
+    assert cli_envs.run(argparse.Namespace(name=None)) == 0
     out = capsys.readouterr().out
     for name in SCENARIOS:
         assert f"lgmd_sim/{name}-v0" in out
-    assert catalogue.run_list(argparse.Namespace(name="PassBy")) == 0
+    assert cli_envs.run(argparse.Namespace(name="PassBy")) == 0
     out = capsys.readouterr().out
     assert "miss_distance = 1.0" in out and "jitter" in out and "time_limit" in out
     with pytest.raises(ValueError, match="unknown scenario"):
-        catalogue.run_list(argparse.Namespace(name="Nope"))
+        cli_envs.run(argparse.Namespace(name="Nope"))
 
 
 @pytest.mark.parametrize("name", SCENARIOS)

@@ -55,7 +55,7 @@ def test_every_parameter_has_a_default_and_a_source(name):
     assert described[0][0] == "threshold"
     for pname, _default, source, _doc in described:
         assert source, f"{name}.{pname} has no source"
-    for preset in cls.presets:
+    for preset in models.presets_of(name):
         models.make(name, preset=preset)
 
 

@@ -17,8 +17,9 @@ pytest.importorskip("stable_baselines3")
 
 import lgmd_sim  # noqa: F401  (registers the scenarios)
 from lgmd_sim import cli, controllers, policies
-from lgmd_sim.training import policy as policy_lib
-from lgmd_sim.training.envs import PixelObservation, base_env, make_vec_env, observe
+from lgmd_sim.policies import folder as policy_lib
+from lgmd_sim.policies.observe import PixelObservation, base_env, observe
+from lgmd_sim.training.envs import make_vec_env
 
 # The tripod scenario at 64 x 64: episodes of a few seconds, steps of a few ms; the
 # machinery is the robot's.

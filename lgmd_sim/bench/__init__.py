@@ -1,3 +1,5 @@
 """The model benchmark: `lgmd-sim bench closed-loop` (controllers driving with each
-detector, `closed_loop`) and `lgmd-sim bench open-loop` (every model on the same clips,
-`open_loop`), their run folders (`runs`) and figures (`figures`)."""
+detector: `closed_loop`, `ClosedLoopConfig` -> `closed_loop.run`) and `lgmd-sim bench
+open-loop` (every model on the same clips: `open_loop`, `OpenLoopConfig` ->
+`open_loop.run`), and their figures (`figures`). Each run keeps its results in an
+`lgmd_sim.runs.RunFolder`."""

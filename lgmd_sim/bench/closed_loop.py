@@ -17,23 +17,23 @@ ground truth's at the first onset.
 
 from __future__ import annotations
 
-import argparse
 import math
 import statistics
 from collections import defaultdict
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from lgmd_sim import metrics
-from lgmd_sim.bench.runs import RunFolder, csv_text
-from lgmd_sim.fileio import write_text_atomic
+from lgmd_sim import metrics, options
+from lgmd_sim.fileio import csv_text, write_text_atomic
 from lgmd_sim.parallel import Job, run_jobs
+from lgmd_sim.runs import RunFolder, RunResult
 
-__all__ = ["Cell", "episode", "plan", "run", "summarise"]
+__all__ = ["Cell", "ClosedLoopConfig", "episode", "plan", "run", "summarise",
+           "summary_markdown"]
 
 
 @dataclass(frozen=True)
@@ -237,39 +237,121 @@ def write_tables(folder: Path, records: Sequence[dict[str, Any]]) -> list[dict[s
     return rows
 
 
-def run(args: argparse.Namespace, extra: Sequence[Cell] = ()) -> int:
-    """`lgmd-sim bench closed-loop`; the `extra` cells (e.g. trained policies', from
-    `lgmd-sim eval`) run beside the planned ones, on the same seeds."""
+@dataclass(frozen=True)
+class ClosedLoopConfig:
+    """What a closed-loop benchmark runs, checked when it is made (a bad value raises a
+    one-line ValueError naming it).
+
+    Attributes:
+        scenarios: catalogue scenario names (`lgmd-sim envs`).
+        jitter: jitter levels; every cell runs at each.
+        controllers: names of `lgmd_sim.controllers.available()`; one driven by a model
+            gets a cell per detector.
+        detectors: (model, preset) pairs, presets with any front ends
+            ("published+image"); None: every model at its default preset.
+        seeds: episodes per cell, seeded ``first_seed``, ``first_seed + 1``, ...
+        first_seed: the first episode seed (1000 and up are never a training or
+            validation seed of `lgmd-sim train`).
+        resolution: the frame size, a preset name or (height, width).
+        cruise: forward action of every cruising controller.
+        horizon: an alarm is false when no obstacle is within this time to collision (s).
+        extra: further cells run beside the planned ones on the same seeds (e.g. a
+            trained policy's, from `lgmd-sim eval`).
+    """
+
+    scenarios: tuple[str, ...] = ("RoughTerrainObstacles",)
+    jitter: tuple[float, ...] = (0.0, 1.0, 2.0)
+    controllers: tuple[str, ...] = ("straight", "oracle", "reactive")
+    detectors: tuple[tuple[str, str], ...] | None = None
+    seeds: int = 50
+    first_seed: int = 1000
+    resolution: str | tuple[int, int] = "rl"
+    cruise: float = 0.6
+    horizon: float = 2.0
+    extra: tuple[Cell, ...] = field(default=())
+
+    def __post_init__(self) -> None:
+        from lgmd_sim import controllers
+        from lgmd_sim.envs.catalogue import scenarios
+
+        def set_(name: str, value: Any) -> None:
+            object.__setattr__(self, name, value)
+
+        set_("scenarios", tuple(options.names(self.scenarios, list(scenarios()),
+                                              "scenario(s)")))
+        set_("controllers", tuple(options.names(self.controllers, controllers.available(),
+                                                "controller(s)")
+                                  if self.controllers else ()))
+        set_("jitter", tuple(float(j) for j in self.jitter))
+        options.check_jitter(self.jitter)
+        set_("detectors", options.detectors("all") if self.detectors is None
+             else options.check_detectors(self.detectors))
+        options.check_positive(self.seeds, "--seeds", integer=True)
+        options.check_seed(self.first_seed, "--first-seed")
+        set_("resolution", options.resolution(self.resolution))
+        options.check_range(self.cruise, "--cruise", -1, 1)
+        options.check_positive(self.horizon, "--horizon")
+        set_("extra", tuple(self.extra))
+        if not (self.controllers or self.extra):
+            raise ValueError("no controllers given")
+
+    @property
+    def seed_list(self) -> list[int]:
+        return list(range(self.first_seed, self.first_seed + self.seeds))
+
+    def cells(self) -> list[Cell]:
+        """Every cell: the planned ones, then the extra ones."""
+        return plan(self.scenarios, self.jitter, self.controllers, self.detectors) + list(
+            self.extra)
+
+    def as_json(self) -> dict[str, Any]:
+        """The configuration as the run folder records it (what identifies the run)."""
+        out: dict[str, Any] = {
+            "benchmark": "closed-loop", "scenarios": list(self.scenarios),
+            "jitter": list(self.jitter), "controllers": list(self.controllers),
+            "detectors": [list(d) for d in self.detectors],
+            "seeds": [self.first_seed, self.seeds],
+            "resolution": self.resolution, "cruise": self.cruise, "horizon": self.horizon,
+        }
+        if self.extra:
+            out["extra"] = [{"scenario": c.scenario, "jitter": c.jitter,
+                             "controller": c.controller, "params": dict(c.params),
+                             "tag": c.tag} for c in self.extra]
+        return out
+
+
+def run(config: ClosedLoopConfig, out: str | Path, *, resume: bool = False,
+        workers: int | None = None, ray_address: str | None = None,
+        progress: bool | None = None, command: str = "") -> RunResult:
+    """Run (or resume) the benchmark of `config` in folder `out`; write its tables and
+    figures; return the summary rows (one per cell, as in summary.csv) and the files.
+
+    Args:
+        config: what runs.
+        out: the run folder: new, empty, or (with `resume`) holding this configuration's
+            run, whose finished episodes are kept.
+        workers: local worker processes (default: every core; 1: in this process).
+        ray_address: run the episodes as Ray tasks ("local", "auto" or "HOST:PORT").
+        progress: show a progress bar (None: only on a terminal).
+        command: the command line, for the run's record.
+    """
     from lgmd_sim.bench import figures
 
-    cells = plan(args.scenarios, args.jitter, args.controllers, args.detectors) + list(extra)
-    seeds = list(range(args.first_seed, args.first_seed + args.seeds))
-    config = {
-        "benchmark": "closed-loop", "scenarios": args.scenarios, "jitter": args.jitter,
-        "controllers": args.controllers, "detectors": [list(d) for d in args.detectors],
-        "seeds": [seeds[0], len(seeds)], "resolution": args.resolution,
-        "cruise": args.cruise, "horizon": args.horizon,
-    }
-    if extra:
-        config["extra"] = [{"scenario": c.scenario, "jitter": c.jitter,
-                            "controller": c.controller, "params": dict(c.params), "tag": c.tag}
-                           for c in extra]
-    folder = RunFolder(args.out, config, args.resume, args.command_line)
+    cells = config.cells()
+    seeds = config.seed_list
+    folder = RunFolder(out, config.as_json(), command, resume=resume)
     done = folder.done()
-    options = {"resolution": args.resolution, "cruise": args.cruise, "horizon": args.horizon}
-    jobs = [Job(cell.key(seed), episode, {"cell": cell, "seed": seed, **options,
+    episode_options = {"resolution": config.resolution, "cruise": config.cruise,
+                       "horizon": config.horizon}
+    jobs = [Job(cell.key(seed), episode, {"cell": cell, "seed": seed, **episode_options,
                                          "top_view": seed == seeds[0]})
             for cell in cells for seed in seeds if cell.key(seed) not in done]
-    run_jobs(jobs, lambda job, record: folder.store(job.key, record), workers=args.workers,
-             ray_address=args.ray, progress=False if args.no_progress else None,
-             desc="closed-loop")
-    keys = [cell.key(seed) for cell in cells for seed in seeds]
-    records = folder.records(keys)
+    run_jobs(jobs, lambda job, record: folder.store(job.key, record), workers=workers,
+             ray_address=ray_address, progress=progress, desc="closed-loop")
+    records = folder.records([cell.key(seed) for cell in cells for seed in seeds])
     rows = write_tables(folder.path, [{k: v for k, v in r.items() if k != "top_view"}
                                       for r in records])
     figures.closed_loop(folder.path, rows, [r for r in records if "top_view" in r])
     folder.finish(episodes=len(records))
-    print(summary_markdown(rows), end="")
-    print(f"wrote {folder.path}/: episodes.csv, summary.csv, summary.md, "
-          f"{', '.join(figures.CLOSED_LOOP)}, run.json")
-    return 0
+    files = ["episodes.csv", "summary.csv", "summary.md", *figures.CLOSED_LOOP, "run.json"]
+    return RunResult(folder.path, rows, files)

@@ -14,22 +14,23 @@ group's frames: one threshold hides what a model can do.
 
 from __future__ import annotations
 
-import argparse
 import base64
 import statistics
 from collections import defaultdict
 from collections.abc import Sequence
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from lgmd_sim import metrics
-from lgmd_sim.bench.runs import RunFolder, csv_text
-from lgmd_sim.fileio import write_files, write_text_atomic
+from lgmd_sim import metrics, options
+from lgmd_sim.fileio import csv_text, write_files, write_text_atomic
 from lgmd_sim.parallel import Job, run_jobs
+from lgmd_sim.runs import RunFolder, RunResult
 
-__all__ = ["Clip", "clip_job", "run", "summarise"]
+__all__ = ["Clip", "OpenLoopConfig", "clip_job", "run", "summarise",
+           "summary_markdown"]
 
 #: The paper's noise kinds for its dataset (d).
 NOISE_KINDS = ("gaussian", "saltpepper")
@@ -124,8 +125,9 @@ def _clip_figure(clip: Clip, frames: Sequence[np.ndarray], d: Any) -> bytes:
     the distribution of SSIM between consecutive frames."""
     import io
 
+    from lgmd_sim.detect.figure import draw_potentials
     from lgmd_sim.frames import to_grey
-    from lgmd_sim.plots import draw_potentials, figure
+    from lgmd_sim.plots import figure
 
     t = min(len(frames) - 1, max(1, round(0.8 * (d.collision_frame or len(frames) - 1))))
     p = np.abs(to_grey(frames[t]).astype(np.int16) - to_grey(frames[t - 1]).astype(np.int16))
@@ -216,31 +218,122 @@ def summary_markdown(rows: Sequence[dict[str, Any]], noise: bool = False) -> str
     return "\n".join(lines) + "\n"
 
 
-def run(args: argparse.Namespace) -> int:
-    """`lgmd-sim bench open-loop`."""
+@dataclass(frozen=True)
+class OpenLoopConfig:
+    """What an open-loop benchmark runs, checked when it is made (a bad value raises a
+    one-line ValueError naming it).
+
+    Attributes:
+        scenarios: catalogue scenario names, each run at every `jitter` level with
+            `seeds` clips seeded from `first_seed`; ignored with `dataset`.
+        dataset: take the clips from a dataset folder (or "DIR:N", its episode N)
+            instead of simulating them.
+        detectors: (model, preset) pairs, presets with any front ends; None: every model
+            at its default preset.
+        noise_levels: Gaussian variances and salt-and-pepper densities at which the
+            stationary clips (a tripod scenario at jitter 0) also run (the paper's
+            dataset d).
+        resolution: the frame size of simulated clips.
+        horizon: a frame counts as dangerous when an obstacle is within this time to
+            collision (s), for the ROC AUC.
+        window: a first alarm within this many seconds before the collision is a hit.
+    """
+
+    scenarios: tuple[str, ...] | None = None
+    jitter: tuple[float, ...] = (0.0, 1.0)
+    seeds: int = 8
+    first_seed: int = 0
+    dataset: str | None = None
+    detectors: tuple[tuple[str, str], ...] | None = None
+    noise_levels: tuple[float, ...] = (0.001, 0.003, 0.005, 0.007, 0.009)
+    resolution: str | tuple[int, int] = "paper"
+    horizon: float = 1.0
+    window: float = 1.0
+
+    def __post_init__(self) -> None:
+        from lgmd_sim.envs.catalogue import scenarios
+
+        def set_(name: str, value: Any) -> None:
+            object.__setattr__(self, name, value)
+
+        every = list(scenarios())
+        set_("scenarios", tuple(every if self.scenarios is None else options.names(
+            self.scenarios, every, "scenario(s)")))
+        set_("jitter", tuple(float(j) for j in self.jitter))
+        options.check_jitter(self.jitter)
+        options.check_positive(self.seeds, "--seeds", integer=True)
+        options.check_seed(self.first_seed, "--first-seed")
+        set_("detectors", options.detectors("all") if self.detectors is None
+             else options.check_detectors(self.detectors))
+        set_("noise_levels", tuple(float(v) for v in self.noise_levels))
+        for level in self.noise_levels:
+            if not 0 < level <= 1:
+                raise ValueError(f"noise level {level!r} is not a number in (0, 1]")
+        set_("resolution", options.resolution(self.resolution))
+        options.check_positive(self.horizon, "--horizon")
+        if not (isinstance(self.window, int | float) and 0 <= self.window < float("inf")):
+            raise ValueError(f"--window must be a number >= 0, got {self.window!r}")
+        if self.dataset is not None:
+            self.clips()  # a folder that is not a dataset fails now, not in a worker
+
+    def clips(self) -> list[Clip]:
+        """The clips, in the order the tables list them."""
+        if self.dataset is not None:
+            from lgmd_sim import data
+
+            episodes = data.episodes(self.dataset)
+            if episodes is None:
+                raise ValueError(f"{self.dataset} is not a dataset (nor DIR:N, an episode of "
+                                 "one)")
+            return [Clip(ep.scenario, ep.jitter, ep.seed, str(ep.root), ep.index)
+                    for ep in episodes]
+        seeds = range(self.first_seed, self.first_seed + self.seeds)
+        return [Clip(sc, j, s) for sc in self.scenarios for j in self.jitter for s in seeds]
+
+    def noises(self) -> list[str]:
+        """The noise variants of the stationary clips ("gaussian:0.005", ...)."""
+        return [f"{kind}:{level:g}" for kind in NOISE_KINDS for level in self.noise_levels]
+
+    def as_json(self, clips: Sequence[Clip]) -> dict[str, Any]:
+        """The configuration as the run folder records it (what identifies the run)."""
+        return {"benchmark": "open-loop", "clips": [c.key for c in clips],
+                "dataset": self.dataset, "detectors": [list(d) for d in self.detectors],
+                "noise": self.noises(), "resolution": self.resolution,
+                "horizon": self.horizon, "window": self.window}
+
+
+def _noisy(clips: Sequence[Clip]) -> set[str]:
+    """The keys of the paper's dataset (d): its stationary clips (a tripod, no jitter)."""
+    from lgmd_sim.envs.catalogue import params_for
+
+    tripods = {sc for sc in {c.scenario for c in clips}
+               if params_for(sc, {}).carrier == "tripod"}
+    return {c.key for c in clips if c.scenario in tripods and c.jitter == 0}
+
+
+def run(config: OpenLoopConfig, out: str | Path, *, resume: bool = False,
+        workers: int | None = None, ray_address: str | None = None,
+        progress: bool | None = None, command: str = "") -> RunResult:
+    """Run (or resume) the benchmark of `config` in folder `out`; write its tables and
+    figures (see `lgmd_sim.bench.closed_loop.run` for the arguments)."""
     from lgmd_sim.bench import figures
-    clips: list[Clip] = args.clips
-    noises = [f"{kind}:{level:g}" for kind in NOISE_KINDS for level in args.noise_levels]
-    config = {
-        "benchmark": "open-loop", "clips": [c.key for c in clips],
-        "dataset": args.dataset, "detectors": [list(d) for d in args.detectors],
-        "noise": noises, "resolution": args.resolution, "horizon": args.horizon,
-        "window": args.window,
-    }
-    folder = RunFolder(args.out, config, args.resume, args.command_line)
+
+    clips = config.clips()
+    noisy = _noisy(clips)
+    noises = config.noises()
+    folder = RunFolder(out, config.as_json(clips), command, resume=resume)
     done = folder.done()
     first = {}
     for c in clips:  # the figure of each (scenario, jitter): its first clip
         first.setdefault((c.scenario, c.jitter), c.key)
     jobs = [Job(c.key, clip_job, {
-        "clip": c, "detectors": args.detectors,
-        "noises": noises if c.key in args.noisy else (),
-        "resolution": args.resolution, "horizon": args.horizon, "window": args.window,
+        "clip": c, "detectors": config.detectors,
+        "noises": noises if c.key in noisy else (),
+        "resolution": config.resolution, "horizon": config.horizon, "window": config.window,
         "figure": first[(c.scenario, c.jitter)] == c.key,
     }) for c in clips if c.key not in done]
-    run_jobs(jobs, lambda job, record: folder.store(job.key, record), workers=args.workers,
-             ray_address=args.ray, progress=False if args.no_progress else None,
-             desc="open-loop", unit="clip")
+    run_jobs(jobs, lambda job, record: folder.store(job.key, record), workers=workers,
+             ray_address=ray_address, progress=progress, desc="open-loop", unit="clip")
     records = folder.records([c.key for c in clips])
     rows = summarise(records)
     write_text_atomic(folder.path / "summary.csv", csv_text(rows, _COLUMNS))
@@ -253,8 +346,6 @@ def run(args: argparse.Namespace) -> int:
                  for path, png in clip_figures.items()})
     made = figures.open_loop(folder.path, rows, records)
     folder.finish(clips=len(records))
-    print(summary_markdown(rows), end="")
-    names = ["summary.csv", "summary.md", *(["noise.md"] if noises else []),
+    files = ["summary.csv", "summary.md", *(["noise.md"] if noises else []),
              *sorted(p.name for p in clip_figures), *made, "run.json"]
-    print(f"wrote {folder.path}/: {', '.join(names)}")
-    return 0
+    return RunResult(folder.path, rows, files)

@@ -1,5 +1,6 @@
 """Calibration: the same search for every model on recorded clips, judged by a declared
-objective on clips it never saw (`lgmd-sim calibrate`; see `lgmd_sim.calibration.run`).
+objective on clips it never saw (`lgmd-sim calibrate`: `CalibrateConfig` -> `calibrate`,
+in `lgmd_sim.calibration.run`).
 
 - `lgmd_sim.calibration.objective`: every clip a hit or a miss;
 - `lgmd_sim.calibration.clips`: the clips, recorded once;

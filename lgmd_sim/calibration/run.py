@@ -8,29 +8,88 @@
    set (`lgmd_sim.calibration.objective`); report it on the held-out set beside.
 4. Write ``DIR/summary.md``, ``DIR/calibration.png`` and ``DIR/calibrated.json``: the
    presets with the command, seeds, objective and figure that produced them. With
-   ``--save-presets`` also the package's data file, which makes them the models'
+   ``save_presets`` also the package's data file, which makes them the models'
    ``calibrated`` presets (and ``calibrated-open-loop`` for the feedback model's open-loop
    control, gain 0, tuned by the same search).
 """
 
 from __future__ import annotations
 
-import argparse
 import json
 from collections.abc import Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from lgmd_sim.bench.runs import RunFolder
+from lgmd_sim import options
 from lgmd_sim.calibration import clips as clip_mod
 from lgmd_sim.calibration import objective as obj
 from lgmd_sim.calibration.search import SPACES, THRESHOLDS, candidates, evaluate
 from lgmd_sim.fileio import write_files, write_text_atomic
 from lgmd_sim.parallel import Job, run_jobs
+from lgmd_sim.runs import RunFolder, RunResult
 
-__all__ = ["choose", "preset_name", "run"]
+__all__ = ["CalibrateConfig", "calibrate", "choose", "preset_name", "summary_markdown"]
+
+
+@dataclass(frozen=True)
+class CalibrateConfig:
+    """What `calibrate` runs, checked when it is made (a bad value raises a one-line
+    ValueError naming it).
+
+    Attributes:
+        detectors: keys of `lgmd_sim.calibration.search.SPACES` (a model, the feedback
+            LGMD's open-loop control "feedback-open-loop", each also with a front end:
+            "lgmd1+image"); None: every one.
+        budget: candidate settings per detector, its starting preset included (the same
+            for every detector).
+        seeds: episode seeds per clip group in each set.
+        first_seed: the first search seed.
+        heldout_seed: the first held-out seed; the two sets must not overlap.
+        seed: the seed of the random search.
+        resolution: the clips' frame size.
+        save_presets: also write the package's data file of calibrated presets.
+    """
+
+    detectors: tuple[str, ...] | None = None
+    budget: int = 32
+    seeds: int = 8
+    first_seed: int = 0
+    heldout_seed: int = 100
+    seed: int = 0
+    resolution: str | tuple[int, int] = "rl"
+    save_presets: bool = False
+
+    def __post_init__(self) -> None:
+
+        object.__setattr__(self, "detectors", tuple(
+            SPACES if self.detectors is None else options.names(
+                self.detectors, list(SPACES), "detector(s)")))
+        options.check_positive(self.budget, "--budget", integer=True)
+        options.check_positive(self.seeds, "--seeds", integer=True)
+        for name in ("first_seed", "heldout_seed", "seed"):
+            options.check_seed(getattr(self, name), f"--{name.replace('_', '-')}")
+        if set(self.search_seeds) & set(self.heldout_seeds):
+            raise ValueError("the search and held-out seeds overlap: move --heldout-seed")
+        object.__setattr__(self, "resolution", options.resolution(self.resolution))
+
+    @property
+    def search_seeds(self) -> list[int]:
+        return list(range(self.first_seed, self.first_seed + self.seeds))
+
+    @property
+    def heldout_seeds(self) -> list[int]:
+        return list(range(self.heldout_seed, self.heldout_seed + self.seeds))
+
+    def as_json(self) -> dict[str, Any]:
+        """The configuration as the run folder records it (what identifies the run)."""
+        return {"calibration": 1, "detectors": list(self.detectors), "budget": self.budget,
+                "search_seeds": [self.first_seed, self.seeds],
+                "heldout_seeds": [self.heldout_seed, self.seeds],
+                "resolution": self.resolution,
+                "groups": clip_mod.DEFAULT_GROUPS, "late": obj.LATE, "seed": self.seed}
 
 def preset_name(detector: str) -> tuple[str, str]:
     """The (model, preset) a calibrated detector becomes: "calibrated", the feedback
@@ -67,7 +126,8 @@ def choose(records: Sequence[dict[str, Any]], clip_sets: dict[str, list[dict]]
     return result
 
 
-def _markdown(chosen: Sequence[dict[str, Any]]) -> str:
+def summary_markdown(chosen: Sequence[dict[str, Any]]) -> str:
+    """The chosen candidates, search and held-out, as a Markdown table."""
     lines = ["| detector | threshold | objective search / held-out | jitter hits | "
              "stationary hits | near misses rejected |", "|---|---:|---:|---:|---:|---:|"]
     for c in chosen:
@@ -112,46 +172,43 @@ def _figure(path: Path, chosen: Sequence[dict[str, Any]]) -> None:
     write_files({path: lambda tmp: fig.savefig(tmp, format="png", dpi=110)})
 
 
-def run(args: argparse.Namespace) -> int:
-    """`lgmd-sim calibrate`."""
-    search_seeds = list(range(args.first_seed, args.first_seed + args.seeds))
-    held = list(range(args.heldout_seed, args.heldout_seed + args.seeds))
-    if set(search_seeds) & set(held):
-        raise ValueError("the search and held-out seeds overlap: move --heldout-seed")
-    config = {"calibration": 1, "detectors": args.detectors, "budget": args.budget,
-              "search_seeds": [search_seeds[0], len(search_seeds)],
-              "heldout_seeds": [held[0], len(held)], "resolution": args.resolution,
-              "groups": clip_mod.DEFAULT_GROUPS, "late": obj.LATE, "seed": args.seed}
-    folder = RunFolder(args.out, config, args.resume, args.command_line)
+def calibrate(config: CalibrateConfig, out: str | Path, *, resume: bool = False,
+              workers: int | None = None, ray_address: str | None = None,
+              progress: bool | None = None, command: str = "") -> RunResult:
+    """Run (or resume) the calibration of `config` in folder `out` (the arguments as
+    `lgmd_sim.bench.closed_loop.run`'s); return one row per detector: the chosen
+    candidate and threshold, with its scores on the search and held-out sets."""
+    folder = RunFolder(out, config.as_json(), command, resume=resume)
     clip_dir = folder.path / "clips"
     clip_dir.mkdir(exist_ok=True)
-    sets = {"search": clip_mod.specs(clip_mod.DEFAULT_GROUPS, search_seeds),
-            "heldout": clip_mod.specs(clip_mod.DEFAULT_GROUPS, held)}
+    sets = {"search": clip_mod.specs(clip_mod.DEFAULT_GROUPS, config.search_seeds),
+            "heldout": clip_mod.specs(clip_mod.DEFAULT_GROUPS, config.heldout_seeds)}
     all_specs = [s for specs in sets.values() for s in specs]
     done = folder.done()
     jobs = [Job(f"clip-{s.key}", clip_mod.record_clip,
-                {"spec": s, "folder": str(clip_dir), "resolution": args.resolution})
+                {"spec": s, "folder": str(clip_dir), "resolution": config.resolution})
             for s in all_specs if f"clip-{s.key}" not in done]
-    common = {"workers": args.workers, "ray_address": args.ray,
-              "progress": False if args.no_progress else None}
+    common = {"workers": workers, "ray_address": ray_address, "progress": progress}
     run_jobs(jobs, lambda job, rec: folder.store(job.key, {**rec, "key": job.key[5:]}),
              desc="recording clips", unit="clip", **common)
     clip_sets = {name: folder.records([f"clip-{s.key}" for s in specs])
                  for name, specs in sets.items()}
-    cands = [c for d in args.detectors for c in candidates(d, args.budget, args.seed)]
+    cands = [c for d in config.detectors for c in candidates(d, config.budget, config.seed)]
     jobs = [Job(c.key, evaluate, {"candidate": c, "folder": str(clip_dir),
                                   "clip_sets": clip_sets})
             for c in cands if c.key not in done]
     run_jobs(jobs, lambda job, rec: folder.store(job.key, rec), desc="candidates",
              unit="candidate", **common)
     chosen = [choose(folder.records([c.key for c in cands if c.detector == d]), clip_sets)
-              for d in args.detectors]
-    write_text_atomic(folder.path / "summary.md", _markdown(chosen))
+              for d in config.detectors]
+    write_text_atomic(folder.path / "summary.md", summary_markdown(chosen))
     _figure(folder.path / "calibration.png", chosen)
     presets = {
-        "command": args.command_line, "objective": obj.__doc__.strip(),
-        "search_seeds": config["search_seeds"], "heldout_seeds": config["heldout_seeds"],
-        "resolution": args.resolution, "budget": args.budget, "figure": "calibration.png",
+        "command": command, "objective": obj.__doc__.strip(),
+        "search_seeds": [config.first_seed, config.seeds],
+        "heldout_seeds": [config.heldout_seed, config.seeds],
+        "resolution": folder.config["resolution"], "budget": config.budget,
+        "figure": "calibration.png",
         "presets": {preset_name(c["detector"])[0]: {} for c in chosen},
     }
     for c in chosen:
@@ -163,20 +220,11 @@ def run(args: argparse.Namespace) -> int:
                                            "search": c["search"], "heldout": c["heldout"]}
     text = json.dumps(presets, indent=2) + "\n"
     write_text_atomic(folder.path / "calibrated.json", text)
-    if args.save_presets:
+    files = ["summary.md", "calibration.png", "calibrated.json", "run.json"]
+    if config.save_presets:
         from lgmd_sim.models.presets import CALIBRATED
 
         write_text_atomic(CALIBRATED, text)
+        files.append(str(CALIBRATED))
     folder.finish(candidates=len(cands), clips=len(all_specs))
-    print(_markdown(chosen), end="")
-    saved = f"; presets saved to {CALIBRATED}" if args.save_presets else ""
-    print(f"wrote {folder.path}/: summary.md, calibration.png, calibrated.json{saved}")
-    return 0
-
-
-def main(args: argparse.Namespace) -> int:
-    """Check the arguments, then `run`."""
-    from lgmd_sim.bench.cli import parse_names
-
-    args.detectors = parse_names(args.detectors, list(SPACES), "detector(s)")
-    return run(args)
+    return RunResult(folder.path, chosen, files)

@@ -1,10 +1,12 @@
 """The `lgmd-sim` command: one entry point, one subcommand per job.
 
-Each subcommand's arguments live in a module of this package (``lgmd_sim.cli.<command>``,
-with an ``add(subparsers)`` function); its implementation is imported only when it runs,
-so `--help` stays fast and `lgmd-sim detect` never loads MuJoCo. Errors a user can fix (a
-bad file, an unknown model, a bad value) print one line naming the thing and exit with
-status 2.
+Each subcommand is a module of this package (``lgmd_sim.cli.<command>``) with two
+functions: ``add(subparsers)`` declares its arguments, and ``run(args)`` makes the job's
+typed configuration from them (``config_from_args``-style functions, checked when the
+configuration is made) and calls the job's package, which does the work and never sees
+an argparse namespace. The job's code is imported only when it runs, so `--help` stays
+fast and `lgmd-sim detect` never loads MuJoCo. Errors a user can fix (a bad file, an
+unknown model, a bad value) print one line naming the thing and exit with status 2.
 """
 
 from __future__ import annotations
@@ -50,10 +52,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
     args = build_parser().parse_args(argv)
     args.command_line = shlex.join(["lgmd-sim", *argv])  # what the run records say was run
-    module, func = args.run.split(":")
     previous = signal.signal(signal.SIGTERM, _terminate)
     try:
-        return int(getattr(import_module(module), func)(args) or 0)
+        return int(import_module(f"lgmd_sim.cli.{args.command}").run(args) or 0)
     except BrokenPipeError:  # output piped into e.g. `head`, which stopped reading
         return 0
     except (ValueError, OSError, MissingExtra) as exc:  # a user's input: say what, briefly

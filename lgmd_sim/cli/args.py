@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+from typing import Any
 
 
 def positive_int(text: str) -> int:
@@ -59,6 +60,13 @@ def add_run_folder_options(p: argparse.ArgumentParser, default: str) -> None:
     p.add_argument("--resume", action="store_true",
                    help="complete the run in DIR (same configuration): finished jobs are "
                    "kept")
+
+
+def run_folder_kwargs(args: argparse.Namespace) -> dict[str, Any]:
+    """How a job given the options of `add_run_folder_options` and `add_parallel_options`
+    runs: the keyword arguments of its ``run(config, out, ...)``."""
+    return {"resume": args.resume, "workers": args.workers, "ray_address": args.ray,
+            "progress": False if args.no_progress else None, "command": args.command_line}
 
 
 def add_detector_options(p: argparse.ArgumentParser) -> None:

@@ -1,13 +1,16 @@
-"""`lgmd-sim bench`: its command-line arguments (the implementation loads when it runs).
+"""`lgmd-sim bench`: its arguments, and the typed configuration made from them.
 
-Lists (scenarios, controllers, models, jitter levels) are checked when the command runs,
-before any episode, so that a bad one is a single error line naming it.
+The lists (scenarios, controllers, models, jitter levels) are parsed by
+`lgmd_sim.options` and checked when the configuration is made, before any episode, so
+that a bad one is a single error line naming it; the work is `lgmd_sim.bench`'s.
 """
 
 from __future__ import annotations
 
 import argparse
+from typing import Any
 
+from lgmd_sim import options
 from lgmd_sim.cli.args import (
     add_closed_loop_options,
     add_detector_options,
@@ -16,6 +19,7 @@ from lgmd_sim.cli.args import (
     non_negative_int,
     positive_int,
     resolution,
+    run_folder_kwargs,
 )
 
 
@@ -46,7 +50,6 @@ def add(sub: argparse._SubParsersAction) -> None:
                    help="frame size: rl (120x160, default), paper (270x480), small or HxW")
     add_run_folder_options(b, "bench-closed-loop")
     add_parallel_options(b)
-    b.set_defaults(run="lgmd_sim.bench.cli:closed_loop")
 
     b = bench.add_parser(
         "open-loop", help="the paper's Tables 2 and 3 in simulation: every model on the same "
@@ -86,4 +89,41 @@ def add(sub: argparse._SubParsersAction) -> None:
                    "hit (s, default 1)")
     add_run_folder_options(b, "bench-open-loop")
     add_parallel_options(b, "clips")
-    b.set_defaults(run="lgmd_sim.bench.cli:open_loop")
+
+
+def closed_loop_config(args: argparse.Namespace) -> Any:
+    """The `ClosedLoopConfig` of ``bench closed-loop``'s arguments."""
+    from lgmd_sim.bench.closed_loop import ClosedLoopConfig
+
+    return ClosedLoopConfig(
+        scenarios=tuple(options.comma_list(args.scenarios)),
+        jitter=options.jitter_levels(args.jitter),
+        controllers=tuple(options.comma_list(args.controllers)),
+        detectors=options.detectors(args.models, args.presets), seeds=args.seeds,
+        first_seed=args.first_seed, resolution=args.resolution, cruise=args.cruise,
+        horizon=args.horizon)
+
+
+def open_loop_config(args: argparse.Namespace) -> Any:
+    """The `OpenLoopConfig` of ``bench open-loop``'s arguments."""
+    from lgmd_sim.bench.open_loop import OpenLoopConfig
+
+    return OpenLoopConfig(
+        scenarios=tuple(options.comma_list(args.scenarios)), jitter=options.jitter_levels(
+            args.jitter), seeds=args.seeds, first_seed=args.first_seed, dataset=args.dataset,
+        detectors=options.detectors(args.models, args.presets),
+        noise_levels=options.noise_levels(args.noise_levels), resolution=args.resolution,
+        horizon=args.horizon, window=args.window)
+
+
+def run(args: argparse.Namespace) -> int:
+    from lgmd_sim.bench import closed_loop, open_loop
+
+    job, config, markdown = (
+        (closed_loop, closed_loop_config(args), closed_loop.summary_markdown)
+        if args.what == "closed-loop" else
+        (open_loop, open_loop_config(args), open_loop.summary_markdown))
+    result = job.run(config, args.out, **run_folder_kwargs(args))
+    print(markdown(result.rows), end="")
+    print(f"wrote {result.path}/: {', '.join(result.files)}")
+    return 0

@@ -1,15 +1,18 @@
-"""`lgmd-sim calibrate`: its command-line arguments (the implementation loads when it runs)."""
+"""`lgmd-sim calibrate`: its arguments, and the `CalibrateConfig` made from them."""
 
 from __future__ import annotations
 
 import argparse
+from typing import Any
 
+from lgmd_sim import options
 from lgmd_sim.cli.args import (
     add_parallel_options,
     add_run_folder_options,
     non_negative_int,
     positive_int,
     resolution,
+    run_folder_kwargs,
 )
 
 
@@ -48,4 +51,22 @@ def add(sub: argparse._SubParsersAction) -> None:
                    "calibrated.json)")
     add_run_folder_options(p, "calibration")
     add_parallel_options(p, "clips and candidates")
-    p.set_defaults(run="lgmd_sim.calibration.run:main")
+
+
+def config_from_args(args: argparse.Namespace) -> Any:
+    """The `CalibrateConfig` of ``calibrate``'s arguments."""
+    from lgmd_sim.calibration.run import CalibrateConfig
+
+    return CalibrateConfig(
+        detectors=tuple(options.comma_list(args.detectors)), budget=args.budget,
+        seeds=args.seeds, first_seed=args.first_seed, heldout_seed=args.heldout_seed,
+        seed=args.seed, resolution=args.resolution, save_presets=args.save_presets)
+
+
+def run(args: argparse.Namespace) -> int:
+    from lgmd_sim.calibration.run import calibrate, summary_markdown
+
+    result = calibrate(config_from_args(args), args.out, **run_folder_kwargs(args))
+    print(summary_markdown(result.rows), end="")
+    print(f"wrote {result.path}/: {', '.join(result.files)}")
+    return 0

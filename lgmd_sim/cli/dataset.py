@@ -1,9 +1,13 @@
-"""`lgmd-sim dataset`: its command-line arguments (the implementation loads when it runs)."""
+"""`lgmd-sim dataset`: its arguments, and the `GenerateConfig` made from them."""
 
 from __future__ import annotations
 
 import argparse
+import json
+import sys
+from typing import Any
 
+from lgmd_sim import options
 from lgmd_sim.cli.args import add_parallel_options, non_negative_int, positive_int, resolution
 
 
@@ -49,11 +53,62 @@ def add(sub: argparse._SubParsersAction) -> None:
                    help="an environment parameter for every scenario, e.g. time_limit=2 or "
                    "miss_distance=0.5 (repeatable; see lgmd-sim envs NAME)")
     add_parallel_options(g)
-    g.set_defaults(run="lgmd_sim.data.generate:run")
     v = what.add_parser(
         "verify", help="check a dataset: counts, checksums, label consistency",
         description="Check that the dataset in DIR is complete and consistent; print each "
         "problem on a line and exit with status 1 if there is any.",
     )
     v.add_argument("path", metavar="DIR", help="the dataset folder")
-    v.set_defaults(run="lgmd_sim.data.verify:run")
+
+
+def config_from_args(args: argparse.Namespace) -> Any:
+    """The `GenerateConfig` of ``dataset generate``'s arguments."""
+    from lgmd_sim import noise
+    from lgmd_sim.data.generate import GenerateConfig
+    from lgmd_sim.envs.catalogue import scenarios
+
+    names = options.names(args.scenarios, list(scenarios()), "scenario(s)")
+    models = [] if args.models in ("", "none") else options.model_names(args.models)
+    variants = ["+".join(map(str, noise.parse(v.replace("+", ","))))
+                for v in args.noise.split(",")] if args.noise else []
+    overrides: dict[str, Any] = {}
+    for item in args.set:
+        key, sep, value = item.partition("=")
+        if not sep or not key.strip():
+            raise ValueError(f"--set {item!r}: write NAME=VALUE, e.g. time_limit=2")
+        try:
+            overrides[key.strip()] = json.loads(value)
+        except ValueError:
+            overrides[key.strip()] = value
+    return GenerateConfig(tuple(names), options.jitter_levels(args.jitter), args.episodes,
+                          args.resolution, args.controller, tuple(models), tuple(variants),
+                          args.video, args.seed, overrides)
+
+
+def run(args: argparse.Namespace) -> int:
+    if args.what == "verify":
+        from lgmd_sim.data.verify import verify
+
+        problems, counts = verify(args.path)
+        for p in problems:
+            print(f"lgmd-sim dataset verify: {p}", file=sys.stderr)
+        if problems:
+            print(f"{args.path}: {len(problems)} problem(s)")
+            return 1
+        print(f"{args.path}: OK: {counts['episodes']} episodes, {counts['frames']} frames; "
+              "counts, checksums and labels consistent")
+        return 0
+    from lgmd_sim.data.generate import generate
+    from lgmd_sim.parallel import WorkerDied
+
+    try:
+        s = generate(config_from_args(args), args.out, workers=args.workers,
+                     ray_address=args.ray, progress=False if args.no_progress else None,
+                     command=args.command_line)
+    except WorkerDied as exc:
+        print(f"lgmd-sim dataset: error: {exc}; the complete episodes are kept in {args.out}: "
+              "run the same command again to resume", file=sys.stderr)
+        return 1
+    print(f"{s.path}: {s.episodes} episodes, {s.frames} frames ({s.made} made, {s.kept} "
+          f"kept) in {s.seconds:.1f} s; check it with: lgmd-sim dataset verify {s.path}")
+    return 0

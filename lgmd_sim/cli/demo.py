@@ -1,4 +1,5 @@
-"""`lgmd-sim demo`: its command-line arguments (the implementation loads when it runs)."""
+"""`lgmd-sim demo`: its arguments (and the defaults the README describes), then
+`lgmd_sim.demo.run`."""
 
 from __future__ import annotations
 
@@ -34,4 +35,10 @@ def add(sub: argparse._SubParsersAction) -> None:
                    help="comma-separated detectors, MODEL[/PRESET][+FRONT END] (default "
                    f"{','.join(DETECTORS)}: the best detector, then the paper's model); "
                    "the first one's S layer is shown")
-    p.set_defaults(run="lgmd_sim.demo:run")
+
+
+def run(args: argparse.Namespace) -> int:
+    from lgmd_sim import demo, options
+
+    return demo.run(out=args.out, seed=args.seed, jitter=args.jitter,
+                    detectors=options.comma_list(args.models))

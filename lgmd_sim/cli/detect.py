@@ -1,8 +1,9 @@
-"""`lgmd-sim detect`: its command-line arguments (the implementation loads when it runs)."""
+"""`lgmd-sim detect`: its arguments, and the `DetectConfig` made from them."""
 
 from __future__ import annotations
 
 import argparse
+from typing import Any
 
 from lgmd_sim.cli.args import non_negative_int
 
@@ -72,4 +73,24 @@ def add(sub: argparse._SubParsersAction) -> None:
                    help="the camera's vertical field of view in degrees, for --stabilize "
                    "image (default: 55, the simulator's camera)")
     p.add_argument("--no-progress", action="store_true", help="hide the progress bar")
-    p.set_defaults(run="lgmd_sim.detect:run")
+
+
+def config_from_args(args: argparse.Namespace) -> Any:
+    """The `DetectConfig` of ``detect``'s arguments; a dataset folder (or ``DIR:N``)
+    among the videos becomes its episodes, each with its labelled collision frame."""
+    from lgmd_sim import options
+    from lgmd_sim.data import detect_inputs
+    from lgmd_sim.detect import DetectConfig, Video
+
+    return DetectConfig(
+        videos=tuple(Video(*i) for i in detect_inputs(args.videos)),
+        models=tuple(options.comma_list(args.models)), preset=args.preset,
+        collision_frame=args.collision_frame, out=args.out, json_lines=args.json,
+        noise=args.noise, noise_seed=args.noise_seed, stabilize=args.stabilize,
+        fov=args.fov, progress=False if args.no_progress else None)
+
+
+def run(args: argparse.Namespace) -> int:
+    from lgmd_sim import detect
+
+    return detect.run(config_from_args(args))

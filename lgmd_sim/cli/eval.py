@@ -1,14 +1,17 @@
-"""`lgmd-sim eval`: its command-line arguments (the implementation loads when it runs)."""
+"""`lgmd-sim eval`: its arguments, and the `EvalConfig` made from them."""
 
 from __future__ import annotations
 
 import argparse
+from typing import Any
 
+from lgmd_sim import options
 from lgmd_sim.cli.args import (
     add_closed_loop_options,
     add_detector_options,
     add_parallel_options,
     add_run_folder_options,
+    run_folder_kwargs,
 )
 
 
@@ -32,4 +35,26 @@ def add(sub: argparse._SubParsersAction) -> None:
     add_closed_loop_options(p, jitter="1,2")
     add_run_folder_options(p, "eval-out")
     add_parallel_options(p)
-    p.set_defaults(run="lgmd_sim.training.evaluate:evaluate")
+
+
+def config_from_args(args: argparse.Namespace) -> Any:
+    """The `EvalConfig` of ``eval``'s arguments."""
+    from lgmd_sim.training.evaluate import EvalConfig
+
+    hand_made = () if args.controllers.strip() == "none" else tuple(
+        options.comma_list(args.controllers))
+    return EvalConfig(
+        policies=tuple(args.policies), controllers=hand_made,
+        detectors=options.detectors(args.models, args.presets),
+        jitter=options.jitter_levels(args.jitter), seeds=args.seeds,
+        first_seed=args.first_seed, cruise=args.cruise, horizon=args.horizon)
+
+
+def run(args: argparse.Namespace) -> int:
+    from lgmd_sim.bench.closed_loop import summary_markdown
+    from lgmd_sim.training.evaluate import evaluate
+
+    result = evaluate(config_from_args(args), args.out, **run_folder_kwargs(args))
+    print(summary_markdown(result.rows), end="")
+    print(f"wrote {result.path}/: {', '.join(result.files)}")
+    return 0

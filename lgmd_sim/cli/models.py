@@ -1,4 +1,4 @@
-"""`lgmd-sim models`: its command-line arguments (the implementation loads when it runs)."""
+"""`lgmd-sim models`: the models, their presets and every parameter with its source."""
 
 from __future__ import annotations
 
@@ -12,10 +12,9 @@ def add(sub: argparse._SubParsersAction) -> None:
         "default and where that default comes from.",
     )
     p.add_argument("name", nargs="?", help="show one model only")
-    p.set_defaults(run="lgmd_sim.cli.models:list_models")
 
 
-def list_models(args: argparse.Namespace) -> int:
+def run(args: argparse.Namespace) -> int:
     """`lgmd-sim models`: every model, its presets and parameters with their sources."""
     from lgmd_sim import models
 
@@ -23,7 +22,8 @@ def list_models(args: argparse.Namespace) -> int:
     for name in names:
         cls = models.model_class(name)
         print(f"{name}: {cls.__doc__.strip().splitlines()[0]}")
-        print(f"  presets: {', '.join(cls.presets)} (default {next(iter(cls.presets))})")
+        presets = models.presets_of(name)
+        print(f"  presets: {', '.join(presets)} (default {next(iter(presets))})")
         for pname, default, source, _doc in cls.Params.describe():
             print(f"  {pname} = {default!r}  [{source}]")
         print()

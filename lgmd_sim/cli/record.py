@@ -1,8 +1,9 @@
-"""`lgmd-sim record`: its command-line arguments (the implementation loads when it runs)."""
+"""`lgmd-sim record`: its arguments, then `lgmd_sim.record.record`."""
 
 from __future__ import annotations
 
 import argparse
+from typing import Any
 
 from lgmd_sim.cli.args import non_negative_float, non_negative_int, resolution
 
@@ -27,4 +28,19 @@ def add(sub: argparse._SubParsersAction) -> None:
                    help="forward action in [-1, 1], a fraction of the carrier's top speed "
                    "(default 1)")
     p.add_argument("--no-progress", action="store_true", help="hide the progress bar")
-    p.set_defaults(run="lgmd_sim.record:run")
+
+
+def run(args: argparse.Namespace) -> int:
+    from lgmd_sim.record import record
+
+    overrides: dict[str, Any] = {"resolution": args.resolution}
+    if args.jitter is not None:
+        overrides["jitter"] = args.jitter
+    rec = record(args.scenario, args.out, seed=args.seed, cruise=args.cruise,
+                 progress=False if args.no_progress else None, **overrides)
+    hit = (f"collision at frame {rec.collision_frame}" if rec.collision_frame is not None
+           else "no collision")
+    print(f"wrote {rec.path}: {rec.frames} frames at {rec.fps:g} fps, {hit}")
+    if rec.collision_frame is not None:
+        print(f"next: lgmd-sim detect {rec.path} --collision-frame {rec.collision_frame}")
+    return 0

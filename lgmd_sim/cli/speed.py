@@ -1,4 +1,4 @@
-"""`lgmd-sim speed`: its command-line arguments (the implementation loads when it runs)."""
+"""`lgmd-sim speed`: its arguments, passed by name to the `run` of `lgmd_sim.speed.WHAT`."""
 
 from __future__ import annotations
 
@@ -25,7 +25,6 @@ def add(sub: argparse._SubParsersAction) -> None:
     b.add_argument("--frames", type=positive_int, default=300, help="frames timed per run")
     b.add_argument("--streams", type=positive_int, default=8, help="streams in batched mode")
     b.add_argument("--markdown", action="store_true", help="print the table as Markdown")
-    b.set_defaults(run="lgmd_sim.speed.models:run")
     b = speed.add_parser(
         "envs", help="environment steps/s per scenario vs a bare render loop",
         description="Environment steps per second per scenario at 120x160 and 270x480, the "
@@ -34,7 +33,6 @@ def add(sub: argparse._SubParsersAction) -> None:
     )
     b.add_argument("--steps", type=positive_int, default=200, help="steps timed per run")
     b.add_argument("--markdown", action="store_true", help="print the table as Markdown")
-    b.set_defaults(run="lgmd_sim.speed.envs:run")
     b = speed.add_parser(
         "stabilize", help="ms per frame of each ego-motion front end, alone and per model",
         description="Milliseconds per frame, on one core, of the image-only rotation fit "
@@ -46,7 +44,6 @@ def add(sub: argparse._SubParsersAction) -> None:
     b.add_argument("--width", type=positive_int, default=480)
     b.add_argument("--frames", type=positive_int, default=60, help="frames timed per run")
     b.add_argument("--markdown", action="store_true", help="print the tables as Markdown")
-    b.set_defaults(run="lgmd_sim.speed.stabilize:run")
     b = speed.add_parser(
         "dataset", help="dataset generation frames/s vs the environment alone; disk per frame",
         description="Per scenario, in one run: frames per second of `dataset generate` "
@@ -64,7 +61,6 @@ def add(sub: argparse._SubParsersAction) -> None:
                    help="frame storage: huffyuv (lossless, fast; default), ffv1 (lossless, "
                    "about half the size, slower to write), mpeg4 (lossy, small)")
     b.add_argument("--markdown", action="store_true", help="print the table as Markdown")
-    b.set_defaults(run="lgmd_sim.speed.dataset:run")
     b = speed.add_parser(
         "closed-loop", help="env + LGMD + controller steps/s vs the env alone; 2 workers vs 1",
         description="In one run: steps per second of the environment alone and with "
@@ -80,4 +76,13 @@ def add(sub: argparse._SubParsersAction) -> None:
                    help="episodes per worker count (worker start-up is counted: enough "
                    "episodes make it small)")
     b.add_argument("--markdown", action="store_true", help="print the table as Markdown")
-    b.set_defaults(run="lgmd_sim.speed.closed_loop:run")
+
+
+def run(args: argparse.Namespace) -> int:
+    """The benchmark named by WHAT, with its options by name."""
+    import inspect
+    from importlib import import_module
+
+    job = import_module(f"lgmd_sim.speed.{args.what.replace('-', '_')}").run
+    wanted = inspect.signature(job).parameters
+    return job(**{k: v for k, v in vars(args).items() if k in wanted})

@@ -1,12 +1,17 @@
-"""`lgmd-sim train`: its command-line arguments (the implementation loads when it runs).
+"""`lgmd-sim train`: its arguments, and the `TrainConfig` made from them.
 
 Options default to None here so that ``--resume`` can tell the ones given from the ones
-recorded; `lgmd_sim.training.run.DEFAULTS` holds the defaults the help text names.
+recorded: a resumed run takes the recorded ones, and only `RESUMABLE` ones may be given
+anew; `TrainConfig`'s defaults are the ones the help text names.
 """
 
 from __future__ import annotations
 
 import argparse
+import dataclasses
+import json
+from pathlib import Path
+from typing import Any
 
 from lgmd_sim.cli.args import resolution
 
@@ -55,4 +60,41 @@ def add(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--resume", metavar="DIR", help="continue the run in DIR from its last "
                    "checkpoint, up to --steps in all")
     p.add_argument("--no-progress", action="store_true", help="hide the progress bar")
-    p.set_defaults(run="lgmd_sim.training.run:train")
+
+
+def config_from_args(args: argparse.Namespace) -> Any:
+    """The `TrainConfig` of ``train``'s arguments: those given, over the run's recorded
+    options when resuming (where only `RESUMABLE` ones may differ), else the defaults."""
+    from lgmd_sim.runs import RunFolder
+    from lgmd_sim.training.run import RESUMABLE, TrainConfig
+
+    names = [f.name for f in dataclasses.fields(TrainConfig)]
+    given = {k: getattr(args, k) for k in names if getattr(args, k, None) is not None}
+    if args.resume is None:
+        return TrainConfig(**given)
+    record = RunFolder.recorded(args.resume)
+    if record is None:
+        raise ValueError(f"--resume {args.resume}: no training run there (no readable "
+                         "run.json)")
+    recorded = record["config"]
+    for key, value in given.items():
+        if key not in RESUMABLE and json.loads(json.dumps(value)) != recorded[key]:
+            raise ValueError(f"--{key.replace('_', '-')} {value} differs from the run being "
+                             f"resumed ({recorded[key]}); only "
+                             f"{' and '.join('--' + k for k in RESUMABLE)} may change")
+    return TrainConfig(**{**{k: recorded[k] for k in names}, **given})
+
+
+def run(args: argparse.Namespace) -> int:
+    from lgmd_sim.training.run import summary_markdown, train
+
+    if args.resume and args.out is not None and Path(args.out) != Path(args.resume):
+        raise ValueError("--out and --resume name different folders: --resume continues "
+                         "the run in its own folder")
+    config = config_from_args(args)
+    out = args.resume or args.out or f"train-{config.algo}-{config.obs}"
+    result = train(config, out, resume=args.resume is not None,
+                   progress=False if args.no_progress else None, command=args.command_line)
+    print(summary_markdown(result.path), end="")
+    print(f"wrote {result.path}/: {', '.join(result.files)}")
+    return 0

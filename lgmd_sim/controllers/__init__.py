@@ -11,11 +11,11 @@ documents what it reads of the observation and of ``info`` (the ground truth).
 
 from __future__ import annotations
 
-from importlib import import_module
 from typing import Any
 
 from lgmd_sim.controllers.base import Controller, Step, rollout
 from lgmd_sim.controllers.straight import Straight, StraightParams
+from lgmd_sim.registry import lookup
 
 __all__ = ["Controller", "Step", "Straight", "StraightParams", "available", "controller_class",
            "make", "rollout"]
@@ -36,10 +36,7 @@ def available() -> list[str]:
 
 def controller_class(name: str) -> type[Controller]:
     """The class behind a controller name."""
-    if name not in _REGISTRY:
-        raise ValueError(f"unknown controller {name!r}; available: {', '.join(_REGISTRY)}")
-    module, cls = _REGISTRY[name].split(":")
-    return getattr(import_module(module), cls)
+    return lookup(_REGISTRY, name, "controller")
 
 
 def make(name: str, **params: Any) -> Controller:

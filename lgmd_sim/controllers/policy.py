@@ -47,17 +47,17 @@ class Policy(Controller):
     params: PolicyParams
 
     def __init__(self, **params: Any) -> None:
-        from lgmd_sim.training import policy
+        from lgmd_sim import policies
 
         super().__init__(**params)
-        self.policy = policy.load(self.params.path)
+        self.policy = policies.load(self.params.path)
         # one thread: a small network's forward pass, and one controller per core in a sweep
         import torch
 
         torch.set_num_threads(1)
 
     def wrap_env(self, env: gym.Env) -> gym.Env:
-        from lgmd_sim.training.envs import observe
+        from lgmd_sim.policies.observe import observe
         from lgmd_sim.world.params import RESOLUTIONS
 
         res = self.policy.config.resolution

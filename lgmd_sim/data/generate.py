@@ -9,20 +9,20 @@ ran a job (a Ray cluster needs no shared file system), and:
 - each episode is written atomically, its video first and its data file (the labels,
   carrying the episode's metadata) last: an episode is complete when its data file
   exists, names its video's SHA-256, and the video matches;
-- ``meta/config.json`` is written before any episode; re-running the same command
+- ``meta/config.json`` is written before any episode (the folder is a
+  `lgmd_sim.runs.RunFolder` whose identity is that file); re-running the same command
   resumes (complete episodes kept, partial ones removed and redone); another
   configuration into the same folder is refused, naming the difference;
 - the manifest (``meta/info.json`` last, with the episode table, the task table, the
   card and the contact sheet) is written when every episode is complete.
 
 Episodes depend only on (scenario, parameters, seed, controller, models, noise), so the
-same command gives byte-identical files whatever the number of workers; the facts of a
-run (wall time, workers, the command as typed) go to ``meta/runs.jsonl`` alone.
+same command gives byte-identical files whatever the number of workers; the facts of
+each run (the command, wall time, workers) go to ``meta/run.json`` alone.
 """
 
 from __future__ import annotations
 
-import argparse
 import contextlib
 import dataclasses
 import errno
@@ -30,23 +30,24 @@ import hashlib
 import io
 import json
 import math
-import sys
 import tempfile
 import time
-from collections.abc import Callable, Iterator, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from lgmd_sim import options
 from lgmd_sim.data import layout
 from lgmd_sim.data.manifest import write_manifest
-from lgmd_sim.fileio import remove_stale_partials, write_files, write_text_atomic
-from lgmd_sim.parallel import Job, WorkerDied, run_jobs
+from lgmd_sim.fileio import remove_stale_partials, write_files
+from lgmd_sim.parallel import Job, default_workers, run_jobs
+from lgmd_sim.runs import RunFolder
 
 __all__ = ["EpisodeResult", "EpisodeSpec", "GenerateConfig", "Summary", "generate",
-           "make_episode", "run"]
+           "make_episode"]
 
 #: Options that have their own flag, so cannot be given with --set.
 _OWN_FLAGS = {"jitter": "--jitter", "resolution": "--resolution"}
@@ -80,6 +81,10 @@ class GenerateConfig:
     video: str = layout.DEFAULT_VIDEO
     seed: int = 0
     overrides: Mapping[str, Any] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "resolution", options.resolution(self.resolution))
+        _validate(self)
 
     def as_json(self) -> dict[str, Any]:
         """The configuration as stored in meta/config.json: the options, the package
@@ -178,37 +183,23 @@ class Summary:
     seconds: float
 
 
-def validate(config: GenerateConfig) -> None:
+def _validate(config: GenerateConfig) -> None:
     """Check every option before any episode runs; a bad one raises a one-line ValueError
     naming it."""
     from lgmd_sim import controllers, noise
-    from lgmd_sim.detect import parse_models
-    from lgmd_sim.envs.catalogue import params_for, scenario
-    from lgmd_sim.world.params import MAX_JITTER
+    from lgmd_sim.envs.catalogue import params_for, scenarios
 
     if not config.scenarios:
         raise ValueError("no scenarios given")
-    for name in config.scenarios:
-        scenario(name)
+    options.names(config.scenarios, list(scenarios()), "scenario(s)")
     if len(set(config.scenarios)) != len(config.scenarios):
         raise ValueError(f"--scenarios: a scenario is given twice: {','.join(config.scenarios)}")
-    if not config.jitter:
-        raise ValueError("no jitter levels given")
-    for j in config.jitter:
-        if not (isinstance(j, int | float) and 0 <= j <= MAX_JITTER):
-            raise ValueError(f"--jitter: {j!r} is out of range: levels are numbers in "
-                             f"[0, {MAX_JITTER:g}]")
-    if len(set(config.jitter)) != len(config.jitter):
-        raise ValueError("--jitter: a level is given twice")
-    if not (isinstance(config.episodes, int) and config.episodes >= 1):
-        raise ValueError(f"--episodes must be at least 1, got {config.episodes!r}")
-    if not (isinstance(config.seed, int) and config.seed >= 0):
-        raise ValueError(f"--seed must be a non-negative integer, got {config.seed!r}")
-    if config.controller not in controllers.available():
-        raise ValueError(f"unknown controller {config.controller!r}; available: "
-                         f"{', '.join(controllers.available())}")
+    options.check_jitter(config.jitter)
+    options.check_positive(config.episodes, "--episodes", integer=True)
+    options.check_seed(config.seed, "--seed")
+    options.names([config.controller], controllers.available(), "controller")
     if config.models:
-        parse_models(list(config.models))
+        options.model_names(list(config.models))
     for variant in config.noise:
         if not noise.parse(variant.replace("+", ",")):
             raise ValueError(f"--noise: empty noise variant in {','.join(config.noise)}")
@@ -380,47 +371,6 @@ def _sha256_bytes(data: bytes) -> str:
 # --- the folder ---------------------------------------------------------------------------
 
 
-def _prepare(out: Path, config: GenerateConfig) -> None:
-    """Make `out` or check it holds this configuration's dataset; write meta/config.json."""
-    if out.exists() and not out.is_dir():
-        raise ValueError(f"output folder {out} is a file, not a folder")
-    wanted = config.as_json()
-    config_file = out / layout.CONFIG
-    if config_file.is_file():
-        try:
-            held = json.loads(config_file.read_text())
-        except (OSError, ValueError) as exc:
-            raise ValueError(f"{config_file}: unreadable ({exc}); use another folder") from None
-        diff = _difference(held, wanted)
-        if diff:
-            k, there, here = diff
-            raise ValueError(f"{out} holds a dataset made with another configuration: {k} is "
-                             f"{_show(there)} there, {_show(here)} here; use another folder, "
-                             "or the options (and lgmd-sim) it was made with")
-        return
-    if out.is_dir() and any(out.iterdir()):
-        raise ValueError(f"output folder {out} is not empty and holds no lgmd-sim dataset "
-                         f"(no {layout.CONFIG}); use a new or empty folder")
-    write_text_atomic(config_file, layout.canonical_json(wanted))
-
-
-def _difference(held: Any, wanted: Any, path: str = "") -> tuple[str, Any, Any] | None:
-    """The first (dotted key, value there, value here) where two configurations differ."""
-    if isinstance(held, dict) and isinstance(wanted, dict):
-        for k in sorted(set(held) | set(wanted)):
-            found = _difference(held.get(k), wanted.get(k), f"{path}.{k}" if path else k)
-            if found:
-                return found
-        return None
-    return None if held == wanted else (path, held, wanted)
-
-
-def _show(value: Any) -> str:
-    if isinstance(value, list):
-        return ",".join(f"{v:g}" if isinstance(v, float) else str(v) for v in value) or "none"
-    return json.dumps(value)
-
-
 def _complete(out: Path, spec: EpisodeSpec) -> dict[str, Any] | None:
     """The metadata of episode `spec` if it is complete on disk, else None."""
     import pyarrow.parquet as pq
@@ -452,7 +402,7 @@ def _store(out: Path, spec: EpisodeSpec, result: EpisodeResult) -> None:
 
 def generate(config: GenerateConfig, out: str | Path, *, workers: int | None = None,
              ray_address: str | None = None, progress: bool | None = None,
-             argv: Sequence[str] | None = None) -> Summary:
+             command: str = "") -> Summary:
     """Generate (or resume) the dataset of `config` in folder `out`.
 
     Args:
@@ -461,7 +411,7 @@ def generate(config: GenerateConfig, out: str | Path, *, workers: int | None = N
         workers: local worker processes (default: every core; 1: in this process).
         ray_address: run the episodes as Ray tasks ("local", "auto" or "HOST:PORT").
         progress: show a progress bar (None: only on a terminal).
-        argv: the command as typed, for the run log.
+        command: the command line, for the run's record (``meta/run.json``).
 
     Raises:
         ValueError: a bad option or a folder holding something else (one line).
@@ -474,13 +424,13 @@ def generate(config: GenerateConfig, out: str | Path, *, workers: int | None = N
     require("pyarrow", "data")
     if ray_address is not None:
         require("ray", "ray")
-    validate(config)
     out = Path(out)
     start = time.monotonic()
     specs = config.specs()
     metas: dict[int, dict[str, Any]] = {}
     try:
-        _prepare(out, config)
+        folder = RunFolder(out, config.as_json(), command, resume=True, what="lgmd-sim dataset",
+                           record=layout.RUNS, identity=layout.CONFIG)
         todo = []
         for spec in specs:
             for path in (layout.data_path(spec.index), layout.video_path(spec.index, spec.video)):
@@ -506,7 +456,9 @@ def generate(config: GenerateConfig, out: str | Path, *, workers: int | None = N
         seconds = time.monotonic() - start
         frames = sum(m["length"] for m in metas.values())
         summary = Summary(out, len(specs), frames, len(specs) - kept, kept, seconds)
-        _log_run(out, summary, workers, ray_address, argv)
+        folder.session.update(episodes_made=summary.made, episodes_kept=kept, frames=frames,
+                              workers=workers or default_workers(), ray=ray_address)
+        folder.finish()
         return summary
     except OSError as exc:
         if exc.errno in (errno.ENOSPC, errno.EDQUOT):
@@ -514,68 +466,3 @@ def generate(config: GenerateConfig, out: str | Path, *, workers: int | None = N
                           f"{len(metas)} complete episodes are kept; free space and run the "
                           "same command again to resume") from None
         raise
-
-
-def _log_run(out: Path, s: Summary, workers: int | None, ray_address: str | None,
-             argv: Sequence[str] | None) -> None:
-    """Append this run's facts to meta/runs.jsonl (not part of the dataset's identity)."""
-    import datetime
-
-    from lgmd_sim.parallel import default_workers
-
-    path = out / layout.RUNS
-    previous = path.read_text() if path.is_file() else ""
-    record = {"finished": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
-              "seconds": round(s.seconds, 2), "episodes_made": s.made, "episodes_kept": s.kept,
-              "frames": s.frames, "workers": workers or default_workers(), "ray": ray_address,
-              "argv": list(argv) if argv is not None else None}
-    write_text_atomic(path, previous + json.dumps(record) + "\n")
-
-
-# --- the command --------------------------------------------------------------------------
-
-
-def config_from_args(args: argparse.Namespace) -> GenerateConfig:
-    """A `GenerateConfig` from ``dataset generate``'s arguments."""
-    from lgmd_sim import noise
-    from lgmd_sim.detect import parse_models
-    from lgmd_sim.envs.catalogue import scenarios
-
-    names = list(scenarios()) if args.scenarios == "all" else [
-        s.strip() for s in args.scenarios.split(",") if s.strip()]
-    jitter = []
-    for text in args.jitter.split(","):
-        try:
-            jitter.append(float(text))
-        except ValueError:
-            raise ValueError(f"--jitter: {text.strip()!r} is not a number") from None
-    models = [] if args.models in ("", "none") else parse_models(args.models)
-    variants = ["+".join(map(str, noise.parse(v.replace("+", ","))))
-                for v in args.noise.split(",")] if args.noise else []
-    overrides: dict[str, Any] = {}
-    for item in args.set:
-        key, sep, value = item.partition("=")
-        if not sep or not key.strip():
-            raise ValueError(f"--set {item!r}: write NAME=VALUE, e.g. time_limit=2")
-        try:
-            overrides[key.strip()] = json.loads(value)
-        except ValueError:
-            overrides[key.strip()] = value
-    res = args.resolution if isinstance(args.resolution, str) else tuple(args.resolution)
-    return GenerateConfig(tuple(names), tuple(jitter), args.episodes, res, args.controller,
-                          tuple(models), tuple(variants), args.video, args.seed, overrides)
-
-
-def run(args: argparse.Namespace) -> int:
-    """`lgmd-sim dataset generate`."""
-    config = config_from_args(args)
-    try:
-        s = generate(config, args.out, workers=args.workers, ray_address=args.ray,
-                     progress=False if args.no_progress else None, argv=sys.argv)
-    except WorkerDied as exc:
-        print(f"lgmd-sim dataset: error: {exc}; the complete episodes are kept in {args.out}: "
-              "run the same command again to resume", file=sys.stderr)
-        return 1
-    print(f"{s.path}: {s.episodes} episodes, {s.frames} frames ({s.made} made, {s.kept} "
-          f"kept) in {s.seconds:.1f} s; check it with: lgmd-sim dataset verify {s.path}")
-    return 0

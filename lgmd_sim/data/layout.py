@@ -8,7 +8,7 @@ The layout follows the LeRobot dataset v3 conventions where they fit (see docs/d
     DIR/meta/tasks.parquet                                one task per scenario
     DIR/meta/episodes/chunk-000/file-000.parquet          one row per episode
     DIR/meta/contact_sheet.png                            a frame per scenario and jitter
-    DIR/meta/runs.jsonl                                   run log (not part of the identity)
+    DIR/meta/run.json                                     run record (not part of the identity)
     DIR/data/chunk-000/file-000.parquet                   labels of episode 0, a row a frame
     DIR/videos/observation.images.camera/chunk-000/file-000.avi   its frames (FFV1)
 
@@ -19,7 +19,6 @@ so that each episode is written (and resumed) on its own.
 from __future__ import annotations
 
 import hashlib
-import json
 import os
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -42,7 +41,7 @@ CONTACT_SHEET = "meta/contact_sheet.png"
 CARD = "README.md"
 #: Facts of each run (wall time, workers, the command as typed): excluded from the
 #: dataset's identity, the checksums and `verify`.
-RUNS = "meta/runs.jsonl"
+RUNS = "meta/run.json"
 #: Key of the episode's metadata (JSON) in its data file's Parquet key-value metadata.
 EPISODE_KEY = b"lgmd_sim.episode"
 
@@ -204,11 +203,6 @@ def sha256(path: str | os.PathLike) -> str:
         while block := f.read(1 << 20):
             digest.update(block)
     return digest.hexdigest()
-
-
-def canonical_json(value: Any) -> str:
-    """JSON with sorted keys and a final newline: the same bytes for the same value."""
-    return json.dumps(value, indent=2, sort_keys=True, allow_nan=False) + "\n"
 
 
 def is_dataset(path: str | os.PathLike) -> bool:

@@ -11,7 +11,7 @@ from pathlib import Path
 from typing import Any
 
 from lgmd_sim.data import layout
-from lgmd_sim.fileio import write_files
+from lgmd_sim.fileio import canonical_json, write_files
 
 __all__ = ["episode_table", "info", "write_manifest"]
 
@@ -122,5 +122,5 @@ def write_manifest(out: Path, config: Any, metas: Sequence[Mapping[str, Any]]) -
         out / layout.CARD: lambda tmp: tmp.write_text(text),
         out / layout.TASKS: lambda tmp: tmp.write_bytes(_parquet(tasks)),
         out / layout.EPISODES: lambda tmp: tmp.write_bytes(_parquet(episodes)),
-        out / layout.INFO: lambda tmp: tmp.write_text(layout.canonical_json(meta_info)),
+        out / layout.INFO: lambda tmp: tmp.write_text(canonical_json(meta_info)),
     })

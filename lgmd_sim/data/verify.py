@@ -9,10 +9,8 @@ outcome against both. Each problem is one line naming the file or the episode.
 
 from __future__ import annotations
 
-import argparse
 import json
 import math
-import sys
 from pathlib import Path
 from typing import Any
 
@@ -20,7 +18,7 @@ import numpy as np
 
 from lgmd_sim.data import layout
 
-__all__ = ["run", "verify"]
+__all__ = ["verify"]
 
 
 def verify(path: str | Path) -> tuple[list[str], dict[str, int]]:
@@ -143,16 +141,3 @@ def _check_episode(root: Path, m: dict[str, Any], video: str, fps: float) -> lis
     if meta.get("video_sha256") != m[video_col]:
         out.append(f"{data}: names another video checksum than the episode table ({name})")
     return out
-
-
-def run(args: argparse.Namespace) -> int:
-    """`lgmd-sim dataset verify`: exit 0 when sound, 1 with one line per problem."""
-    problems, counts = verify(args.path)
-    for p in problems:
-        print(f"lgmd-sim dataset verify: {p}", file=sys.stderr)
-    if problems:
-        print(f"{args.path}: {len(problems)} problem(s)")
-        return 1
-    print(f"{args.path}: OK: {counts['episodes']} episodes, {counts['frames']} frames; "
-          "counts, checksums and labels consistent")
-    return 0

@@ -16,13 +16,13 @@ suffix that sets the parameters ``stabilize`` ("+pose", "+imu", "+image") and ``
 
 from __future__ import annotations
 
-from importlib import import_module
 from typing import Any
 
 from lgmd_sim.models.base import LGMDModel, LGMDOutput, ModelParams
+from lgmd_sim.registry import lookup
 
 __all__ = ["FRONT_END_SUFFIXES", "LGMDModel", "LGMDOutput", "ModelParams", "available", "make",
-           "model_class", "parse_spec"]
+           "model_class", "parse_spec", "presets_of"]
 
 #: Front ends as preset suffixes ("published+image"), in the order a spec lists them, and
 #: the parameters each sets.
@@ -43,9 +43,6 @@ _REGISTRY: dict[str, str] = {
 }
 
 
-_DATA_PRESETS_JOINED: set[str] = set()
-
-
 def available() -> list[str]:
     """The model names `make` accepts."""
     return list(_REGISTRY)
@@ -53,18 +50,16 @@ def available() -> list[str]:
 
 def model_class(name: str) -> type[LGMDModel]:
     """The class behind a model name."""
-    if name not in _REGISTRY:
-        raise ValueError(f"unknown model {name!r}; available: {', '.join(_REGISTRY)}")
-    module, cls_name = _REGISTRY[name].split(":")
-    cls = getattr(import_module(module), cls_name)
-    if name not in _DATA_PRESETS_JOINED:
-        # calibrated presets live in a data file (lgmd_sim.models.presets): they join the
-        # class's own presets on first use
-        from lgmd_sim.models.presets import data_presets
+    return lookup(_REGISTRY, name, "model")
 
-        cls.presets = {**cls.presets, **data_presets(name, cls.presets)}
-        _DATA_PRESETS_JOINED.add(name)
-    return cls
+
+def presets_of(name: str) -> dict[str, dict[str, Any]]:
+    """Every preset of model `name`, its default first: the class's own, then the
+    calibrated ones of the data file (`lgmd_sim.models.presets`)."""
+    from lgmd_sim.models.presets import data_presets
+
+    cls = model_class(name)
+    return {**cls.presets, **data_presets(name, cls.presets)}
 
 
 def make(
@@ -89,7 +84,8 @@ def make(
     clash = sorted(set(params) & set(fronts))
     if clash:
         raise ValueError(f"preset {preset!r} sets {', '.join(clash)} already")
-    return cls(cls.Params(**{**cls.presets[base], **fronts, **params}), n_streams=n_streams)
+    return cls(cls.Params(**{**presets_of(name)[base], **fronts, **params}),
+               n_streams=n_streams)
 
 
 def parse_spec(token: str) -> tuple[str, str]:
@@ -104,7 +100,7 @@ def parse_spec(token: str) -> tuple[str, str]:
     head, *suffixes = token.strip().split("+")
     name, _, preset = head.partition("/")
     model_class(name)
-    preset = "+".join([preset or next(iter(model_class(name).presets)), *suffixes])
+    preset = "+".join([preset or next(iter(presets_of(name))), *suffixes])
     _split_preset(name, preset)
     base, *given = preset.split("+")
     return name, "+".join([base, *(s for s in FRONT_END_SUFFIXES if s in given)])
@@ -113,11 +109,11 @@ def parse_spec(token: str) -> tuple[str, str]:
 def _split_preset(name: str, preset: str | None) -> tuple[str, dict[str, Any]]:
     """A preset with its front-end suffixes: the preset's name and the suffixes'
     parameters. None is the model's default preset."""
-    cls = model_class(name)
-    base, *suffixes = (next(iter(cls.presets)) if preset is None else preset).split("+")
-    if base not in cls.presets:
+    own = presets_of(name)
+    base, *suffixes = (next(iter(own)) if preset is None else preset).split("+")
+    if base not in own:
         raise ValueError(f"unknown preset {base!r} for model {name!r}; available: "
-                         f"{', '.join(cls.presets)}")
+                         f"{', '.join(own)}")
     unknown = [s for s in suffixes if s not in FRONT_END_SUFFIXES]
     if unknown:
         raise ValueError(f"unknown front end(s) {', '.join(map(repr, unknown))}; available: "

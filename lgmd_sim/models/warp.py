@@ -20,15 +20,13 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
-from lgmd_sim.models.kernels import REFLECT, ZERO
+from lgmd_sim.models.kernels import JIT_NO_FMA, REFLECT, ZERO
 
 __all__ = ["Motion", "Plan", "apply_plan", "fill_pad_columns", "homography_plan"]
 
-#: Options of the warp kernels: fast-math without contraction into fused multiply-adds,
-#: whose rounding would differ between LLVM's vector and scalar paths (see
-#: `lgmd_sim.models.lgmd1.JIT`), so a stream is warped to the same bits in any batch.
-_JIT = {"cache": True, "nogil": True,
-        "fastmath": {"nnan", "ninf", "nsz", "arcp", "afn", "reassoc"}}
+# The kernels compile with `JIT_NO_FMA`, so that a stream is warped to the same bits in
+# any batch.
+
 
 
 @dataclass(frozen=True)
@@ -123,7 +121,7 @@ def homography_plan(h: np.ndarray, plan: Plan, horizon: np.ndarray | None = None
     _plan(hinv, line, below, ground is not None, plan.offset, plan.weights, plan.uncovered)
 
 
-@njit(**_JIT)
+@njit(**JIT_NO_FMA)
 def _plan(hinv_above, line, hinv_below, ground, offset, weights, uncovered):
     """Each row in at most two spans, above and below the horizon (the line is straight,
     so each side of it is a run of the row), each in two branch-free loops that LLVM
@@ -150,7 +148,7 @@ def _plan(hinv_above, line, hinv_below, ground, offset, weights, uncovered):
               weights, uncovered)
 
 
-@njit(**_JIT)
+@njit(**JIT_NO_FMA)
 def _span(hinv_above, hinv_below, ground, is_below, y, lo, hi, sx, sy, offset, weights,
           uncovered):
     """The plan of pixels lo..hi-1 of row y, all on one side of the horizon."""
@@ -165,7 +163,7 @@ def _span(hinv_above, hinv_below, ground, is_below, y, lo, hi, sx, sy, offset, w
                   weights[2, y], weights[3, y], uncovered[y])
 
 
-@njit(**_JIT)
+@njit(**JIT_NO_FMA)
 def _source_span(hinv, y, lo, hi, sx, sy):
     """Where pixels lo..hi-1 of row y come from (previous frame's pixel coordinates)."""
     c0 = hinv[0, 1] * y + hinv[0, 2]
@@ -178,7 +176,7 @@ def _source_span(hinv, y, lo, hi, sx, sy):
         sy[x] = (hinv[1, 0] * x + c1) * inv
 
 
-@njit(**_JIT)
+@njit(**JIT_NO_FMA)
 def _weights_span(sx, sy, height, lo, hi, off, w00, w01, w10, w11, unc):
     """Source cells and bilinear weights of a span from its source coordinates."""
     width = off.shape[0]
@@ -205,7 +203,7 @@ def _weights_span(sx, sy, height, lo, hi, off, w00, w01, w10, w11, unc):
         unc[x] = one - on
 
 
-@njit(**_JIT)
+@njit(**JIT_NO_FMA)
 def _uncovered_span(y, lo, hi, offset, weights, uncovered):
     for x in range(lo, hi):
         offset[y, x] = 0
@@ -228,7 +226,7 @@ def apply_plan(plan: Plan, values: np.ndarray, fill: np.ndarray | None,
            values if gain is None else gain, gain is not None)
 
 
-@njit(**_JIT)
+@njit(**JIT_NO_FMA)
 def _apply(offset, weights, uncovered, src, dst, fill, use_fill, gain, use_gain):
     height, width = dst.shape
     below = width + 1  # the source's row stride

@@ -1,6 +1,12 @@
-"""Policies that ship with lgmd-sim, each a policy folder (`lgmd_sim.training.policy`):
-``policy.zip``, ``policy.json`` and ``POLICY.md`` (the command that trained it and its
-evaluation table).
+"""Trained policies: the policy folder on disk, what a policy observes, and the policies
+that ship with lgmd-sim.
+
+- `lgmd_sim.policies.folder`: a policy folder (the model, its `PolicyConfig`, the frozen
+  observation normalisation), `save` and `load`, as `lgmd-sim train` writes them;
+- `lgmd_sim.policies.observe`: the observation pipeline of a `PolicyConfig`, shared by
+  the `lgmd_sim.controllers.Policy` controller and training;
+- the shipped policies: each a policy folder beside this file, with a ``POLICY.md`` (the
+  command that trained it and its evaluation table).
 
 >>> from lgmd_sim import policies
 >>> policies.available(), policies.path(policies.DEFAULT)
@@ -13,7 +19,19 @@ from __future__ import annotations
 
 from pathlib import Path
 
-__all__ = ["DEFAULT", "available", "path"]
+from lgmd_sim.policies.folder import (
+    LoadedPolicy,
+    Normalizer,
+    PolicyConfig,
+    load,
+    load_config,
+    name_of,
+    resolve,
+    save,
+)
+
+__all__ = ["DEFAULT", "LoadedPolicy", "Normalizer", "PolicyConfig", "available", "load",
+           "load_config", "name_of", "path", "resolve", "save"]
 
 #: The shipped policy that `lgmd-sim eval` (and the "policy" controller) use by default.
 DEFAULT = "sac-feedback"

@@ -5,23 +5,31 @@
 - `lgmd_sim.speed.envs`: environment steps/s against a bare render loop of the same
   scene, and the scaling of async vector environments.
 - `lgmd_sim.speed.stabilize`: milliseconds per frame of each ego-motion front end.
+- `lgmd_sim.speed.closed_loop`: the closed loop's cost over the environment alone, and
+  the benchmark's scaling with workers.
+- `lgmd_sim.speed.dataset`: dataset generation against the environment alone.
+
+Each module's ``run(**options)`` measures and prints its tables (``lgmd-sim speed WHAT``
+passes its options by name).
 """
 
 from __future__ import annotations
 
-import platform
+import os
 
 
-def cpu_name() -> str:
-    """The CPU's model name, for the header of a benchmark's output."""
-    try:
-        with open("/proc/cpuinfo") as f:
-            for line in f:
-                if line.startswith("model name"):
-                    return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return platform.processor() or platform.machine()
+def pin_to_one_core() -> str:
+    """Pin this process to one core and every library to one thread; describe where."""
+    import cv2
+    import numba
+
+    cv2.setNumThreads(1)
+    numba.set_num_threads(1)
+    if not hasattr(os, "sched_setaffinity"):
+        return "not pinned (no sched_setaffinity on this platform)"
+    core = min(os.sched_getaffinity(0))
+    os.sched_setaffinity(0, {core})
+    return f"pinned to core {core} of {os.cpu_count()}"
 
 
 def format_table(head: list[str], body: list[list[str]], markdown: bool) -> str:

@@ -13,13 +13,13 @@ In one run, on the same scenario and frame size:
 
 from __future__ import annotations
 
-import argparse
 import os
 import time
 
 import numpy as np
 
-from lgmd_sim.speed import cpu_name, format_table
+from lgmd_sim.machine import cpu_name
+from lgmd_sim.speed import format_table
 
 #: Steps before timing starts (GL context, first frames, JIT caches).
 WARMUP = 10
@@ -89,25 +89,27 @@ def measure_workers(scenario: str, resolution: str, episodes: int) -> dict:
     return {"one": rates[1], "two": rates[2], "speedup": rates[2] / rates[1]}
 
 
-def run(args: argparse.Namespace) -> int:
+def run(*, scenario: str = "RoughTerrainObstacles", resolution: str | list[int] = "rl",
+        steps: int = 600, episodes: int = 12, markdown: bool = False) -> int:
+    """Measure and print the closed-loop speed tables (Markdown with `markdown`)."""
     from lgmd_sim import models
 
     names = models.available()
-    overhead = measure_overhead(args.scenario, args.resolution, names, args.steps)
-    workers = measure_workers(args.scenario, args.resolution, args.episodes)
-    print(f"# lgmd-sim speed closed-loop: {args.scenario} at {args.resolution}, {args.steps} "
-          f"steps per run, {args.episodes} episodes per worker count; CPU: {cpu_name()}, "
+    overhead = measure_overhead(scenario, resolution, names, steps)
+    workers = measure_workers(scenario, resolution, episodes)
+    print(f"# lgmd-sim speed closed-loop: {scenario} at {resolution}, {steps} "
+          f"steps per run, {episodes} episodes per worker count; CPU: {cpu_name()}, "
           f"{os.cpu_count()} cores")
     print(format_table(
         ["what", "steps/s", "share of the environment's speed"],
         [[r["what"], f"{r['steps_per_s']:.0f}", f"{r['ratio']:.2f}"] for r in overhead],
-        args.markdown,
+        markdown,
     ))
     print()
     print(format_table(
         ["closed-loop episodes", "1 worker frames/s", "2 workers frames/s", "speed-up"],
         [["ReactiveAvoid(feedback), jitter 1", f"{workers['one']:.0f}",
           f"{workers['two']:.0f}", f"{workers['speedup']:.2f}x"]],
-        args.markdown,
+        markdown,
     ))
     return 0

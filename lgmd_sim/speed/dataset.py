@@ -17,7 +17,6 @@ For each scenario, in one run, with the same workers, episodes, seeds and frame 
 
 from __future__ import annotations
 
-import argparse
 import math
 import os
 import tempfile
@@ -27,7 +26,8 @@ from typing import Any
 
 import cv2
 
-from lgmd_sim.speed import cpu_name, format_table
+from lgmd_sim.machine import cpu_name
+from lgmd_sim.speed import format_table
 
 
 def drive(scenario: str, overrides: dict[str, Any], seed: int, controller: str) -> int:
@@ -117,19 +117,22 @@ def measure(scenarios: list[str], episodes: int, resolution: Any, workers: int, 
     return rows
 
 
-def run(args: argparse.Namespace) -> int:
+def run(*, scenarios: str = "all", episodes: int = 6, resolution: str | list[int] = "paper",
+        workers: int = 2, repeat: int = 2, video: str = "huffyuv",
+        markdown: bool = False) -> int:
+    """Measure and print the dataset-generation speed table (Markdown with `markdown`)."""
+    from lgmd_sim import options
     from lgmd_sim.data.layout import VIDEO_FORMATS
-    from lgmd_sim.envs.catalogue import scenarios
+    from lgmd_sim.envs import catalogue
     from lgmd_sim.world.params import RESOLUTIONS
 
-    names = list(scenarios()) if args.scenarios == "all" else args.scenarios.split(",")
-    res = args.resolution
-    h, w = RESOLUTIONS[res] if isinstance(res, str) else res
-    rows = measure(names, args.episodes, res, args.workers, args.video, args.repeat)
-    codec = VIDEO_FORMATS[args.video].codec
-    print(f"# lgmd-sim speed dataset: {h}x{w}, jitter 1, {args.episodes} episodes per "
-          f"scenario, {args.workers} workers, best of {args.repeat} rounds, frames "
-          f"{args.video}; CPU: "
+    names = options.names(scenarios, list(catalogue.scenarios()), "scenario(s)")
+    h, w = RESOLUTIONS[resolution] if isinstance(resolution, str) else resolution
+    rows = measure(names, episodes, resolution, workers, video, repeat)
+    codec = VIDEO_FORMATS[video].codec
+    print(f"# lgmd-sim speed dataset: {h}x{w}, jitter 1, {episodes} episodes per "
+          f"scenario, {workers} workers, best of {repeat} rounds, frames "
+          f"{video}; CPU: "
           f"{cpu_name()}, {os.cpu_count()} cores")
     print(format_table(
         ["scenario", "frames", "env frames/s", "dataset frames/s", "dataset / env",
@@ -139,6 +142,6 @@ def run(args: argparse.Namespace) -> int:
           f"{r['ratio']:.2f}", f"{r['cpu_ratio']:.2f}", f"{r['stored'] / 1000:.1f}",
           f"{r['png'] / 1000:.1f}",
           f"{r['raw'] / 1000:.1f}", f"{r['labels'] / 1000:.2f}"] for r in rows],
-        args.markdown,
+        markdown,
     ))
     return 0

@@ -15,13 +15,13 @@ or more the steps per second of one, on a 2-core machine).
 
 from __future__ import annotations
 
-import argparse
 import os
 import time
 
 import numpy as np
 
-from lgmd_sim.speed import cpu_name, format_table
+from lgmd_sim.machine import cpu_name
+from lgmd_sim.speed import format_table
 
 RESOLUTIONS = ((120, 160), (270, 480))
 #: Steps before timing starts (GL context, first frames, JIT caches).
@@ -96,23 +96,24 @@ def measure(steps: int) -> tuple[list[dict], list[dict]]:
     return single, scaling
 
 
-def run(args: argparse.Namespace) -> int:
-    single, scaling = measure(args.steps)
+def run(*, steps: int = 200, markdown: bool = False) -> int:
+    """Measure and print the environment speed tables (Markdown with `markdown`)."""
+    single, scaling = measure(steps)
     from lgmd_sim.world.gl import BACKEND  # chosen by lgmd_sim.world when it loaded
 
-    print(f"# lgmd-sim speed envs: {args.steps} steps per run; CPU: {cpu_name()}, "
+    print(f"# lgmd-sim speed envs: {steps} steps per run; CPU: {cpu_name()}, "
           f"{os.cpu_count()} cores; MUJOCO_GL={BACKEND}")
     print(format_table(
         ["scenario", "size", "env steps/s", "bare renders/s", "step / render time"],
         [[r["scenario"], r["size"], f"{r['steps_per_s']:.0f}", f"{r['render_per_s']:.0f}",
           f"{r['ratio']:.2f}x"] for r in single],
-        args.markdown,
+        markdown,
     ))
     print()
     print(format_table(
         ["scenario (120x160)", "1 async worker steps/s", "2 async workers steps/s", "speed-up"],
         [[r["scenario"], f"{r['one']:.0f}", f"{r['two']:.0f}", f"{r['speedup']:.2f}x"]
          for r in scaling],
-        args.markdown,
+        markdown,
     ))
     return 0

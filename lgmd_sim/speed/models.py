@@ -10,8 +10,6 @@ diagonally, so every pixel changes and the kernels do their full work.
 
 from __future__ import annotations
 
-import argparse
-import os
 import platform
 import sys
 import time
@@ -20,7 +18,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from lgmd_sim.speed import cpu_name, format_table
+from lgmd_sim.machine import cpu_name
+from lgmd_sim.speed import format_table, pin_to_one_core
 
 __all__ = ["Row", "measure", "moving_texture", "run"]
 
@@ -112,20 +111,6 @@ def measure(name: str, frames: np.ndarray, n_frames: int, n_streams: int) -> Row
     return Row(name, streaming, batched, reference)
 
 
-def _pin_to_one_core() -> str:
-    """Pin this process to one core and every library to one thread; describe where."""
-    import cv2
-    import numba
-
-    cv2.setNumThreads(1)
-    numba.set_num_threads(1)
-    if not hasattr(os, "sched_setaffinity"):
-        return "not pinned (no sched_setaffinity on this platform)"
-    core = min(os.sched_getaffinity(0))
-    os.sched_setaffinity(0, {core})
-    return f"pinned to core {core} of {os.cpu_count()}"
-
-
 def _table(rows: list[Row], n_streams: int, markdown: bool) -> str:
     head = ["model", "streaming fps", f"batched fps ({n_streams} streams)", "reference fps",
             "fast / reference"]
@@ -139,21 +124,22 @@ def _table(rows: list[Row], n_streams: int, markdown: bool) -> str:
     return "\n".join([format_table(head, body, markdown), *(["", *notes] if notes else [])])
 
 
-def run(args: argparse.Namespace) -> int:
+def run(*, height: int = 270, width: int = 480, frames: int = 300, streams: int = 8,
+        markdown: bool = False) -> int:
     """Measure every model and print the table (Markdown with ``--markdown``)."""
     import numba
 
     from lgmd_sim import models
 
-    where = _pin_to_one_core()
-    frames = moving_texture(args.height, args.width, 64)
-    print(f"# lgmd-sim speed models: {args.height}x{args.width} uint8 frames, best of "
-          f"{RUNS} runs of {args.frames} frames (references: one run), one core")
+    where = pin_to_one_core()
+    clip = moving_texture(height, width, 64)
+    print(f"# lgmd-sim speed models: {height}x{width} uint8 frames, best of "
+          f"{RUNS} runs of {frames} frames (references: one run), one core")
     print(f"# CPU: {cpu_name()}, {where}; Python {platform.python_version()}, "
           f"numpy {np.__version__}, numba {numba.__version__}")
     rows = []
     for name in models.available():
-        rows.append(measure(name, frames, args.frames, args.streams))
+        rows.append(measure(name, clip, frames, streams))
         print(f"measured {name}", file=sys.stderr, flush=True)
-    print(_table(rows, args.streams, args.markdown))
+    print(_table(rows, streams, markdown))
     return 0

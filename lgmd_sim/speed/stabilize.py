@@ -9,7 +9,6 @@ every stored map by a given rotation), "image" (fit and warp) and "image+gain".
 
 from __future__ import annotations
 
-import argparse
 import platform
 import sys
 import time
@@ -17,8 +16,8 @@ from collections.abc import Callable
 
 import numpy as np
 
-from lgmd_sim.speed import cpu_name, format_table
-from lgmd_sim.speed.models import _pin_to_one_core
+from lgmd_sim.machine import cpu_name
+from lgmd_sim.speed import format_table, pin_to_one_core
 
 __all__ = ["rotating_scene", "run"]
 
@@ -63,15 +62,16 @@ def _per_frame_ms(make: Callable[[], Callable[[int], object]], n_frames: int) ->
     return 1000.0 * best
 
 
-def run(args: argparse.Namespace) -> int:
+def run(*, height: int = 270, width: int = 480, frames: int = 60,
+        markdown: bool = False) -> int:
     """Time every front end and print the table (Markdown with ``--markdown``)."""
     from lgmd_sim import models
     from lgmd_sim.models.stabilize import ImageRotation, brightness_gain
 
-    where = _pin_to_one_core()
-    frames, turns = rotating_scene(args.height, args.width, args.frames)
+    where = pin_to_one_core()
+    frames, turns = rotating_scene(height, width, frames)
     n = len(frames)
-    print(f"# lgmd-sim speed stabilize: {args.height}x{args.width} uint8 frames of a camera "
+    print(f"# lgmd-sim speed stabilize: {height}x{width} uint8 frames of a camera "
           f"turning about 1 degree per frame, best of {RUNS} runs of {n} frames, one core")
     print(f"# CPU: {cpu_name()}, {where}; Python {platform.python_version()}")
 
@@ -84,7 +84,7 @@ def run(args: argparse.Namespace) -> int:
     print(format_table(["front end alone", "ms per frame"],
                        [["image: rotation fit (ImageRotation.update)", f"{fit_ms:.2f}"],
                         ["gain: brightness gain (brightness_gain)", f"{gain_ms:.2f}"]],
-                       args.markdown))
+                       markdown))
     print()
     body = []
     for name in models.available():
@@ -101,5 +101,5 @@ def run(args: argparse.Namespace) -> int:
         body.append(row)
         print(f"measured {name}", file=sys.stderr, flush=True)
     print(format_table(["model (ms per frame)", "no front end", "+pose (warp)", "+image",
-                        "+image+gain"], body, args.markdown))
+                        "+image+gain"], body, markdown))
     return 0

@@ -1,8 +1,9 @@
 """Training avoidance policies with stable-baselines3 (the 'rl' extra), CleanRL-style: each
 step of the job in a module of its own, read top to bottom.
 
-- `lgmd_sim.training.policy`: a trained policy on disk (the model, the pipeline it sees);
-- `lgmd_sim.training.envs`: that pipeline, for one environment and as a training VecEnv;
+- `lgmd_sim.training.envs`: the training VecEnv, observing as `lgmd_sim.policies.observe`
+  (a trained policy on disk and what it sees live in `lgmd_sim.policies`, below the
+  controllers that drive with it);
 - `lgmd_sim.training.algos`: the algorithms' hyperparameters per observation kind;
 - `lgmd_sim.training.callbacks`: progress bar, collision rate, validation, checkpoints;
 - `lgmd_sim.training.curve`: the learning curve from the logs;

@@ -51,7 +51,7 @@ def parse_overrides(items: Iterable[str], algo: str) -> dict[str, Any]:
     Raises:
         ValueError: not KEY=VALUE, not a literal, or a key the algorithm does not take.
     """
-    from lgmd_sim.training.policy import ALGOS
+    from lgmd_sim.policies.folder import ALGOS
 
     cls = getattr(require("stable_baselines3", "rl"), ALGOS[algo])
     valid = set(inspect.signature(cls.__init__).parameters) - {"self", "policy", "env", "seed"}
@@ -77,7 +77,7 @@ def hyperparameters(algo: str, obs: str, overrides: Mapping[str, Any] | None = N
 
 def make_model(algo: str, venv: Any, kwargs: Mapping[str, Any], seed: int) -> Any:
     """A new stable-baselines3 model of `algo` on `venv` (on the CPU)."""
-    from lgmd_sim.training.policy import ALGOS
+    from lgmd_sim.policies.folder import ALGOS
 
     cls = getattr(require("stable_baselines3", "rl"), ALGOS[algo])
     return cls("MultiInputPolicy", venv, seed=seed, device="cpu", verbose=0, **kwargs)

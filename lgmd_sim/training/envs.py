@@ -1,14 +1,11 @@
-"""The environments a policy trains and acts in, built from its `PolicyConfig`.
+"""The training VecEnv of a policy, built from its `PolicyConfig`.
 
-One pipeline, two shapes:
-
-- `observe` wraps one Gymnasium environment as the policy sees it: what the
-  `lgmd_sim.controllers.Policy` controller acts on in the benchmark;
-- `make_vec_env` builds the training VecEnv (SubprocVecEnv workers, or one in-process
-  DummyVecEnv) whose observations are those of `observe`'d environments, bit for bit: for
-  "features" the LGMD models run batched across the environments in this process
-  (`VecLGMDObservation`, identical to `LGMDObservation` per environment), for "pixels"
-  each worker runs `PixelObservation`.
+`make_vec_env` builds the training VecEnv (SubprocVecEnv workers, or one in-process
+DummyVecEnv) whose observations are those of `lgmd_sim.policies.observe`'d environments
+(what the `lgmd_sim.controllers.Policy` controller acts on), bit for bit: for "features"
+the LGMD models run batched across the environments in this process
+(`VecLGMDObservation`, identical to `LGMDObservation` per environment), for "pixels" each
+worker runs `PixelObservation`.
 
 Observation normalisation (`VecNormalize`) sits on top during training; the policy folder
 keeps its statistics and the controller applies them frozen (`Normalizer`).
@@ -17,71 +14,14 @@ keeps its statistics and the controller applies them frozen (`Normalizer`).
 from __future__ import annotations
 
 import functools
-from collections import deque
 from typing import Any
 
-import cv2
 import gymnasium as gym
-import numpy as np
-from gymnasium import spaces
 
-from lgmd_sim.envs.wrappers import LGMDObservation
-from lgmd_sim.envs.wrappers.frames import check_frame_space
-from lgmd_sim.frames import to_grey
-from lgmd_sim.training.policy import PolicyConfig
+from lgmd_sim.policies.folder import PolicyConfig
+from lgmd_sim.policies.observe import base_env, observe
 
-__all__ = ["PixelObservation", "VecEnvs", "base_env", "make_vec_env", "observe"]
-
-
-class PixelObservation(gym.ObservationWrapper):
-    """The last `stack` camera frames, grey and shrunk to `size`, in place of the frame.
-
-    ``obs["frame"]`` becomes uint8 (stack, H, W), oldest first (channels first, as
-    stable-baselines3's CNN policies take it); at a reset every slot holds the first frame,
-    so that a policy sees no motion that did not happen. Frames are shrunk with area
-    averaging (OpenCV's INTER_AREA), which keeps thin obstacles visible.
-
-    Args:
-        env: a jitter environment (a Dict observation with a uint8 "frame").
-        size: (height, width) of the observed frames.
-        stack: number of frames observed.
-    """
-
-    def __init__(self, env: gym.Env, size: tuple[int, int] = (60, 80), stack: int = 4) -> None:
-        super().__init__(env)
-        check_frame_space(env.observation_space)
-        self.size, self.stack = (int(size[0]), int(size[1])), int(stack)
-        self._frames: deque[np.ndarray] = deque(maxlen=self.stack)
-        self.observation_space = spaces.Dict({
-            **env.observation_space.spaces,
-            "frame": spaces.Box(0, 255, (self.stack, *self.size), np.uint8)})
-
-    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None
-              ) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
-        self._frames.clear()
-        return super().reset(seed=seed, options=options)
-
-    def observation(self, observation: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
-        h, w = self.size
-        small = cv2.resize(to_grey(observation["frame"]), (w, h), interpolation=cv2.INTER_AREA)
-        if not self._frames:
-            self._frames.extend([small] * self.stack)
-        self._frames.append(small)
-        return {**observation, "frame": np.stack(self._frames)}
-
-
-def base_env(config: PolicyConfig, jitter: float | None = None) -> gym.Env:
-    """The environment of `config` (at its training jitter unless `jitter` is given)."""
-    return gym.make(config.env_id, jitter=config.jitter if jitter is None else jitter,
-                    resolution=config.resolution)
-
-
-def observe(env: gym.Env, config: PolicyConfig) -> gym.Env:
-    """`env` as the policy of `config` observes it (before normalisation)."""
-    if config.obs == "features":
-        return LGMDObservation(env, config.model, preset=config.preset,
-                               history=config.history, grid=config.grid, keep_frame=False)
-    return PixelObservation(env, config.frame_size, config.frame_stack)
+__all__ = ["VecEnvs", "make_vec_env"]
 
 
 def _worker_env(config: PolicyConfig) -> gym.Env:

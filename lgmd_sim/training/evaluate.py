@@ -10,62 +10,99 @@ size), so the policies must share both.
 
 from __future__ import annotations
 
-import argparse
 import csv
-import math
 from collections import defaultdict
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from lgmd_sim.bench.closed_loop import Cell, ClosedLoopConfig
 from lgmd_sim.fileio import write_text_atomic
+from lgmd_sim.runs import RunResult
 
-__all__ = ["eval_markdown", "evaluate"]
+__all__ = ["EvalConfig", "eval_markdown", "evaluate"]
 
 
-def evaluate(args: argparse.Namespace) -> int:
-    """Check the policies and every list, then run the benchmark with the policies' cells."""
-    from lgmd_sim import controllers
+@dataclass(frozen=True)
+class EvalConfig:
+    """What `evaluate` runs, checked when it is made (a bad value raises a one-line
+    ValueError naming it).
+
+    Attributes:
+        policies: policy folders (as `lgmd-sim train` writes them) or shipped policies'
+            names ("shipped": the default one); they must share their environment and
+            frame size, in which every cell then runs.
+        controllers: hand-made controllers beside them (`lgmd_sim.controllers`, not
+            "policy"); () for none.
+        detectors, jitter, seeds, first_seed, cruise, horizon: as in
+            `lgmd_sim.bench.closed_loop.ClosedLoopConfig`.
+    """
+
+    policies: tuple[str, ...] = ("shipped",)
+    controllers: tuple[str, ...] = ("straight", "oracle", "reactive")
+    detectors: tuple[tuple[str, str], ...] | None = None
+    jitter: tuple[float, ...] = (1.0, 2.0)
+    seeds: int = 50
+    first_seed: int = 1000
+    cruise: float = 0.6
+    horizon: float = 2.0
+
+    def __post_init__(self) -> None:
+        from lgmd_sim import controllers, options
+
+        hand_made = [c for c in controllers.available() if c != "policy"]
+        object.__setattr__(self, "policies", tuple(self.policies) or ("shipped",))
+        object.__setattr__(self, "controllers", tuple(
+            options.names(self.controllers, hand_made, "controller(s)")
+            if self.controllers else ()))
+        self.bench()  # the policies and every episode option, checked now
+
+    def bench(self) -> ClosedLoopConfig:
+        """The closed-loop benchmark that evaluates the policies: their cells beside the
+        hand-made controllers', in the environment they were trained in."""
+        from lgmd_sim.envs.catalogue import scenarios
+        from lgmd_sim.extras import require
+        from lgmd_sim.policies import load_config, name_of
+
+        require("stable_baselines3", "rl")
+        loaded = [load_config(p) for p in self.policies]
+        names = [name_of(folder) for folder, _, _ in loaded]
+        if len(set(names)) < len(names):
+            raise ValueError(f"two policies share a folder name ({', '.join(names)}): the "
+                             "name labels a policy's cells")
+        envs = {(c.env_id, str(c.resolution)) for _, c, _ in loaded}
+        if len(envs) > 1:
+            raise ValueError("the policies were trained in different environments or frame "
+                             f"sizes ({'; '.join(' at '.join(e) for e in sorted(envs))}): "
+                             "evaluate them apart")
+        trained = loaded[0][1]
+        by_id = {s.env_id: name for name, s in scenarios().items()}
+        if trained.env_id not in by_id:
+            raise ValueError(f"policy {names[0]} was trained in {trained.env_id}, which is "
+                             "not a scenario of the catalogue (lgmd-sim envs lists them)")
+        scenario = by_id[trained.env_id]
+        extra = tuple(Cell(scenario, float(j), "policy",
+                           params=(("path", str(folder.resolve())),), tag=name)
+                      for j in self.jitter
+                      for (folder, _, _), name in zip(loaded, names, strict=True))
+        return ClosedLoopConfig(
+            scenarios=(scenario,), jitter=self.jitter, controllers=self.controllers,
+            detectors=self.detectors, seeds=self.seeds, first_seed=self.first_seed,
+            resolution=trained.resolution, cruise=self.cruise, horizon=self.horizon,
+            extra=extra)
+
+
+def evaluate(config: EvalConfig, out: str | Path, *, resume: bool = False,
+             workers: int | None = None, ray_address: str | None = None,
+             progress: bool | None = None, command: str = "") -> RunResult:
+    """Run the policies of `config` in the closed-loop benchmark (its tables and figures
+    in `out`, see `lgmd_sim.bench.closed_loop.run` for the arguments), then ``eval.md``."""
     from lgmd_sim.bench import closed_loop
-    from lgmd_sim.bench.cli import parse_detectors, parse_jitter, parse_names
-    from lgmd_sim.envs.catalogue import scenarios
-    from lgmd_sim.extras import require
-    from lgmd_sim.training.policy import load_config, name_of
 
-    require("stable_baselines3", "rl")
-    loaded = [load_config(p) for p in args.policies or ["shipped"]]
-    names = [name_of(folder) for folder, _, _ in loaded]
-    if len(set(names)) < len(names):
-        raise ValueError(f"two policies share a folder name ({', '.join(names)}): the name "
-                         "labels a policy's cells")
-    envs = {(c.env_id, str(c.resolution)) for _, c, _ in loaded}
-    if len(envs) > 1:
-        raise ValueError("the policies were trained in different environments or frame sizes "
-                         f"({'; '.join(' at '.join(e) for e in sorted(envs))}): evaluate them "
-                         "apart")
-    config = loaded[0][1]
-    by_id = {s.env_id: name for name, s in scenarios().items()}
-    if config.env_id not in by_id:
-        raise ValueError(f"policy {names[0]} was trained in {config.env_id}, which is not a "
-                         "scenario of the catalogue (lgmd-sim envs lists them)")
-    hand_made = [c for c in controllers.available() if c != "policy"]
-    args.controllers = ([] if args.controllers.strip() == "none" else
-                        parse_names(args.controllers, hand_made, "controller(s)"))
-    args.detectors = parse_detectors(args.models, args.presets)
-    args.jitter = parse_jitter(args.jitter)
-    args.scenarios = [by_id[config.env_id]]
-    args.resolution = config.resolution
-    if not (-1 <= args.cruise <= 1):
-        raise ValueError(f"--cruise must be in [-1, 1], got {args.cruise}")
-    if not (math.isfinite(args.horizon) and args.horizon > 0):
-        raise ValueError(f"--horizon must be a number > 0, got {args.horizon}")
-    extra = [closed_loop.Cell(args.scenarios[0], j, "policy",
-                              params=(("path", str(folder.resolve())),), tag=name)
-             for j in args.jitter for (folder, _, _), name in zip(loaded, names, strict=True)]
-    code = closed_loop.run(args, extra)
-    out = Path(args.out)
-    write_text_atomic(out / "eval.md", eval_markdown(out))
-    print(f"wrote {out}/eval.md")
-    return code
+    result = closed_loop.run(config.bench(), out, resume=resume, workers=workers,
+                             ray_address=ray_address, progress=progress, command=command)
+    write_text_atomic(result.path / "eval.md", eval_markdown(result.path))
+    return RunResult(result.path, result.rows, [*result.files, "eval.md"])
 
 
 def eval_markdown(folder: Path) -> str:
@@ -99,8 +136,6 @@ def eval_markdown(folder: Path) -> str:
 
 
 def _label(r: dict[str, Any]) -> str:
-    from lgmd_sim.bench.closed_loop import Cell
-
     return Cell(r["scenario"], float(r["jitter"]), r["controller"], r["model"] or None,
                 r["preset"] or None, tag=r["tag"] or None).label
 

@@ -8,10 +8,11 @@ learning curve and the run's record.
 
 Layout of ``DIR``:
 
-- ``run.json``: the configuration, and per session (the first run and each resume) the
-  exact command, versions, machine, environment seeds, steps and throughput;
+- ``run.json`` (`lgmd_sim.runs.RunFolder`): the configuration, the machine, and per
+  session (the first run and each resume) the exact command, wall time, versions,
+  environment seeds, steps and throughput;
 - ``policy.zip``, ``policy.json``: the final policy (a policy folder, see
-  `lgmd_sim.training.policy`); ``best/``: the one with the best validation score;
+  `lgmd_sim.policies.folder`); ``best/``: the one with the best validation score;
 - ``checkpoints/``: what ``--resume DIR`` continues from;
 - ``logs/session-N/``: stable-baselines3's CSV log (``progress.csv``) and TensorBoard
   events; ``learning_curve.png`` is drawn from them; ``summary.md``.
@@ -25,85 +26,116 @@ continue each environment's generator), below `VALIDATION_SEED`; validation uses
 
 from __future__ import annotations
 
-import argparse
 import copy
+import dataclasses
 import json
 import math
 import platform
 import time
 from collections.abc import Mapping
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from lgmd_sim import __version__
+from lgmd_sim import __version__, options
 from lgmd_sim.extras import require
 from lgmd_sim.fileio import write_text_atomic
-from lgmd_sim.training.policy import ALGOS, OBS, PolicyConfig
+from lgmd_sim.policies.folder import ALGOS, OBS, PolicyConfig
+from lgmd_sim.runs import RunFolder, RunResult
 
-__all__ = ["DEFAULTS", "VALIDATION_SEED", "train"]
+__all__ = ["RESUMABLE", "VALIDATION_SEED", "TrainConfig", "summary_markdown", "train"]
 
 #: The first validation seed; training seeds stay below it, test seeds start at 1000.
 VALIDATION_SEED = 900
-#: Options of `lgmd-sim train` and their defaults (None in the parsed arguments: not
-#: given, so that --resume can tell them from the recorded ones).
-DEFAULTS: dict[str, Any] = {
-    "algo": "ppo", "env": "lgmd_sim/RoughTerrainObstacles-v0", "obs": "features",
-    "model": "feedback", "preset": None, "resolution": "rl", "jitter": 1.0,
-    "steps": 300_000, "envs": 2, "seed": 0, "eval_every": 25_000, "eval_seeds": 10,
-    "checkpoint_every": 25_000, "hp": [],
-}
 #: Options a resumed run may change; the others must be as recorded.
-_RESUMABLE = ("steps", "envs")
+RESUMABLE = ("steps", "envs")
 #: Bare VecEnv steps (per environment) timed before training.
 _SPEED_STEPS = 100
 
 
-def _options(args: argparse.Namespace, recorded: Mapping[str, Any] | None) -> dict[str, Any]:
-    """The run's options: the recorded ones (resuming) or the defaults, under those given."""
-    given = {k: getattr(args, k) for k in DEFAULTS if getattr(args, k, None) is not None}
-    if recorded is None:
-        return {**DEFAULTS, **given}
-    for key, value in given.items():
-        if key not in _RESUMABLE and json.loads(json.dumps(value)) != recorded[key]:
-            raise ValueError(f"--{key.replace('_', '-')} {value} differs from the run being "
-                             f"resumed ({recorded[key]}); only --steps and --envs may change")
-    return {**recorded, **given}
+@dataclass(frozen=True)
+class TrainConfig:
+    """What a training run trains, checked when it is made (a bad value raises a
+    one-line ValueError naming it).
 
+    Attributes:
+        algo: a key of `lgmd_sim.policies.folder.ALGOS` ("ppo", "sac").
+        env: the Gymnasium id of the environment.
+        obs: "features" (an LGMD model's signals with the proprioception and goal) or
+            "pixels" (small stacked grey frames).
+        model, preset: the LGMD model of "features", MODEL or MODEL/PRESET (with front
+            ends), and its preset (None: the model's default); both None for "pixels".
+        resolution: the frame size the environment renders.
+        jitter: the jitter level of the training episodes.
+        steps: environment steps in all, over every environment and session.
+        envs: environments stepped in parallel (worker processes).
+        seed: seed of the model and of the first training environment.
+        eval_every, eval_seeds: validate every N steps on this many held-out seeds (from
+            `VALIDATION_SEED`).
+        checkpoint_every: write a checkpoint every N steps.
+        hp: hyperparameter overrides, each "KEY=VALUE" (`lgmd_sim.training.algos`).
+    """
 
-def _check(o: dict[str, Any]) -> None:
-    """Raise ValueError naming the first bad option."""
-    import gymnasium as gym
+    algo: str = "ppo"
+    env: str = "lgmd_sim/RoughTerrainObstacles-v0"
+    obs: str = "features"
+    model: str | None = "feedback"
+    preset: str | None = None
+    resolution: str | tuple[int, int] = "rl"
+    jitter: float = 1.0
+    steps: int = 300_000
+    envs: int = 2
+    seed: int = 0
+    eval_every: int = 25_000
+    eval_seeds: int = 10
+    checkpoint_every: int = 25_000
+    hp: tuple[str, ...] = ()
 
-    from lgmd_sim import models
-    from lgmd_sim.world.params import MAX_JITTER
+    def __post_init__(self) -> None:
+        import gymnasium as gym
 
-    if o["algo"] not in ALGOS:
-        raise ValueError(f"unknown algorithm {o['algo']!r}; available: {', '.join(ALGOS)}")
-    if o["obs"] not in OBS:
-        raise ValueError(f"unknown observation {o['obs']!r}; available: {', '.join(OBS)}")
-    try:
-        gym.spec(o["env"])
-    except gym.error.Error:
-        raise ValueError(f"unknown environment id {o['env']!r} (lgmd-sim envs lists them)"
-                         ) from None
-    if o["obs"] == "features":
-        o["model"], o["preset"] = models.parse_spec(
-            o["model"] if o["preset"] is None else f"{o['model']}/{o['preset']}")
-    else:
-        o["model"] = o["preset"] = None
-    for key in ("steps", "envs", "eval_every", "checkpoint_every", "eval_seeds"):
-        if not (isinstance(o[key], int) and o[key] >= 1):
-            raise ValueError(f"--{key.replace('_', '-')} must be a positive integer, "
-                             f"got {o[key]}")
-    if o["eval_seeds"] > 1000 - VALIDATION_SEED:
-        raise ValueError(f"--eval-seeds must be at most {1000 - VALIDATION_SEED} (validation "
-                         f"seeds are {VALIDATION_SEED} to 999), got {o['eval_seeds']}")
-    if not (isinstance(o["seed"], int) and 0 <= o["seed"]):
-        raise ValueError(f"--seed must be an integer >= 0, got {o['seed']}")
-    if not (isinstance(o["jitter"], float | int) and 0 <= o["jitter"] <= MAX_JITTER):
-        raise ValueError(f"--jitter must be a number in [0, {MAX_JITTER:g}], got {o['jitter']}")
+        from lgmd_sim import models
+        from lgmd_sim.training import algos
+
+        if self.algo not in ALGOS:
+            raise ValueError(f"unknown algorithm {self.algo!r}; available: {', '.join(ALGOS)}")
+        if self.obs not in OBS:
+            raise ValueError(f"unknown observation {self.obs!r}; available: {', '.join(OBS)}")
+        try:
+            gym.spec(self.env)
+        except gym.error.Error:
+            raise ValueError(f"unknown environment id {self.env!r} (lgmd-sim envs lists "
+                             "them)") from None
+        if self.obs == "features":
+            model, preset = models.parse_spec(
+                str(self.model) if self.preset is None else f"{self.model}/{self.preset}")
+        else:
+            model = preset = None
+        object.__setattr__(self, "model", model)
+        object.__setattr__(self, "preset", preset)
+        object.__setattr__(self, "resolution", options.resolution(self.resolution))
+        for key in ("steps", "envs", "eval_every", "checkpoint_every", "eval_seeds"):
+            options.check_positive(getattr(self, key), f"--{key.replace('_', '-')}",
+                                   integer=True)
+        if self.eval_seeds > 1000 - VALIDATION_SEED:
+            raise ValueError(f"--eval-seeds must be at most {1000 - VALIDATION_SEED} "
+                             f"(validation seeds are {VALIDATION_SEED} to 999), got "
+                             f"{self.eval_seeds}")
+        options.check_seed(self.seed, "--seed")
+        options.check_jitter([self.jitter])
+        object.__setattr__(self, "hp", tuple(self.hp))
+        algos.parse_overrides(self.hp, self.algo)
+
+    def policy(self) -> PolicyConfig:
+        """The configuration of the policy it trains."""
+        return PolicyConfig(self.algo, self.obs, self.env, self.resolution,
+                            float(self.jitter), self.model, self.preset)
+
+    def as_json(self) -> dict[str, Any]:
+        """The configuration as the run folder records it."""
+        return json.loads(json.dumps(dataclasses.asdict(self)))
 
 
 def _versions() -> dict[str, str]:
@@ -114,29 +146,6 @@ def _versions() -> dict[str, str]:
     return {"lgmd-sim": __version__, "python": platform.python_version(),
             **{name: version(name) for name in ("stable-baselines3", "torch", "gymnasium",
                                                 "mujoco", "numpy")}}
-
-
-def _prepare_folder(out: Path) -> None:
-    """Refuse a folder that holds anything (another run, or something else)."""
-    if out.exists() and not out.is_dir():
-        raise ValueError(f"output folder {out} is a file")
-    if out.is_dir() and any(out.iterdir()):
-        held = ("holds a training run: add --resume " + str(out) + " to continue it"
-                if (out / "run.json").is_file() else "is not empty and holds no run")
-        raise ValueError(f"output folder {out} {held}, or choose another folder")
-
-
-def _recorded(folder: Path) -> dict[str, Any]:
-    """The record of the run in `folder`, which must hold a checkpoint."""
-    try:
-        record = json.loads((folder / "run.json").read_text())
-        record["options"]
-    except (OSError, ValueError, KeyError):
-        raise ValueError(f"--resume {folder}: no training run there (no readable run.json)"
-                         ) from None
-    if not (folder / "checkpoints" / "state.json").is_file():
-        raise ValueError(f"--resume {folder}: the run has no checkpoint to resume from")
-    return record
 
 
 def _bare_speed(envs: Any, env_id: str) -> float:
@@ -159,76 +168,81 @@ def _normalize_keys(obs_space: Any, obs: str) -> list[str]:
     return [k for k in obs_space.spaces if not (obs == "pixels" and k == "frame")]
 
 
-def train(args: argparse.Namespace) -> int:
-    """`lgmd-sim train`."""
-    resume = Path(args.resume) if args.resume else None
-    if resume is not None and args.out is not None and Path(args.out) != resume:
-        raise ValueError("--out and --resume name different folders: --resume continues "
-                         "the run in its own folder")
-    record = _recorded(resume) if resume else None
-    o = _options(args, record["options"] if record else None)
-    _check(o)
-    from lgmd_sim.training import algos
+def train(config: TrainConfig, out: str | Path, *, resume: bool = False,
+          progress: bool | None = None, command: str = "") -> RunResult:
+    """Train the policy of `config` in folder `out`, or (with `resume`) continue the run
+    there from its last checkpoint up to ``config.steps`` (only `RESUMABLE` options may
+    differ from the run's); return its validation rows (final, best).
 
+    Raises:
+        ValueError: a folder holding something else, a run without a checkpoint, a step
+            budget already reached, seeds that would reach the validation seeds, an
+            environment whose reward is not finite (one line each).
+    """
     require("stable_baselines3", "rl")
     require("tensorboard", "rl")
-    kwargs = algos.hyperparameters(o["algo"], o["obs"], algos.parse_overrides(o["hp"], o["algo"]))
-    out = resume or Path(args.out or f"train-{o['algo']}-{o['obs']}")
-    if resume is None:
-        _prepare_folder(out)
-    sessions = record["sessions"] if record else []
-    if resume is not None and o["steps"] <= _checkpoint_steps(resume / "checkpoints"):
-        raise ValueError(f"--steps {o['steps']}: the run is at "
-                         f"{_checkpoint_steps(resume / 'checkpoints')} steps already")
-    first_seed = o["seed"] + sum(s["env_seeds"][1] for s in sessions)
-    if first_seed + o["envs"] > VALIDATION_SEED:
-        raise ValueError(f"training seeds {first_seed} to {first_seed + o['envs'] - 1} would "
-                         f"reach the validation seeds (from {VALIDATION_SEED}): use a lower "
-                         "--seed or fewer --envs")
-    config = PolicyConfig(o["algo"], o["obs"], o["env"], o["resolution"], float(o["jitter"]),
-                          o["model"], o["preset"])
-    return _train(out, o, config, kwargs, sessions, first_seed, args)
+    from lgmd_sim.training import algos
+
+    out = Path(out)
+    checkpoints = out / "checkpoints"
+    recorded = RunFolder.recorded(out) if resume else None
+    if resume and not (checkpoints / "state.json").is_file():
+        raise ValueError(f"--resume {out}: " + ("no training run there (no readable run.json)"
+                                                if recorded is None else
+                                                "the run has no checkpoint to resume from"))
+    if resume and config.steps <= _checkpoint_steps(checkpoints):
+        raise ValueError(f"--steps {config.steps}: the run is at "
+                         f"{_checkpoint_steps(checkpoints)} steps already")
+    sessions = recorded["sessions"] if recorded else []
+    first_seed = config.seed + sum(s["env_seeds"][1] for s in sessions)
+    if first_seed + config.envs > VALIDATION_SEED:
+        raise ValueError(f"training seeds {first_seed} to {first_seed + config.envs - 1} "
+                         f"would reach the validation seeds (from {VALIDATION_SEED}): use a "
+                         "lower --seed or fewer --envs")
+    kwargs = algos.hyperparameters(config.algo, config.obs,
+                                   algos.parse_overrides(config.hp, config.algo))
+    return _train(out, config, kwargs, first_seed, resume, progress, command)
 
 
-def _train(out: Path, o: dict[str, Any], config: PolicyConfig, kwargs: dict[str, Any],
-           sessions: list[dict[str, Any]], first_seed: int, args: argparse.Namespace) -> int:
+def _train(out: Path, config: TrainConfig, kwargs: dict[str, Any], first_seed: int,
+           resume: bool, progress_bar: bool | None, command: str) -> RunResult:
     import torch
     from stable_baselines3.common.logger import configure
     from stable_baselines3.common.vec_env import VecNormalize
 
-    from lgmd_sim.bench.runs import machine
+    from lgmd_sim import policies
     from lgmd_sim.training import algos, callbacks, curve
-    from lgmd_sim.training import policy as policies
     from lgmd_sim.training.envs import make_vec_env
 
     torch.set_num_threads(1)  # the environment workers have the other cores
     checkpoints = out / "checkpoints"
-    resuming = bool(sessions)
-    envs = make_vec_env(config, o["envs"])
+    policy = config.policy()
+    envs = make_vec_env(policy, config.envs)
     validation = None
     try:
-        bare = _bare_speed(envs, config.env_id)
-        keys = _normalize_keys(envs.venv.observation_space, config.obs)
-        if resuming:
-            venv, model = _load_checkpoint(checkpoints, envs.venv, config.algo)
-            model.set_random_seed(o["seed"] + len(sessions))
+        bare = _bare_speed(envs, policy.env_id)
+        keys = _normalize_keys(envs.venv.observation_space, policy.obs)
+        folder = RunFolder(out, config.as_json(), command, resume=resume, what="training run",
+                           resume_hint=f"add --resume {out} to continue it",
+                           changeable=RESUMABLE)
+        earlier = len(folder.sessions) - 1
+        if earlier:
+            venv, model = _load_checkpoint(checkpoints, envs.venv, policy.algo)
+            model.set_random_seed(config.seed + earlier)
         else:
             venv = VecNormalize(envs.venv, norm_obs_keys=keys, gamma=kwargs.get("gamma", 0.99),
-                                norm_reward=config.algo == "ppo")  # SAC: rewards as they are
-            model = algos.make_model(config.algo, venv, kwargs, o["seed"])
-        started = time.time()
-        session = {"command": args.command_line, "started": time.strftime("%Y-%m-%d %H:%M:%S"),
-                   "versions": _versions(), "machine": machine(),
-                   "env_seeds": [first_seed, o["envs"]]}
-        out.mkdir(parents=True, exist_ok=True)
-        options = {**o, "resolution": json.loads(json.dumps(o["resolution"]))}
-        _write_record(out, options, config, kwargs, [*sessions, session], "running")
+                                norm_reward=policy.algo == "ppo")  # SAC: rewards as they are
+            model = algos.make_model(policy.algo, venv, kwargs, config.seed)
+        folder.session.update(versions=_versions(), env_seeds=[first_seed, config.envs])
+        folder.note(policy=policy.to_json(), hyperparameters=kwargs, seeds={
+            "training": "from the first of each session's env_seeds",
+            "validation": [VALIDATION_SEED, config.eval_seeds], "test": "from 1000"})
         venv.seed(first_seed)  # environment i: first_seed + i, at the reset learn() makes
-        model.set_logger(configure(str(out / "logs" / f"session-{len(sessions)}"),
+        model.set_logger(configure(str(out / "logs" / f"session-{earlier}"),
                                    ["csv", "tensorboard"]))
         steps_from = model.num_timesteps
 
-        validation = make_vec_env(config, o["envs"])
+        validation = make_vec_env(policy, config.envs)
         val_norm = VecNormalize(validation.venv, norm_obs_keys=keys, training=False,
                                 norm_reward=False)
         validation.venv = val_norm
@@ -236,8 +250,8 @@ def _train(out: Path, o: dict[str, Any], config: PolicyConfig, kwargs: dict[str,
         def sync() -> None:
             val_norm.obs_rms = copy.deepcopy(venv.obs_rms)
 
-        progress = callbacks.Progress(o["steps"], False if args.no_progress else None)
-        best = _Best(out / "best", config, venv, args.command_line)
+        progress = callbacks.Progress(config.steps, progress_bar)
+        best = _Best(out / "best", policy, venv, command)
 
         def on_scores(step: int, scores: dict[str, float]) -> None:
             progress.show({"val success": scores["success_rate"],
@@ -245,11 +259,11 @@ def _train(out: Path, o: dict[str, Any], config: PolicyConfig, kwargs: dict[str,
             best.offer(model, step, scores)
 
         validate = callbacks.Validation(
-            validation, range(VALIDATION_SEED, VALIDATION_SEED + o["eval_seeds"]),
-            o["eval_every"], sync, on_scores)
-        checkpoint = callbacks.Checkpoint(checkpoints, o["checkpoint_every"], venv)
+            validation, range(VALIDATION_SEED, VALIDATION_SEED + config.eval_seeds),
+            config.eval_every, sync, on_scores)
+        checkpoint = callbacks.Checkpoint(checkpoints, config.checkpoint_every, venv)
         learn_start = time.perf_counter()
-        model.learn(total_timesteps=o["steps"] - steps_from, reset_num_timesteps=False,
+        model.learn(total_timesteps=config.steps - steps_from, reset_num_timesteps=False,
                     callback=[progress, callbacks.EpisodeStats(), validate, checkpoint])
         learn_s = time.perf_counter() - learn_start
     finally:
@@ -259,22 +273,21 @@ def _train(out: Path, o: dict[str, Any], config: PolicyConfig, kwargs: dict[str,
 
     steps = model.num_timesteps - steps_from
     training_s = learn_s - validate.seconds - checkpoint.seconds
-    session.update(steps=[steps_from, model.num_timesteps], wall_s=round(time.time() - started),
-                   validation_s=round(validate.seconds), throughput={
-                       "bare_vec_env_steps_per_s": round(bare, 1),
-                       "training_steps_per_s": round(steps / training_s, 1),
-                       "ratio": round(steps / training_s / bare, 3)})
-    policies.save(out, model, config, policies.Normalizer.of(venv),
-                  steps=model.num_timesteps, command=args.command_line,
+    folder.session.update(
+        steps=[steps_from, model.num_timesteps], validation_s=round(validate.seconds), throughput={
+            "bare_vec_env_steps_per_s": round(bare, 1),
+            "training_steps_per_s": round(steps / training_s, 1),
+            "ratio": round(steps / training_s / bare, 3)})
+    policies.save(out, model, policy, policies.Normalizer.of(venv),
+                  steps=model.num_timesteps, command=command,
                   validation=best.last, version=__version__)
-    curve.learning_curve(out, f"{out.name}: {config.algo.upper()} on {config.obs}"
-                         + (f" ({config.model}/{config.preset})" if config.model else ""))
-    _write_record(out, options, config, kwargs, [*sessions, session], "complete")
+    curve.learning_curve(out, f"{out.name}: {policy.algo.upper()} on {policy.obs}"
+                         + (f" ({policy.model}/{policy.preset})" if policy.model else ""))
+    folder.finish()
     write_text_atomic(out / "summary.md", summary_markdown(out))
-    print(summary_markdown(out), end="")
-    print(f"wrote {out}/: policy.zip, policy.json, best/, learning_curve.png, summary.md, "
-          "run.json, logs/, checkpoints/")
-    return 0
+    files = ["policy.zip", "policy.json", "best/", "learning_curve.png", "summary.md",
+             "run.json", "logs/", "checkpoints/"]
+    return RunResult(out, _validation_rows(out), files)
 
 
 def _load_checkpoint(folder: Path, venv: Any, algo: str) -> tuple[Any, Any]:
@@ -297,15 +310,6 @@ def _checkpoint_steps(folder: Path) -> int:
     return int(json.loads((folder / "state.json").read_text())["num_timesteps"])
 
 
-def _write_record(out: Path, options: dict[str, Any], config: PolicyConfig,
-                  kwargs: dict[str, Any], sessions: list[dict[str, Any]], status: str) -> None:
-    write_text_atomic(out / "run.json", json.dumps({
-        "options": options, "policy": config.to_json(), "hyperparameters": kwargs,
-        "seeds": {"training": "from the first of each session's env_seeds",
-                  "validation": [VALIDATION_SEED, options["eval_seeds"]], "test": "from 1000"},
-        "status": status, "sessions": sessions}, indent=1, default=str))
-
-
 class _Best:
     """Keeps ``folder`` (a policy folder) at the validation's best score so far: success
     rate minus collision rate, then return; a resumed run starts from the saved best."""
@@ -324,7 +328,7 @@ class _Best:
         return (scores["success_rate"] - scores["collision_rate"], scores["mean_reward"])
 
     def offer(self, model: Any, step: int, scores: dict[str, float]) -> None:
-        from lgmd_sim.training import policy as policies
+        from lgmd_sim import policies
 
         self.last = {"step": step, "scores": scores}
         if self._score(scores) > self.score:
@@ -337,9 +341,8 @@ class _Best:
 def summary_markdown(folder: Path) -> str:
     """The run in `folder` as Markdown: what was trained, how fast, how it validated."""
     record = json.loads((folder / "run.json").read_text())
-    o = record["options"]
+    o = record["config"]
     detector = f", {o['model']}/{o['preset']}" if o["model"] else ""
-    trained = json.loads((folder / "policy.json").read_text())["trained"]
     lines = [f"# {folder.name}: {o['algo'].upper()} on {o['obs']}{detector}, {o['env']} at "
              f"jitter {o['jitter']:g}, {o['envs']} environments", "",
              "| session | steps | wall time (min) | training steps/s | bare VecEnv steps/s "
@@ -348,20 +351,25 @@ def summary_markdown(folder: Path) -> str:
         if "throughput" in s:
             t = s["throughput"]
             lines.append(f"| {i} | {s['steps'][0]:,} to {s['steps'][1]:,} | "
-                         f"{s['wall_s'] / 60:.1f} | {t['training_steps_per_s']:.0f} | "
+                         f"{s['wall_time_s'] / 60:.1f} | {t['training_steps_per_s']:.0f} | "
                          f"{t['bare_vec_env_steps_per_s']:.0f} | {t['ratio']:.2f} |")
     lines += ["", f"Validation ({o['eval_seeds']} held-out seeds from {VALIDATION_SEED}, "
               f"deterministic policy):", "",
               "| policy | at step | success rate | collision rate | mean distance (m) | "
               "mean return |", "|---|---:|---:|---:|---:|---:|"]
-    best_file = folder / "best" / "policy.json"
-    rows = [("final", trained.get("validation"))]
-    if best_file.is_file():
-        rows.append(("best", json.loads(best_file.read_text())["trained"]["validation"]))
-    for name, v in rows:
-        if v:
-            s = v["scores"]
-            lines.append(f"| {name} | {v['step']:,} | {s['success_rate']:.2f} | "
-                         f"{s['collision_rate']:.2f} | {s['mean_distance_m']:.2f} | "
-                         f"{s['mean_reward']:.2f} |")
+    for r in _validation_rows(folder):
+        lines.append(f"| {r['policy']} | {r['step']:,} | {r['success_rate']:.2f} | "
+                     f"{r['collision_rate']:.2f} | {r['mean_distance_m']:.2f} | "
+                     f"{r['mean_reward']:.2f} |")
     return "\n".join(lines) + "\n"
+
+
+def _validation_rows(folder: Path) -> list[dict[str, Any]]:
+    """The last validation of the final policy and of the best one, where there was one."""
+    rows = []
+    for name, file in (("final", folder / "policy.json"),
+                       ("best", folder / "best" / "policy.json")):
+        v = json.loads(file.read_text())["trained"].get("validation") if file.is_file() else None
+        if v:
+            rows.append({"policy": name, "step": v["step"], **v["scores"]})
+    return rows

@@ -12,11 +12,11 @@ baseline code itself, the oracles of the baselines' ``published`` presets.
 
 from __future__ import annotations
 
-from importlib import import_module
 from typing import Any
 
 from lgmd_sim import models
 from lgmd_sim.models.base import LGMDModel
+from lgmd_sim.registry import load
 
 __all__ = ["available_references", "make_reference"]
 
@@ -47,10 +47,9 @@ def make_reference(
     params_of = models.make(name, preset=preset, **params).params  # checks every argument
     if name not in _REFERENCES:
         raise ValueError(f"no reference implementation registered for model {name!r}")
-    module, cls = _REFERENCES[name].split(":")
     try:
-        ref_cls = getattr(import_module(module), cls)
+        ref_cls = load(_REFERENCES[name])
     except (ImportError, AttributeError) as exc:
-        raise ValueError(f"reference implementation of {name!r} ({module}:{cls}) is not "
+        raise ValueError(f"reference implementation of {name!r} ({_REFERENCES[name]}) is not "
                          f"available: {exc}") from exc
     return ref_cls(params_of, n_streams=n_streams)

@@ -9,7 +9,7 @@ A *policy folder* holds
 
 `lgmd-sim train` writes one at the end of a run (``DIR``) and one for the best
 validation score (``DIR/best``); the policies shipped with lgmd-sim
-(`lgmd_sim.policies`) are policy folders too. `load` gives back everything
+(`lgmd_sim.policies.available`) are policy folders too. `load` gives back everything
 `lgmd_sim.controllers.Policy` needs to act as in training.
 """
 
@@ -148,15 +148,16 @@ def resolve(path: str | os.PathLike) -> Path:
     Raises:
         ValueError: no policy there, naming what was looked for.
     """
-    from lgmd_sim import policies
+    from lgmd_sim.policies import DEFAULT, available
+    from lgmd_sim.policies import path as shipped
 
     folder = Path(path)
-    if str(path) in ("shipped", *policies.available()):
-        folder = policies.path(policies.DEFAULT if str(path) == "shipped" else str(path))
+    if str(path) in ("shipped", *available()):
+        folder = shipped(DEFAULT if str(path) == "shipped" else str(path))
     if not ((folder / CONFIG_FILE).is_file() and (folder / MODEL_FILE).is_file()):
         raise ValueError(f"no policy at {path}: expected a folder with {MODEL_FILE} and "
                          f"{CONFIG_FILE} (as lgmd-sim train writes), or a shipped policy: "
-                         f"shipped, {', '.join(policies.available())}")
+                         f"shipped, {', '.join(available())}")
     return folder
 
 

@@ -1,0 +1,182 @@
+"""The options every job shares, parsed and checked in one place.
+
+Parsers turn a command line's text into values ("0,1,2" -> jitter levels, "all" -> every
+scenario, "lgmd1/calibrated+image" -> a detector); checks hold a job's typed
+configuration to the same rules when it is made in Python. Each raises a one-line
+ValueError that names the option and the bad value, so that a bad option fails before
+any work starts.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Sequence
+from typing import Any
+
+__all__ = ["check_detectors", "check_jitter", "check_positive", "check_range", "check_seed",
+           "comma_list", "detectors", "jitter_levels", "model_names", "names",
+           "noise_levels", "resolution"]
+
+
+def comma_list(text: str) -> list[str]:
+    """The items of a comma-separated list, stripped, empty ones dropped."""
+    return [t.strip() for t in text.split(",") if t.strip()]
+
+
+def names(text: str | Iterable[str], valid: Sequence[str], what: str) -> list[str]:
+    """Names from a comma-separated list (or a sequence), each among `valid`; "all" is
+    every one; repeats dropped, order kept.
+
+    Args:
+        what: the kind of name, for the message ("scenario(s)").
+    """
+    given = comma_list(text) if isinstance(text, str) else [str(t) for t in text]
+    if given == ["all"]:
+        return list(valid)
+    unknown = [n for n in given if n not in valid]
+    if unknown or not given:
+        problem = f"unknown {what} {', '.join(map(repr, unknown))}" if unknown else (
+            f"no {what} given")
+        raise ValueError(f"{problem}; valid: {', '.join(valid)}")
+    return list(dict.fromkeys(given))
+
+
+def _jitter_error(shown: str) -> ValueError:
+    from lgmd_sim.world.params import MAX_JITTER
+
+    return ValueError(f"--jitter: jitter level {shown} is not a number in [0, {MAX_JITTER:g}]")
+
+
+def _is_jitter(level: Any) -> bool:
+    from lgmd_sim.world.params import MAX_JITTER
+
+    return (isinstance(level, int | float) and not isinstance(level, bool)
+            and 0 <= level <= MAX_JITTER)
+
+
+def jitter_levels(text: str) -> tuple[float, ...]:
+    """Jitter levels from "0,1,2" (repeats dropped, order kept)."""
+    levels = []
+    for item in text.split(","):
+        try:
+            level = float(item)
+        except ValueError:
+            level = math.nan
+        if not _is_jitter(level):
+            raise _jitter_error(repr(item.strip()))
+        levels.append(level)
+    return tuple(dict.fromkeys(levels))
+
+
+def check_jitter(levels: Sequence[float]) -> None:
+    """Jitter levels of a configuration: at least one, each in range, none twice."""
+    if not levels:
+        raise ValueError("--jitter: no jitter levels given")
+    for level in levels:
+        if not _is_jitter(level):
+            raise _jitter_error(repr(level))
+    if len(set(levels)) < len(levels):
+        raise ValueError(f"--jitter: a level is given twice: {', '.join(map(str, levels))}")
+
+
+def noise_levels(text: str) -> tuple[float, ...]:
+    """Noise levels (Gaussian variances, salt-and-pepper densities) from "0.001,0.005",
+    each in (0, 1]; "" is none."""
+    levels = []
+    for item in comma_list(text):
+        try:
+            level = float(item)
+        except ValueError:
+            level = -1.0
+        if not 0 < level <= 1:
+            raise ValueError(f"noise level {item!r} is not a number in (0, 1]")
+        levels.append(level)
+    return tuple(dict.fromkeys(levels))
+
+
+def check_positive(value: Any, option: str, *, integer: bool = False) -> None:
+    """A finite number > 0 (an integer >= 1 with `integer`)."""
+    if integer:
+        if not (isinstance(value, int) and not isinstance(value, bool) and value >= 1):
+            raise ValueError(f"{option} must be a positive integer, got {value!r}")
+    elif not (isinstance(value, int | float) and math.isfinite(value) and value > 0):
+        raise ValueError(f"{option} must be a number > 0, got {value!r}")
+
+
+def check_seed(value: Any, option: str) -> None:
+    """A seed: an integer >= 0."""
+    if not (isinstance(value, int) and not isinstance(value, bool) and value >= 0):
+        raise ValueError(f"{option} must be an integer >= 0, got {value!r}")
+
+
+def resolution(value: str | Sequence[int]) -> str | tuple[int, int]:
+    """A frame size, checked: a preset name (`lgmd_sim.world.params.RESOLUTIONS`) or
+    (height, width)."""
+    from lgmd_sim.world.params import resolution_check
+
+    value = value if isinstance(value, str) else tuple(value)
+    problem = resolution_check(value)
+    if problem:
+        raise ValueError(f"--resolution {problem}, got {value!r}")
+    return value
+
+
+def check_range(value: Any, option: str, lo: float, hi: float) -> None:
+    """A number in [lo, hi]."""
+    if not (isinstance(value, int | float) and lo <= value <= hi):
+        raise ValueError(f"{option} must be in [{lo:g}, {hi:g}], got {value!r}")
+
+
+def model_names(spec: str | Sequence[str]) -> list[str]:
+    """Model names from "all", a comma-separated list, or a sequence; unknown names fail."""
+    from lgmd_sim import models
+
+    given = comma_list(spec) if isinstance(spec, str) else [n.strip() for n in spec
+                                                              if n.strip()]
+    if given == ["all"]:
+        return models.available()
+    unknown = [n for n in given if n not in models.available()]
+    if unknown or not given:
+        what = f"unknown model(s) {', '.join(map(repr, unknown))}" if unknown else "no models"
+        raise ValueError(f"{what}; valid: all, {', '.join(models.available())}")
+    return list(dict.fromkeys(given))
+
+
+def detectors(models_text: str | Sequence[str], presets_text: str | None = None
+              ) -> tuple[tuple[str, str], ...]:
+    """(model, preset) pairs from a list of detectors ("all", or each MODEL or
+    MODEL/PRESET, optionally with front ends: `lgmd_sim.models.parse_spec`) and a list of
+    presets: a model listed without a preset runs each of those it has (its default when
+    it has none of them)."""
+    from lgmd_sim import models
+
+    tokens = comma_list(models_text) if isinstance(models_text, str) else list(models_text)
+    if tokens == ["all"]:
+        tokens = models.available()
+    presets = comma_list(presets_text or "")
+    found = []
+    for token in tokens:
+        name, preset = models.parse_spec(token)
+        have = [p for p in presets if p in models.presets_of(name)]
+        found += ([(name, p) for p in have] if have and "/" not in token
+                  else [(name, preset)])
+    if presets and not any(p in models.presets_of(n) for n, _ in found for p in presets):
+        raise ValueError(f"no model listed has any of the presets {', '.join(presets)}")
+    if not found:
+        raise ValueError("no models given")
+    return tuple(dict.fromkeys(found))
+
+
+def check_detectors(pairs: Sequence[Sequence[str]]) -> tuple[tuple[str, str], ...]:
+    """(model, preset) pairs of a configuration, each a detector `lgmd_sim.models`
+    builds, as tuples."""
+    from lgmd_sim import models
+
+    if not pairs:
+        raise ValueError("no models given")
+    out = []
+    for pair in pairs:
+        if len(pair) != 2:
+            raise ValueError(f"a detector is (model, preset), got {pair!r}")
+        out.append(models.parse_spec(f"{pair[0]}/{pair[1]}"))
+    return tuple(out)

@@ -1,0 +1,192 @@
+"""A run's folder: its configuration, every session that ran it, one record per finished
+job, resuming.
+
+Every resumable job keeps its results this way (the benchmarks, the calibration,
+training, dataset generation). Layout of ``DIR``:
+
+- ``run.json`` (or the job's own `record` path): the configuration (what identifies the
+  run), the package version, the machine, the command that started the run, and every
+  session (the first run and each resume: its command, start and wall time, and the
+  facts the job adds); ``status`` is "running" until the job calls `RunFolder.finish`;
+- ``records/<key>.json``: one record per finished job, written atomically as it
+  finishes, so that an interrupted run keeps them and resuming runs only the rest;
+- whatever the job writes beside them.
+
+A folder that is not empty is used only to continue the same configuration: another
+configuration, a folder that holds no run, or (without ``resume``) a run already there is
+refused with one line naming the difference or the way to resume.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import time
+from collections.abc import Collection, Iterable, Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from lgmd_sim import __version__
+from lgmd_sim.fileio import canonical_json, write_text_atomic
+from lgmd_sim.machine import machine
+
+__all__ = ["RECORD", "RunFolder", "RunResult", "difference"]
+
+#: The run's record, relative to its folder.
+RECORD = "run.json"
+
+
+def difference(there: Any, here: Any, path: str = "") -> tuple[str, Any, Any] | None:
+    """The first (dotted key, value there, value here) where two configurations differ."""
+    if isinstance(there, dict) and isinstance(here, dict):
+        for k in sorted(set(there) | set(here)):
+            found = difference(there.get(k), here.get(k), f"{path}.{k}" if path else k)
+            if found:
+                return found
+        return None
+    return None if there == here else (path, there, here)
+
+
+def _show(value: Any) -> str:
+    if isinstance(value, list) and all(not isinstance(v, list | dict) for v in value):
+        return ",".join(f"{v:g}" if isinstance(v, float) else str(v) for v in value) or "none"
+    return json.dumps(value)
+
+
+class RunFolder:
+    """The folder of one run (see the module's docstring for the layout).
+
+    Args:
+        path: the folder (made if missing).
+        config: the JSON-ready configuration; a folder holding another one is refused.
+        command: the command line of this session, for the record.
+        resume: continue the run already in the folder (same configuration); a new or
+            empty folder starts a new run either way.
+        what: what the run is, for messages ("run", "training run", "dataset").
+        resume_hint: how a user continues a run that is there, for the refusal without
+            ``resume``.
+        record: where the run's record goes, relative to the folder.
+        identity: a file, relative to the folder, that holds the configuration alone as
+            `canonical_json`, written once (a dataset's ``meta/config.json``, part of
+            what it ships); None: run.json's "config" identifies the run.
+        changeable: configuration keys a resumed session may change (e.g. a training
+            run's step budget); the record keeps the latest value.
+    """
+
+    def __init__(self, path: str | os.PathLike, config: Mapping[str, Any], command: str,
+                 *, resume: bool = False, what: str = "run",
+                 resume_hint: str = "add --resume to complete it", record: str = RECORD,
+                 identity: str | None = None, changeable: Collection[str] = ()) -> None:
+        self.path = Path(path)
+        self.config = json.loads(json.dumps(config))  # as it will read back
+        self.records_dir = self.path / "records"
+        self._record = self.path / record
+        self._identity = self.path / identity if identity else None
+        if self.path.exists() and not self.path.is_dir():
+            raise ValueError(f"output folder {self.path} is a file, not a folder")
+        earlier = self._earlier(what, resume, resume_hint, changeable)
+        self.started = time.time()
+        self.session: dict[str, Any] = {"command": command,
+                                        "started": time.strftime("%Y-%m-%d %H:%M:%S")}
+        self._sessions = [*earlier, self.session]
+        self._facts: dict[str, Any] = {}
+        if self._identity is not None and not self._identity.is_file():
+            write_text_atomic(self._identity, canonical_json(self.config))
+        self._write("running")
+
+    @staticmethod
+    def recorded(path: str | os.PathLike, record: str = RECORD) -> dict[str, Any] | None:
+        """The record of the run in `path` (its configuration under "config"), or None
+        where there is none; ValueError where it cannot be read."""
+        file = Path(path) / record
+        if not file.is_file():
+            return None
+        try:
+            data = json.loads(file.read_text())
+            data["config"]
+        except (OSError, ValueError, KeyError, TypeError) as exc:
+            raise ValueError(f"{file} is unreadable ({exc}): choose another folder or "
+                             "remove it") from None
+        return data
+
+    def _earlier(self, what: str, resume: bool, resume_hint: str,
+                 changeable: Collection[str]) -> list[dict[str, Any]]:
+        """The earlier sessions of the run in the folder, after checking it is this one."""
+        if not (self.path.is_dir() and any(self.path.iterdir())):
+            return []
+        recorded = self.recorded(self.path, self._record.relative_to(self.path).as_posix())
+        if self._identity is not None and self._identity.is_file():
+            try:
+                held = json.loads(self._identity.read_text())
+            except (OSError, ValueError) as exc:
+                raise ValueError(f"{self._identity}: unreadable ({exc}); use another folder"
+                                 ) from None
+        elif recorded is not None and self._identity is None:
+            held = recorded["config"]
+        else:
+            raise ValueError(f"output folder {self.path} is not empty and holds no {what}: "
+                             "choose a new or empty folder")
+        diff = difference({k: v for k, v in held.items() if k not in changeable},
+                          {k: v for k, v in self.config.items() if k not in changeable})
+        if diff:
+            key, there, here = diff
+            raise ValueError(f"output folder {self.path} holds a {what} made with another "
+                             f"configuration: {key} is {_show(there)} there, {_show(here)} "
+                             "here; choose another folder")
+        if not resume:
+            raise ValueError(f"output folder {self.path} already holds this {what}: "
+                             f"{resume_hint}, or choose another folder")
+        recorded = recorded or {}
+        return list(recorded.get("sessions") or [  # a record from before sessions were kept
+            {k: recorded[k] for k in ("command", "wall_time_s") if k in recorded}])
+
+    @property
+    def sessions(self) -> list[dict[str, Any]]:
+        """Every session of the run, this one last."""
+        return self._sessions
+
+    def done(self) -> set[str]:
+        """Keys of the jobs whose records are stored."""
+        return {p.stem for p in self.records_dir.glob("*.json")}
+
+    def store(self, key: str, record: Mapping[str, Any]) -> None:
+        """Store one job's record (atomically: a killed run leaves no half record)."""
+        self.records_dir.mkdir(parents=True, exist_ok=True)
+        write_text_atomic(self.records_dir / f"{key}.json",
+                          json.dumps(record, allow_nan=False, separators=(",", ":")))
+
+    def records(self, keys: Iterable[str] | None = None) -> list[dict[str, Any]]:
+        """Stored records, in key order (only `keys`, when given)."""
+        wanted = sorted(self.done() if keys is None else keys)
+        return [json.loads((self.records_dir / f"{k}.json").read_text()) for k in wanted]
+
+    def note(self, **facts: Any) -> None:
+        """Add facts to the run's record now (e.g. a training run's hyperparameters)."""
+        self._facts.update(facts)
+        self._write("running")
+
+    def finish(self, **facts: Any) -> None:
+        """Mark the run complete, with this session's wall time (the run's is the sum over
+        its sessions, each session's own kept) and any other facts of the run."""
+        self.session["wall_time_s"] = round(time.time() - self.started, 1)
+        self._facts.update(facts)
+        self._write("complete")
+
+    def _write(self, status: str) -> None:
+        total = sum(s.get("wall_time_s", 0.0) for s in self._sessions)
+        record = {"config": self.config, "command": self._sessions[0]["command"],
+                  "version": __version__, "machine": machine(), "sessions": self._sessions,
+                  "status": status, **({"wall_time_s": round(total, 1)}
+                                       if status == "complete" else {}), **self._facts}
+        write_text_atomic(self._record, json.dumps(record, indent=2, default=str))
+
+
+@dataclass(frozen=True)
+class RunResult:
+    """What a job made: its folder, its summary rows (one per row of summary.csv) and the
+    files it wrote into the folder."""
+
+    path: Path
+    rows: list[dict[str, Any]]
+    files: list[str]
