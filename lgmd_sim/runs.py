@@ -5,9 +5,10 @@ Every resumable job keeps its results this way (the benchmarks, the calibration,
 training, dataset generation). Layout of ``DIR``:
 
 - ``run.json`` (or the job's own `record` path): the configuration (what identifies the
-  run), the package version, the machine, the command that started the run, and every
-  session (the first run and each resume: its command, start and wall time, and the
-  facts the job adds); ``status`` is "running" until the job calls `RunFolder.finish`;
+  run), the package version, the machine of the latest session, the command that started
+  the run, and every session (the first run and each resume: its command, start, wall
+  time and machine, and the facts the job adds); ``status`` is "running" until the job
+  calls `RunFolder.finish`;
 - ``records/<key>.json``: one record per finished job, written atomically as it
   finishes, so that an interrupted run keeps them and resuming runs only the rest;
 - whatever the job writes beside them.
@@ -35,6 +36,8 @@ __all__ = ["RECORD", "RunFolder", "RunResult", "difference"]
 
 #: The run's record, relative to its folder.
 RECORD = "run.json"
+#: What the record says of every run; a job's own facts come beside them.
+_OWN_KEYS = ("config", "command", "version", "machine", "sessions", "status", "wall_time_s")
 
 
 def difference(there: Any, here: Any, path: str = "") -> tuple[str, Any, Any] | None:
@@ -85,12 +88,12 @@ class RunFolder:
         self._identity = self.path / identity if identity else None
         if self.path.exists() and not self.path.is_dir():
             raise ValueError(f"output folder {self.path} is a file, not a folder")
-        earlier = self._earlier(what, resume, resume_hint, changeable)
+        earlier, self._facts = self._earlier(what, resume, resume_hint, changeable)
         self.started = time.time()
         self.session: dict[str, Any] = {"command": command,
-                                        "started": time.strftime("%Y-%m-%d %H:%M:%S")}
+                                        "started": time.strftime("%Y-%m-%d %H:%M:%S"),
+                                        "machine": machine()}
         self._sessions = [*earlier, self.session]
-        self._facts: dict[str, Any] = {}
         if self._identity is not None and not self._identity.is_file():
             write_text_atomic(self._identity, canonical_json(self.config))
         self._write("running")
@@ -110,11 +113,12 @@ class RunFolder:
                              "remove it") from None
         return data
 
-    def _earlier(self, what: str, resume: bool, resume_hint: str,
-                 changeable: Collection[str]) -> list[dict[str, Any]]:
-        """The earlier sessions of the run in the folder, after checking it is this one."""
+    def _earlier(self, what: str, resume: bool, resume_hint: str, changeable: Collection[str]
+                 ) -> tuple[list[dict[str, Any]], dict[str, Any]]:
+        """The earlier sessions of the run in the folder and the facts recorded of it,
+        after checking it is this run."""
         if not (self.path.is_dir() and any(self.path.iterdir())):
-            return []
+            return [], {}
         recorded = self.recorded(self.path, self._record.relative_to(self.path).as_posix())
         if self._identity is not None and self._identity.is_file():
             try:
@@ -138,8 +142,9 @@ class RunFolder:
             raise ValueError(f"output folder {self.path} already holds this {what}: "
                              f"{resume_hint}, or choose another folder")
         recorded = recorded or {}
-        return list(recorded.get("sessions") or [  # a record from before sessions were kept
-            {k: recorded[k] for k in ("command", "wall_time_s") if k in recorded}])
+        sessions = recorded.get("sessions") or [  # a record from before sessions were kept
+            {k: recorded[k] for k in ("command", "wall_time_s") if k in recorded}]
+        return list(sessions), {k: v for k, v in recorded.items() if k not in _OWN_KEYS}
 
     @property
     def sessions(self) -> list[dict[str, Any]]:
@@ -176,7 +181,8 @@ class RunFolder:
     def _write(self, status: str) -> None:
         total = sum(s.get("wall_time_s", 0.0) for s in self._sessions)
         record = {"config": self.config, "command": self._sessions[0]["command"],
-                  "version": __version__, "machine": machine(), "sessions": self._sessions,
+                  "version": __version__, "machine": self.session["machine"],
+                  "sessions": self._sessions,
                   "status": status, **({"wall_time_s": round(total, 1)}
                                        if status == "complete" else {}), **self._facts}
         write_text_atomic(self._record, json.dumps(record, indent=2, default=str))

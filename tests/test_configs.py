@@ -26,7 +26,7 @@ def test_the_command_makes_the_config_python_would():
                    "0,1,1", "--models", "lgmd1/calibrated+image,feedback", "--seeds", "3")
     assert cli_bench.closed_loop_config(args) == ClosedLoopConfig(
         scenarios=("StationaryApproach",), jitter=(0, 1), seeds=3,
-        detectors=(("lgmd1", "calibrated-image"), ("feedback", "paper")))
+        detectors=(("lgmd1", "calibrated+image"), ("feedback", "paper")))
     args = _parsed("bench", "open-loop", "--noise-levels", "", "--seeds", "2")
     assert cli_bench.open_loop_config(args) == OpenLoopConfig(seeds=2, noise_levels=())
 
