@@ -69,6 +69,13 @@ def run_folder_kwargs(args: argparse.Namespace) -> dict[str, Any]:
             "progress": False if args.no_progress else None, "command": args.command_line}
 
 
+def print_result(table: str, result: Any) -> int:
+    """A job's summary table, then the files it wrote (a `lgmd_sim.runs.RunResult`)."""
+    print(table, end="")
+    print(f"wrote {result.path}/: {', '.join(result.files)}")
+    return 0
+
+
 def add_detector_options(p: argparse.ArgumentParser) -> None:
     """--models and --presets: the detectors a benchmark compares."""
     p.add_argument("--models", default="all",

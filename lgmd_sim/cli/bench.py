@@ -18,6 +18,7 @@ from lgmd_sim.cli.args import (
     add_run_folder_options,
     non_negative_int,
     positive_int,
+    print_result,
     resolution,
     run_folder_kwargs,
 )
@@ -124,6 +125,4 @@ def run(args: argparse.Namespace) -> int:
         if args.what == "closed-loop" else
         (open_loop, open_loop_config(args), open_loop.summary_markdown))
     result = job.run(config, args.out, **run_folder_kwargs(args))
-    print(markdown(result.rows), end="")
-    print(f"wrote {result.path}/: {', '.join(result.files)}")
-    return 0
+    return print_result(markdown(result.rows), result)

@@ -11,6 +11,7 @@ from lgmd_sim.cli.args import (
     add_run_folder_options,
     non_negative_int,
     positive_int,
+    print_result,
     resolution,
     run_folder_kwargs,
 )
@@ -67,6 +68,4 @@ def run(args: argparse.Namespace) -> int:
     from lgmd_sim.calibration.run import calibrate, summary_markdown
 
     result = calibrate(config_from_args(args), args.out, **run_folder_kwargs(args))
-    print(summary_markdown(result.rows), end="")
-    print(f"wrote {result.path}/: {', '.join(result.files)}")
-    return 0
+    return print_result(summary_markdown(result.rows), result)

@@ -11,6 +11,7 @@ from lgmd_sim.cli.args import (
     add_detector_options,
     add_parallel_options,
     add_run_folder_options,
+    print_result,
     run_folder_kwargs,
 )
 
@@ -55,6 +56,4 @@ def run(args: argparse.Namespace) -> int:
     from lgmd_sim.training.evaluate import evaluate
 
     result = evaluate(config_from_args(args), args.out, **run_folder_kwargs(args))
-    print(summary_markdown(result.rows), end="")
-    print(f"wrote {result.path}/: {', '.join(result.files)}")
-    return 0
+    return print_result(summary_markdown(result.rows), result)

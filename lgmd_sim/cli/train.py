@@ -13,7 +13,7 @@ import json
 from pathlib import Path
 from typing import Any
 
-from lgmd_sim.cli.args import resolution
+from lgmd_sim.cli.args import print_result, resolution
 
 
 def add(sub: argparse._SubParsersAction) -> None:
@@ -95,6 +95,4 @@ def run(args: argparse.Namespace) -> int:
     out = args.resume or args.out or f"train-{config.algo}-{config.obs}"
     result = train(config, out, resume=args.resume is not None,
                    progress=False if args.no_progress else None, command=args.command_line)
-    print(summary_markdown(result.path), end="")
-    print(f"wrote {result.path}/: {', '.join(result.files)}")
-    return 0
+    return print_result(summary_markdown(result.path), result)
