@@ -1,4 +1,6 @@
-"""Argument types shared by the subcommands: each rejects a bad value with a clear message."""
+"""What the subcommands share: argument types that reject a bad value with a clear message,
+the option groups of the run-folder, parallel and detector options, and the keyword
+arguments and printout of a job that keeps a run folder."""
 
 from __future__ import annotations
 
