@@ -21,7 +21,7 @@ import math
 import statistics
 from collections import defaultdict
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -268,7 +268,7 @@ class ClosedLoopConfig:
     resolution: str | tuple[int, int] = "rl"
     cruise: float = 0.6
     horizon: float = 2.0
-    extra: tuple[Cell, ...] = field(default=())
+    extra: tuple[Cell, ...] = ()
 
     def __post_init__(self) -> None:
         from lgmd_sim import controllers
