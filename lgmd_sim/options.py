@@ -13,9 +13,21 @@ import math
 from collections.abc import Iterable, Sequence
 from typing import Any
 
-__all__ = ["check_detectors", "check_jitter", "check_positive", "check_range", "check_seed",
-           "comma_list", "detectors", "jitter_levels", "model_names", "names",
-           "noise_levels", "resolution"]
+__all__ = [
+    "check_detectors",
+    "check_jitter",
+    "check_noise_levels",
+    "check_positive",
+    "check_range",
+    "check_seed",
+    "comma_list",
+    "detectors",
+    "jitter_levels",
+    "model_names",
+    "names",
+    "noise_levels",
+    "resolution",
+]
 
 
 def comma_list(text: str) -> list[str]:
@@ -88,10 +100,25 @@ def noise_levels(text: str) -> tuple[float, ...]:
             level = float(item)
         except ValueError:
             level = -1.0
-        if not 0 < level <= 1:
-            raise ValueError(f"noise level {item!r} is not a number in (0, 1]")
+        if not _is_noise_level(level):
+            raise _noise_level_error(repr(item))
         levels.append(level)
     return tuple(dict.fromkeys(levels))
+
+
+def _is_noise_level(level: Any) -> bool:
+    return isinstance(level, int | float) and not isinstance(level, bool) and 0 < level <= 1
+
+
+def _noise_level_error(shown: str) -> ValueError:
+    return ValueError(f"noise level {shown} is not a number in (0, 1]")
+
+
+def check_noise_levels(levels: Sequence[float]) -> None:
+    """Noise levels of a configuration: each in (0, 1]."""
+    for level in levels:
+        if not _is_noise_level(level):
+            raise _noise_level_error(repr(level))
 
 
 def check_positive(value: Any, option: str, *, integer: bool = False) -> None:

@@ -84,7 +84,7 @@ class RunFolder:
         self.path = Path(path)
         self.config = json.loads(json.dumps(config))  # as it will read back
         self.records_dir = self.path / "records"
-        self._record = self.path / record
+        self._record_name = record
         self._identity = self.path / identity if identity else None
         if self.path.exists() and not self.path.is_dir():
             raise ValueError(f"output folder {self.path} is a file, not a folder")
@@ -119,7 +119,7 @@ class RunFolder:
         after checking it is this run."""
         if not (self.path.is_dir() and any(self.path.iterdir())):
             return [], {}
-        recorded = self.recorded(self.path, self._record.relative_to(self.path).as_posix())
+        recorded = self.recorded(self.path, self._record_name)
         if self._identity is not None and self._identity.is_file():
             try:
                 held = json.loads(self._identity.read_text())
@@ -185,7 +185,7 @@ class RunFolder:
                   "sessions": self._sessions,
                   "status": status, **({"wall_time_s": round(total, 1)}
                                        if status == "complete" else {}), **self._facts}
-        write_text_atomic(self._record, json.dumps(record, indent=2, default=str))
+        write_text_atomic(self.path / self._record_name, json.dumps(record, indent=2, default=str))
 
 
 @dataclass(frozen=True)

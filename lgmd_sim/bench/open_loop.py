@@ -265,10 +265,8 @@ class OpenLoopConfig:
         options.check_seed(self.first_seed, "--first-seed")
         set_("detectors", options.detectors("all") if self.detectors is None
              else options.check_detectors(self.detectors))
+        options.check_noise_levels(self.noise_levels)
         set_("noise_levels", tuple(float(v) for v in self.noise_levels))
-        for level in self.noise_levels:
-            if not 0 < level <= 1:
-                raise ValueError(f"noise level {level!r} is not a number in (0, 1]")
         set_("resolution", options.resolution(self.resolution))
         options.check_positive(self.horizon, "--horizon")
         if not (isinstance(self.window, int | float) and 0 <= self.window < float("inf")):

@@ -65,18 +65,13 @@ def add(sub: argparse._SubParsersAction) -> None:
 def config_from_args(args: argparse.Namespace) -> Any:
     """The `TrainConfig` of ``train``'s arguments: those given, over the run's recorded
     options when resuming (where only `RESUMABLE` ones may differ), else the defaults."""
-    from lgmd_sim.runs import RunFolder
-    from lgmd_sim.training.run import RESUMABLE, TrainConfig
+    from lgmd_sim.training.run import RESUMABLE, TrainConfig, resumable
 
     names = [f.name for f in dataclasses.fields(TrainConfig)]
     given = {k: getattr(args, k) for k in names if getattr(args, k, None) is not None}
     if args.resume is None:
         return TrainConfig(**given)
-    record = RunFolder.recorded(args.resume)
-    if record is None:
-        raise ValueError(f"--resume {args.resume}: no training run there (no readable "
-                         "run.json)")
-    recorded = record["config"]
+    recorded = resumable(args.resume)["config"]
     for key, value in given.items():
         if key not in RESUMABLE and json.loads(json.dumps(value)) != recorded[key]:
             raise ValueError(f"--{key.replace('_', '-')} {value} differs from the run being "

@@ -45,7 +45,8 @@ from lgmd_sim.fileio import write_text_atomic
 from lgmd_sim.policies.folder import ALGOS, OBS, PolicyConfig
 from lgmd_sim.runs import RunFolder, RunResult
 
-__all__ = ["RESUMABLE", "VALIDATION_SEED", "TrainConfig", "summary_markdown", "train"]
+__all__ = ["RESUMABLE", "VALIDATION_SEED", "TrainConfig", "resumable", "summary_markdown",
+           "train"]
 
 #: The first validation seed; training seeds stay below it, test seeds start at 1000.
 VALIDATION_SEED = 900
@@ -148,6 +149,17 @@ def _versions() -> dict[str, str]:
                                                 "mujoco", "numpy")}}
 
 
+def resumable(out: str | Path) -> dict[str, Any]:
+    """The record of the training run in `out` (its options under "config"), which must
+    hold a checkpoint to resume from; ValueError naming what is missing."""
+    record = RunFolder.recorded(out)
+    if record is None:
+        raise ValueError(f"--resume {out}: no training run there (no readable run.json)")
+    if not (Path(out) / "checkpoints" / "state.json").is_file():
+        raise ValueError(f"--resume {out}: the run has no checkpoint to resume from")
+    return record
+
+
 def _bare_speed(envs: Any, env_id: str) -> float:
     """Steps per second (over all environments) of the workers' VecEnv alone, driving
     straight at 0.6 m/s; raise ValueError on a reward that is not finite."""
@@ -185,11 +197,7 @@ def train(config: TrainConfig, out: str | Path, *, resume: bool = False,
 
     out = Path(out)
     checkpoints = out / "checkpoints"
-    recorded = RunFolder.recorded(out) if resume else None
-    if resume and not (checkpoints / "state.json").is_file():
-        raise ValueError(f"--resume {out}: " + ("no training run there (no readable run.json)"
-                                                if recorded is None else
-                                                "the run has no checkpoint to resume from"))
+    recorded = resumable(out) if resume else None
     if resume and config.steps <= _checkpoint_steps(checkpoints):
         raise ValueError(f"--steps {config.steps}: the run is at "
                          f"{_checkpoint_steps(checkpoints)} steps already")
