@@ -35,12 +35,15 @@ def comma_list(text: str) -> list[str]:
     return [t.strip() for t in text.split(",") if t.strip()]
 
 
-def names(text: str | Iterable[str], valid: Sequence[str], what: str) -> list[str]:
+def names(text: str | Iterable[str], valid: Sequence[str], what: str, *,
+          drop_repeats: bool = True) -> list[str]:
     """Names from a comma-separated list (or a sequence), each among `valid`; "all" is
-    every one; repeats dropped, order kept.
+    every one; order kept.
 
     Args:
         what: the kind of name, for the message ("scenario(s)").
+        drop_repeats: drop a name given twice; False keeps it, for a configuration whose
+            own check refuses it (a dataset's).
     """
     given = comma_list(text) if isinstance(text, str) else [str(t) for t in text]
     if given == ["all"]:
@@ -50,7 +53,7 @@ def names(text: str | Iterable[str], valid: Sequence[str], what: str) -> list[st
         problem = f"unknown {what} {', '.join(map(repr, unknown))}" if unknown else (
             f"no {what} given")
         raise ValueError(f"{problem}; valid: {', '.join(valid)}")
-    return list(dict.fromkeys(given))
+    return list(dict.fromkeys(given)) if drop_repeats else given
 
 
 def _jitter_error(shown: str) -> ValueError:
@@ -66,8 +69,9 @@ def _is_jitter(level: Any) -> bool:
             and 0 <= level <= MAX_JITTER)
 
 
-def jitter_levels(text: str) -> tuple[float, ...]:
-    """Jitter levels from "0,1,2" (repeats dropped, order kept)."""
+def jitter_levels(text: str, *, drop_repeats: bool = True) -> tuple[float, ...]:
+    """Jitter levels from "0,1,2", order kept (repeats dropped unless `drop_repeats` is
+    False, as in `names`)."""
     levels = []
     for item in text.split(","):
         try:
@@ -77,7 +81,7 @@ def jitter_levels(text: str) -> tuple[float, ...]:
         if not _is_jitter(level):
             raise _jitter_error(repr(item.strip()))
         levels.append(level)
-    return tuple(dict.fromkeys(levels))
+    return tuple(dict.fromkeys(levels)) if drop_repeats else tuple(levels)
 
 
 def check_jitter(levels: Sequence[float]) -> None:

@@ -67,7 +67,9 @@ def config_from_args(args: argparse.Namespace) -> Any:
     from lgmd_sim.data.generate import GenerateConfig
     from lgmd_sim.envs.catalogue import scenarios
 
-    names = options.names(args.scenarios, list(scenarios()), "scenario(s)")
+    # repeats kept: the configuration refuses a scenario or a level given twice
+    names = options.names(args.scenarios, list(scenarios()), "scenario(s)",
+                          drop_repeats=False)
     models = [] if args.models in ("", "none") else options.model_names(args.models)
     variants = ["+".join(map(str, noise.parse(v.replace("+", ","))))
                 for v in args.noise.split(",")] if args.noise else []
@@ -80,7 +82,8 @@ def config_from_args(args: argparse.Namespace) -> Any:
             overrides[key.strip()] = json.loads(value)
         except ValueError:
             overrides[key.strip()] = value
-    return GenerateConfig(tuple(names), options.jitter_levels(args.jitter), args.episodes,
+    jitter = options.jitter_levels(args.jitter, drop_repeats=False)
+    return GenerateConfig(tuple(names), jitter, args.episodes,
                           args.resolution, args.controller, tuple(models), tuple(variants),
                           args.video, args.seed, overrides)
 
