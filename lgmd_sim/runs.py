@@ -75,12 +75,14 @@ class RunFolder:
             what it ships); None: run.json's "config" identifies the run.
         changeable: configuration keys a resumed session may change (e.g. a training
             run's step budget); the record keeps the latest value.
+        start: write the record now (see `start`); the folder is checked either way.
     """
 
     def __init__(self, path: str | os.PathLike, config: Mapping[str, Any], command: str,
                  *, resume: bool = False, what: str = "run",
                  resume_hint: str = "add --resume to complete it", record: str = RECORD,
-                 identity: str | None = None, changeable: Collection[str] = ()) -> None:
+                 identity: str | None = None, changeable: Collection[str] = (),
+                 start: bool = True) -> None:
         self.path = Path(path)
         self.config = json.loads(json.dumps(config))  # as it will read back
         self.records_dir = self.path / "records"
@@ -94,6 +96,14 @@ class RunFolder:
                                         "started": time.strftime("%Y-%m-%d %H:%M:%S"),
                                         "machine": machine()}
         self._sessions = [*earlier, self.session]
+        if start:
+            self.start()
+
+    def start(self) -> None:
+        """Write the identity file (once) and the record, status "running": from now on
+        the folder holds this run. A job whose last checks need work of its own (a
+        training run's first environment steps) checks the folder with ``start=False``,
+        then starts it, so that a bad input leaves no folder behind."""
         if self._identity is not None and not self._identity.is_file():
             write_text_atomic(self._identity, canonical_json(self.config))
         self._write("running")

@@ -225,14 +225,15 @@ def _train(out: Path, config: TrainConfig, kwargs: dict[str, Any], first_seed: i
     torch.set_num_threads(1)  # the environment workers have the other cores
     checkpoints = out / "checkpoints"
     policy = config.policy()
+    folder = RunFolder(out, config.as_json(), command, resume=resume, what="training run",
+                       resume_hint=f"add --resume {out} to continue it",
+                       changeable=RESUMABLE, start=False)
     envs = make_vec_env(policy, config.envs)
     validation = None
     try:
         bare = _bare_speed(envs, policy.env_id)
         keys = _normalize_keys(envs.venv.observation_space, policy.obs)
-        folder = RunFolder(out, config.as_json(), command, resume=resume, what="training run",
-                           resume_hint=f"add --resume {out} to continue it",
-                           changeable=RESUMABLE)
+        folder.start()
         earlier = len(folder.sessions) - 1
         if earlier:
             venv, model = _load_checkpoint(checkpoints, envs.venv, policy.algo)
