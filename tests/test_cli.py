@@ -17,6 +17,39 @@ def test_help_lists_every_subcommand(capsys):
         assert command in out
 
 
+def _subcommand_parsers(parser=None, path=()):
+    """Every (sub)command's parser with its path, e.g. ("speed", "models")."""
+    import argparse
+    parser = parser or cli.build_parser()
+    yield path, parser
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            for name, sub in action.choices.items():
+                yield from _subcommand_parsers(sub, (*path, name))
+
+
+def test_every_option_has_help_stating_its_default():
+    """A user reads the defaults in --help: every option explains itself, and one whose
+    default is a value (not unset, off or empty) says what it is."""
+    import argparse
+    missing = []
+    for path, parser in _subcommand_parsers():
+        for a in parser._actions:
+            if not a.option_strings or a.dest in ("help", "version"):
+                continue
+            meaningful = a.default not in (None, False, "", [], argparse.SUPPRESS)
+            if not a.help or (meaningful and "default" not in a.help):
+                missing.append(f"{' '.join(path)} {a.option_strings[0]}")
+    assert missing == []
+
+
+def test_help_texts_print_no_doubled_percent():
+    """'%%' is argparse's escape in help strings only; in a description it prints as is."""
+    doubled = [" ".join(path) for path, parser in _subcommand_parsers()
+               if "%%" in parser.format_help()]
+    assert doubled == []
+
+
 def test_help_does_not_import_mujoco():
     # `lgmd-sim --help` and `lgmd-sim detect` must stay light: MuJoCo loads only for the world.
     code = ("import sys; from lgmd_sim import cli; cli.build_parser();"

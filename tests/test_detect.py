@@ -268,3 +268,28 @@ def test_preset_applies_to_every_model_that_has_it(tmp_path, clip, capsys):
     assert list(record["models"]) == ["feedback/paper-text", "lgmd1"]
     assert _detect(str(video), "--models", "lgmd1", "--preset", "nope", "--json") == 2
     assert "has a preset 'nope'" in capsys.readouterr().err
+
+
+def test_an_alarm_on_the_collision_frame_is_a_hit_with_lead_0_as_the_benchmarks_count_it(
+        tmp_path, clip, capsys):
+    """The rule `--help` states: a first alarm in the window before the collision frame,
+    that frame included, is a hit; `--window` sets the window as `bench open-loop` does."""
+    from lgmd_sim.detect.figure import alarm_label
+    from lgmd_sim.metrics import evaluate_clip
+
+    video = _write_video(tmp_path / "a.mp4", clip.frames)
+
+    def summary(*extra: str) -> dict:
+        assert _detect(str(video), "--models", MODELS[0], "--json", *extra) == 0
+        return json.loads(capsys.readouterr().out)["models"][MODELS[0]]
+
+    first = summary()["first_alarm"]
+    assert first is not None and first > 0
+    on = summary("--collision-frame", str(first))
+    assert (on["outcome"], on["lead_frames"], on["lead_s"]) == ("hit", 0, 0.0)
+    ev = evaluate_clip([0.0] * first + [1.0], first, 30.0)
+    assert alarm_label("m", first, ev) == (
+        f"m: alarm at {first}, hit (at the collision frame), lead 0.00 s")
+    after = summary("--collision-frame", str(first + 1), "--window", "0")
+    assert (after["outcome"], after["lead_frames"]) == ("miss", 1)
+    assert summary("--collision-frame", str(first + 1))["outcome"] == "hit"

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from lgmd_sim.cli.args import non_negative_int
+from lgmd_sim.cli.args import non_negative_float, non_negative_int
 
 
 def fov_degrees(text: str) -> float:
@@ -43,8 +43,13 @@ def add(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--collision-frame", type=non_negative_int, metavar="N",
         help="labelled collision frame (0-based): marked in the figure, and used to score "
-        "hit, miss and lead time",
+        "each model: a hit when its first alarm falls in the --window before this frame, "
+        "this frame included (lead 0 s: an alarm with the collision, too late to act on), "
+        "otherwise a miss (early, late or none), as `bench open-loop` and the published "
+        "evaluation count it",
     )
+    p.add_argument("--window", type=non_negative_float, default=1.0, metavar="S",
+                   help="the hit window, seconds before the collision frame (default: 1.0)")
     p.add_argument("--out", metavar="DIR",
                    help="write <name>.csv, <name>.json and <name>.png per video into DIR "
                    "(default: ./detect-out; with --json, files are written only when --out "
@@ -85,9 +90,9 @@ def config_from_args(args: argparse.Namespace) -> Any:
     return DetectConfig(
         videos=tuple(Video(*i) for i in detect_inputs(args.videos)),
         models=tuple(options.comma_list(args.models)), preset=args.preset,
-        collision_frame=args.collision_frame, out=args.out, json_lines=args.json,
-        noise=args.noise, noise_seed=args.noise_seed, stabilize=args.stabilize,
-        fov=args.fov, progress=False if args.no_progress else None)
+        collision_frame=args.collision_frame, window=args.window, out=args.out,
+        json_lines=args.json, noise=args.noise, noise_seed=args.noise_seed,
+        stabilize=args.stabilize, fov=args.fov, progress=False if args.no_progress else None)
 
 
 def run(args: argparse.Namespace) -> int:

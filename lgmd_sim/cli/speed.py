@@ -20,10 +20,11 @@ def add(sub: argparse._SubParsersAction) -> None:
         "batched, and the ratio to a straightforward per-equation reference implementation "
         "measured in the same run.",
     )
-    b.add_argument("--height", type=positive_int, default=270)
-    b.add_argument("--width", type=positive_int, default=480)
-    b.add_argument("--frames", type=positive_int, default=300, help="frames timed per run")
-    b.add_argument("--streams", type=positive_int, default=8, help="streams in batched mode")
+    _frame_size(b)
+    b.add_argument("--frames", type=positive_int, default=300,
+                   help="frames timed per run (default %(default)s)")
+    b.add_argument("--streams", type=positive_int, default=8,
+                   help="streams in batched mode (default %(default)s)")
     b.add_argument("--markdown", action="store_true", help="print the table as Markdown")
     b = speed.add_parser(
         "envs", help="environment steps/s per scenario vs a bare render loop",
@@ -31,7 +32,8 @@ def add(sub: argparse._SubParsersAction) -> None:
         "ratio to a bare render loop of the same scene, and the speed-up of two async "
         "workers over one.",
     )
-    b.add_argument("--steps", type=positive_int, default=200, help="steps timed per run")
+    b.add_argument("--steps", type=positive_int, default=200,
+                   help="steps timed per run (default %(default)s)")
     b.add_argument("--markdown", action="store_true", help="print the table as Markdown")
     b = speed.add_parser(
         "stabilize", help="ms per frame of each ego-motion front end, alone and per model",
@@ -40,9 +42,9 @@ def add(sub: argparse._SubParsersAction) -> None:
         "+pose (the warp of its stored maps), +image and +image+gain, on frames of a "
         "turning camera.",
     )
-    b.add_argument("--height", type=positive_int, default=270)
-    b.add_argument("--width", type=positive_int, default=480)
-    b.add_argument("--frames", type=positive_int, default=60, help="frames timed per run")
+    _frame_size(b)
+    b.add_argument("--frames", type=positive_int, default=60,
+                   help="frames timed per run (default %(default)s)")
     b.add_argument("--markdown", action="store_true", help="print the tables as Markdown")
     b = speed.add_parser(
         "dataset", help="dataset generation frames/s vs the environment alone; disk per frame",
@@ -50,13 +52,15 @@ def add(sub: argparse._SubParsersAction) -> None:
         "against the same episodes run by the environment alone (same workers, size and "
         "seeds), and disk per frame of the stored frames against PNG and raw RGB.",
     )
-    b.add_argument("--scenarios", default="all", help="comma-separated names, or all")
-    b.add_argument("--episodes", type=positive_int, default=6, help="episodes per scenario")
+    b.add_argument("--scenarios", default="all", help="comma-separated names, or all (default)")
+    b.add_argument("--episodes", type=positive_int, default=6,
+                   help="episodes per scenario (default %(default)s)")
     b.add_argument("--resolution", type=resolution, default="paper",
                    help="paper (270x480, default), rl, small or HxW")
-    b.add_argument("--workers", type=positive_int, default=2, help="worker processes")
+    b.add_argument("--workers", type=positive_int, default=2,
+                   help="worker processes (default %(default)s)")
     b.add_argument("--repeat", type=positive_int, default=2,
-                   help="rounds of each measurement; the best counts (default 2)")
+                   help="rounds of each measurement; the best counts (default %(default)s)")
     b.add_argument("--video", choices=("huffyuv", "ffv1", "mpeg4"), default="huffyuv",
                    help="frame storage: huffyuv (lossless, fast; default), ffv1 (lossless, "
                    "about half the size, slower to write), mpeg4 (lossy, small)")
@@ -68,14 +72,23 @@ def add(sub: argparse._SubParsersAction) -> None:
         "more), and frames per second of closed-loop benchmark episodes on one and on two "
         "workers (target: 1.7x or more).",
     )
-    b.add_argument("--scenario", default="RoughTerrainObstacles", help="scenario name")
+    b.add_argument("--scenario", default="RoughTerrainObstacles",
+                   help="scenario name (default %(default)s)")
     b.add_argument("--resolution", type=resolution, default="rl",
                    help="rl (120x160, default), paper, small or HxW")
-    b.add_argument("--steps", type=positive_int, default=600, help="steps timed per run")
+    b.add_argument("--steps", type=positive_int, default=600,
+                   help="steps timed per run (default %(default)s)")
     b.add_argument("--episodes", type=positive_int, default=12,
-                   help="episodes per worker count (worker start-up is counted: enough "
-                   "episodes make it small)")
+                   help="episodes per worker count (default %(default)s; worker start-up "
+                   "is counted: enough episodes make it small)")
     b.add_argument("--markdown", action="store_true", help="print the table as Markdown")
+
+
+def _frame_size(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--height", type=positive_int, default=270,
+                   help="frame height in pixels (default %(default)s, the paper's)")
+    p.add_argument("--width", type=positive_int, default=480,
+                   help="frame width in pixels (default %(default)s, the paper's)")
 
 
 def run(args: argparse.Namespace) -> int:

@@ -27,7 +27,8 @@ def alarm_label(name: str, first_alarm: int | None, event: metrics.EventResult |
     if event.lead_s is None:
         return f"{name}: {alarm}, {event.outcome}"
     when = "early" if event.outcome == "miss" and event.lead_frames > 0 else (
-        "late" if event.outcome == "miss" else "")
+        "late" if event.outcome == "miss" else "at the collision frame"
+        if event.lead_frames == 0 else "")
     return (f"{name}: {alarm}, {event.outcome}{' (' + when + ')' if when else ''}, "
             f"lead {event.lead_s:.2f} s")
 

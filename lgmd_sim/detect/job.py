@@ -38,6 +38,9 @@ class DetectConfig:
         models: model names, or ("all",).
         preset: run every model that has this preset at it (the others at their default).
         collision_frame: the labelled collision frame of every video (over a `Video`'s own).
+        window: a first alarm within this many seconds before the collision frame, that
+            frame included, is a hit (`lgmd_sim.metrics.evaluate_clip`, as the benchmarks
+            count it).
         out: the output folder; None: ``detect-out``, or no files with `json_lines`.
         json_lines: print one JSON record per video instead of a line.
         noise: corrupt every frame first ("kind:level,...", `lgmd_sim.noise`).
@@ -51,6 +54,7 @@ class DetectConfig:
     models: tuple[str, ...] = ("all",)
     preset: str | None = None
     collision_frame: int | None = None
+    window: float = 1.0
     out: str | None = None
     json_lines: bool = False
     noise: str | None = None
@@ -70,6 +74,7 @@ class DetectConfig:
         options.check_seed(self.noise_seed, "--noise-seed")
         if self.collision_frame is not None:
             options.check_seed(self.collision_frame, "--collision-frame")
+        options.check_range(self.window, "--window", 0, 3600)
 
     @property
     def out_folder(self) -> Path | None:
@@ -95,7 +100,7 @@ def run(config: DetectConfig) -> int:
                 check_collision_frame(collision_frame, clip.frame_count, video.name)
             d = detect(clip, clip.fps, built, collision_frame, name=video.name,
                        total=clip.frame_count, progress=config.progress,
-                       noise=noises, noise_seed=config.noise_seed)
+                       noise=noises, noise_seed=config.noise_seed, window_s=config.window)
             paths = write_outputs(d, out, stem) if out is not None else {}
         except (ValueError, OSError) as exc:
             print(f"lgmd-sim detect: error: {exc}", file=sys.stderr)
