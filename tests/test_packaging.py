@@ -87,3 +87,27 @@ def test_the_readme_record_and_detect_walkthrough_runs(installed, tmp_path):
     import lgmd_sim
 
     assert version.stdout.strip() == f"lgmd-sim {lgmd_sim.__version__}"
+
+
+def test_the_readme_states_the_observation_spaces_the_environment_has():
+    """The README's comment lines `# obs["KEY"]: dtype (shape)` match the main task's
+    observation space: every key, its dtype, and its shape (the frame's as (H, W, 3))."""
+    import gymnasium as gym
+
+    import lgmd_sim  # noqa: F401  (registers the scenarios)
+
+    readme = (ROOT / "README.md").read_text()
+    stated = {key: (dtype, shape) for key, dtype, shape in
+              re.findall(r'^# obs\["(\w+)"\]:\s+(\w+) \(([^)]*)\)', readme, re.M)}
+    env = gym.make("lgmd_sim/RoughTerrainObstacles-v0", resolution="rl")
+    try:
+        spaces = env.observation_space.spaces
+    finally:
+        env.close()
+    assert sorted(stated) == sorted(spaces)
+    for key, (dtype, shape) in stated.items():
+        assert dtype == spaces[key].dtype.name, key
+        dims = [d.strip() for d in shape.split(",") if d.strip()]
+        assert len(dims) == len(spaces[key].shape), key
+        sizes = zip(dims, spaces[key].shape, strict=True)
+        assert all(not d.isdigit() or int(d) == n for d, n in sizes), key
