@@ -41,6 +41,17 @@ def finite(v: Any) -> str | None:
     return None if _is_real(v) else "must be a finite number"
 
 
+def because(check: Check, reason: str) -> Check:
+    """`check`, its message followed by `reason`: why a value that is a number is still
+    refused (one that would make the output constant, say)."""
+
+    def explained(v: Any) -> str | None:
+        error = check(v)
+        return None if error is None else f"{error} ({reason})"
+
+    return explained
+
+
 def in_range(lo: float, hi: float) -> Check:
     def check(v: Any) -> str | None:
         return None if _is_real(v) and lo <= v <= hi else f"must be a number in [{lo}, {hi}]"

@@ -466,7 +466,10 @@ def _span(values: list[float], fmt: str) -> str:
 
 def calibration_section(run: Path, figures: Figures) -> list[str]:
     data = json.loads((run / "calibrated.json").read_text())
-    lines = ["## Calibration", "", "```bash", _command(run), "```", "", data["objective"], "",
+    lines = ["## Calibration", "", "```bash", _command(run), "```", "",
+             "`--save-presets` writes the user's presets file; the shipped presets are this "
+             f"run's through the release step, `scripts/ship_presets.py {run}`.", "",
+             data["objective"], "",
              f"Each detector's best setting on the search seeds (the same budget of "
              f"{data['budget']} settings each), and the same setting on the held-out seeds "
              "(search / held-out):", "", (run / "summary.md").read_text().strip(), ""]

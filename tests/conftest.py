@@ -2,15 +2,20 @@
 
 from __future__ import annotations
 
+import atexit
 import os
 import shutil
 import subprocess
 import sys
+import tempfile
 from pathlib import Path
 
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
+# The suite reads the shipped calibrated presets only, never a user's (lgmd_sim.models.presets).
+os.environ["LGMD_SIM_DATA_DIR"] = tempfile.mkdtemp(prefix="lgmd-sim-test-data-")
+atexit.register(shutil.rmtree, os.environ["LGMD_SIM_DATA_DIR"], ignore_errors=True)
 
 
 @pytest.fixture(scope="session")

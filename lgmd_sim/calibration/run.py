@@ -8,9 +8,10 @@
    set (`lgmd_sim.calibration.objective`); report it on the held-out set beside.
 4. Write ``DIR/summary.md``, ``DIR/calibration.png`` and ``DIR/calibrated.json``: the
    presets with the command, seeds, objective and figure that produced them. With
-   ``save_presets`` also the package's data file, which makes them the models'
-   ``calibrated`` presets (and ``calibrated-open-loop`` for the feedback model's open-loop
-   control, gain 0, tuned by the same search).
+   ``save_presets`` also merge them into the user's presets file (or ``presets_file``:
+   `lgmd_sim.models.presets`), which makes them the models' ``calibrated`` presets (and
+   ``calibrated-open-loop`` for the feedback model's open-loop control, gain 0, tuned by
+   the same search) on top of the shipped ones; the other presets there stay.
 """
 
 from __future__ import annotations
@@ -19,7 +20,7 @@ import json
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -28,10 +29,15 @@ from lgmd_sim.calibration import clips as clip_mod
 from lgmd_sim.calibration import objective as obj
 from lgmd_sim.calibration.search import SPACES, THRESHOLDS, candidates, evaluate
 from lgmd_sim.fileio import write_files, write_text_atomic
+from lgmd_sim.models import presets
 from lgmd_sim.parallel import Job, run_jobs
 from lgmd_sim.runs import RunFolder, RunResult
 
-__all__ = ["CalibrateConfig", "calibrate", "choose", "preset_name", "summary_markdown"]
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
+
+__all__ = ["CalibrateConfig", "calibrate", "calibration_figure", "choose", "preset_name",
+           "summary_markdown"]
 
 
 @dataclass(frozen=True)
@@ -50,7 +56,10 @@ class CalibrateConfig:
         heldout_seed: the first held-out seed; the two sets must not overlap.
         seed: the seed of the random search.
         resolution: the clips' frame size.
-        save_presets: also write the package's data file of calibrated presets.
+        save_presets: also merge the presets into the user's presets file
+            (`lgmd_sim.models.presets.user_presets_file`).
+        presets_file: merge them into this file instead (implies ``save_presets``); never
+            one inside the installed package.
     """
 
     detectors: tuple[str, ...] | None = None
@@ -61,9 +70,9 @@ class CalibrateConfig:
     seed: int = 0
     resolution: str | tuple[int, int] = "rl"
     save_presets: bool = False
+    presets_file: str | Path | None = None
 
     def __post_init__(self) -> None:
-
         object.__setattr__(self, "detectors", tuple(
             SPACES if self.detectors is None else options.names(
                 self.detectors, list(SPACES), "detector(s)")))
@@ -74,6 +83,20 @@ class CalibrateConfig:
         if set(self.search_seeds) & set(self.heldout_seeds):
             raise ValueError("the search and held-out seeds overlap: move --heldout-seed")
         object.__setattr__(self, "resolution", options.resolution(self.resolution))
+        target = self.presets_target
+        if target is not None:
+            if target.resolve().is_relative_to(presets.PACKAGE):
+                raise ValueError(f"presets file {target}: inside the installed package; the "
+                                 "shipped presets change only by scripts/ship_presets.py in "
+                                 "a checkout")
+            presets.check_presets_file(target)  # a file it cannot merge into fails now
+
+    @property
+    def presets_target(self) -> Path | None:
+        """The presets file the calibrated presets are merged into, None: none."""
+        if self.presets_file is not None:
+            return Path(self.presets_file)
+        return presets.user_presets_file() if self.save_presets else None
 
     @property
     def search_seeds(self) -> list[int]:
@@ -138,38 +161,50 @@ def summary_markdown(chosen: Sequence[dict[str, Any]]) -> str:
     return "\n".join(lines) + "\n"
 
 
-TITLES = {"objective": "objective (mean of the three)",
-          "jitter": "jitter clips: first alarm late, before collision",
-          "stationary": "stationary clips: alarm before collision",
-          "near_miss": "near misses: no alarm"}
+TITLES = {"objective": "objective\n(mean of the three kinds)",
+          "jitter": "jitter clips:\nfirst alarm late and before the collision",
+          "stationary": "stationary clips:\nan alarm before the collision",
+          "near_miss": "near misses:\nno alarm"}
+#: Inches: what each detector's pair of bars takes in a panel, and the least a panel is
+#: wide, so that its title and the legend fit with a single detector.
+_PER_DETECTOR, _MIN_PANEL = 0.6, 3.4
 
 
-def _figure(path: Path, chosen: Sequence[dict[str, Any]]) -> None:
+def calibration_figure(chosen: Sequence[dict[str, Any]]) -> Figure:
+    """calibration.png: per kind of clip and for the objective, each chosen detector's
+    score on the search and the held-out seeds."""
+    from matplotlib.patches import Patch
+
     from lgmd_sim.plots import figure, model_style
 
-    fig = figure(figsize=(3 + 0.55 * len(chosen) * 2, 8.5))
-    axes = fig.subplots(2, 2, sharey=True).ravel()
     names = [c["detector"] for c in chosen]
+    fig = figure(figsize=(2 * max(_MIN_PANEL, _PER_DETECTOR * len(names)) + 0.8, 9.0))
+    axes = fig.subplots(2, 2, sharey=True).ravel()
     x = np.arange(len(names))
+    colours = [model_style(n.split("-")[0])["color"] for n in names]
+    bar = {"edgecolor": "black", "lw": 0.5}
     for ax, what in zip(axes, ("objective", *obj.KINDS), strict=True):
-        for k, set_name in enumerate(("search", "heldout")):
-            values = [c[set_name][what] for c in chosen]
-            colours = [model_style(n.split("-")[0])["color"] for n in names]
-            bars = ax.bar(x + (k - 0.5) * 0.38, values, 0.38, color=colours,
-                          alpha=1.0 if k == 0 else 0.45, edgecolor="black", lw=0.5,
-                          label="search seeds" if k == 0 else "held-out seeds")
-            for bar, n in zip(bars, names, strict=True):
+        for k, (set_name, alpha) in enumerate((("search", 1.0), ("heldout", 0.45))):
+            bars = ax.bar(x + (k - 0.5) * 0.38, [c[set_name][what] for c in chosen], 0.38,
+                          color=colours, alpha=alpha, **bar)
+            for b, n in zip(bars, names, strict=True):
                 if "open-loop" in n:  # the feedback LGMD's control: its colour, hatched
-                    bar.set_hatch("//")
+                    b.set_hatch("//")
         ax.set_xticks(x, names, rotation=45, ha="right", fontsize="small")
+        ax.set_xlim(-0.7, len(names) - 0.3)  # a lone detector's bars keep their width
         ax.set_title(TITLES[what], fontsize="medium")
         ax.set_ylim(0, 1.02)
         ax.grid(axis="y", alpha=0.3)
-    handles, labels = axes[0].get_legend_handles_labels()
-    fig.legend(handles, labels, loc="outside upper center", ncols=2, fontsize="small",
-               title="bars in each detector's colour; hatched: the feedback LGMD's open-loop "
-               "control", title_fontsize="small")
-    write_files({path: lambda tmp: fig.savefig(tmp, format="png", dpi=110)})
+    # the key in grey: the bars' colours are the detectors', named below each pair
+    handles = [Patch(facecolor="0.4", label="search seeds", **bar),
+               Patch(facecolor="0.4", alpha=0.45, label="held-out seeds", **bar)]
+    if any("open-loop" in n for n in names):
+        handles.append(Patch(facecolor="white", hatch="//",
+                             label="the feedback LGMD's open-loop control", **bar))
+    fig.legend(handles=handles, loc="outside upper center", ncols=len(handles),
+               fontsize="small", title="bars in each detector's colour",
+               title_fontsize="small")
+    return fig
 
 
 def calibrate(config: CalibrateConfig, out: str | Path, *, resume: bool = False,
@@ -202,8 +237,10 @@ def calibrate(config: CalibrateConfig, out: str | Path, *, resume: bool = False,
     chosen = [choose(folder.records([c.key for c in cands if c.detector == d]), clip_sets)
               for d in config.detectors]
     write_text_atomic(folder.path / "summary.md", summary_markdown(chosen))
-    _figure(folder.path / "calibration.png", chosen)
-    presets = {
+    fig = calibration_figure(chosen)
+    write_files({folder.path / "calibration.png":
+                 lambda tmp: fig.savefig(tmp, format="png", dpi=110)})
+    calibration = {
         "command": command, "objective": obj.__doc__.strip(),
         "search_seeds": [config.first_seed, config.seeds],
         "heldout_seeds": [config.heldout_seed, config.seeds],
@@ -216,15 +253,13 @@ def calibrate(config: CalibrateConfig, out: str | Path, *, resume: bool = False,
         _model, base, _sample, front = SPACES[c["detector"]]
         params = {**c["params"], "threshold": c["threshold"],
                   **({"stabilize": front} if front else {})}
-        presets["presets"][model][name] = {"from": base, "params": params,
+        calibration["presets"][model][name] = {"from": base, "params": params,
                                            "search": c["search"], "heldout": c["heldout"]}
-    text = json.dumps(presets, indent=2) + "\n"
-    write_text_atomic(folder.path / "calibrated.json", text)
+    write_text_atomic(folder.path / "calibrated.json", json.dumps(calibration, indent=2) + "\n")
     files = ["summary.md", "calibration.png", "calibrated.json", "run.json"]
-    if config.save_presets:
-        from lgmd_sim.models.presets import CALIBRATED
-
-        write_text_atomic(CALIBRATED, text)
-        files.append(str(CALIBRATED))
+    target = config.presets_target
+    if target is not None:
+        presets.merge_presets(target, calibration)
+        files.append(str(target))
     folder.finish(candidates=len(cands), clips=len(all_specs))
     return RunResult(folder.path, chosen, files)

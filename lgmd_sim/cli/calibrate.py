@@ -27,7 +27,8 @@ def add(sub: argparse._SubParsersAction) -> None:
         "clips; choose each detector's best setting and threshold by the declared objective "
         "(docs/results.md) and report it on the held-out clips. Writes DIR/summary.md, "
         "DIR/calibration.png and DIR/calibrated.json (the presets, with the command, seeds "
-        "and objective); --save-presets makes them the models' `calibrated` presets.",
+        "and objective); --save-presets merges them into your presets file, which makes "
+        "them the models' `calibrated` presets on top of the shipped ones.",
     )
     p.add_argument("--detectors", default="all",
                    help="comma-separated among feedback, feedback-open-loop, lgmd1, lgmd2, "
@@ -48,8 +49,16 @@ def add(sub: argparse._SubParsersAction) -> None:
                    help="frame size of the clips: rl (120x160, default: the size of the "
                    "closed-loop task), paper, small or HxW")
     p.add_argument("--save-presets", action="store_true",
-                   help="also write the package's calibrated presets (lgmd_sim/models/"
-                   "calibrated.json)")
+                   help="also merge the calibrated presets into your presets file, "
+                   "calibrated.json in $LGMD_SIM_DATA_DIR (default: the user data folder, "
+                   "~/.local/share/lgmd-sim on Linux); only the calibrated detectors' "
+                   "presets change there, and the models read it on top of the shipped "
+                   "presets")
+    p.add_argument("--presets-file", metavar="PATH", default=None,
+                   help="merge the calibrated presets into PATH instead of your presets "
+                   "file (implies --save-presets); the models read only "
+                   "$LGMD_SIM_DATA_DIR/calibrated.json, so a PATH named calibrated.json "
+                   "serves them once LGMD_SIM_DATA_DIR names its folder")
     add_run_folder_options(p, "calibration")
     add_parallel_options(p, "clips and candidates")
 
@@ -61,7 +70,8 @@ def config_from_args(args: argparse.Namespace) -> Any:
     return CalibrateConfig(
         detectors=tuple(options.comma_list(args.detectors)), budget=args.budget,
         seeds=args.seeds, first_seed=args.first_seed, heldout_seed=args.heldout_seed,
-        seed=args.seed, resolution=args.resolution, save_presets=args.save_presets)
+        seed=args.seed, resolution=args.resolution, save_presets=args.save_presets,
+        presets_file=args.presets_file)
 
 
 def run(args: argparse.Namespace) -> int:

@@ -1,4 +1,5 @@
-"""`lgmd-sim models`: the models, their presets and every parameter with its source."""
+"""`lgmd-sim models`: the models, their presets (a calibrated one with the file it comes
+from) and every parameter with its source."""
 
 from __future__ import annotations
 
@@ -8,8 +9,10 @@ import argparse
 def add(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "models", help="list the LGMD models and their parameters with sources",
-        description="List the LGMD models, their presets and every parameter with its "
-        "default and where that default comes from.",
+        description="List the LGMD models, their presets (each calibrated one with the "
+        "file it comes from: shipped with the package, or your presets file, "
+        "$LGMD_SIM_DATA_DIR/calibrated.json) and every parameter with its default and "
+        "where that default comes from.",
     )
     p.add_argument("name", nargs="?", help="show one model only")
 
@@ -17,13 +20,17 @@ def add(sub: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     """`lgmd-sim models`: every model, its presets and parameters with their sources."""
     from lgmd_sim import models
+    from lgmd_sim.models.presets import CALIBRATED, preset_files
 
     names = [args.name] if args.name else models.available()
     for name in names:
         cls = models.model_class(name)
         print(f"{name}: {cls.__doc__.strip().splitlines()[0]}")
         presets = models.presets_of(name)
-        print(f"  presets: {', '.join(presets)} (default {next(iter(presets))})")
+        files = preset_files(name)
+        listed = [p if p not in files else
+                  f"{p} ({'shipped' if files[p] == CALIBRATED else files[p]})" for p in presets]
+        print(f"  presets: {', '.join(listed)} (default {next(iter(presets))})")
         for pname, default, source, _doc in cls.Params.describe():
             print(f"  {pname} = {default!r}  [{source}]")
         print()

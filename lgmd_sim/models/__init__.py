@@ -55,7 +55,8 @@ def model_class(name: str) -> type[LGMDModel]:
 
 def presets_of(name: str) -> dict[str, dict[str, Any]]:
     """Every preset of model `name`, its default first: the class's own, then the
-    calibrated ones of the data file (`lgmd_sim.models.presets`)."""
+    calibrated ones of the data files, the user's on top of the shipped ones
+    (`lgmd_sim.models.presets`)."""
     from lgmd_sim.models.presets import data_presets
 
     cls = model_class(name)

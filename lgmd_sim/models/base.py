@@ -50,7 +50,8 @@ class ModelParams(CheckedParams):
     )
     stabilize: str = param(
         "none",
-        "ours (issue 9): none, as in the paper",
+        "our choice: off, as in the paper, which compensates no ego-motion (docs/models.md, "
+        "'Ego-motion compensation (front ends)')",
         check=one_of(*FRONT_ENDS),
         doc="ego-motion compensation: every stored map is warped by the camera's rotation "
             "between frames before the frame goes in; 'pose' / 'imu': the rotation given "
@@ -65,7 +66,8 @@ class ModelParams(CheckedParams):
     )
     gain: bool = param(
         False,
-        "ours (issue 9): off, as in the paper",
+        "our choice: off, as in the paper (docs/models.md, 'Ego-motion compensation (front "
+        "ends)', 'Brightness')",
         check=one_of(True, False),
         doc="compensate global brightness changes (auto-exposure, shade, flicker): the "
             "previous frame is scaled by the gain fitted between it and this frame",

@@ -136,6 +136,10 @@ class FeedbackParams(ModelParams):
             raise ValueError(f"{type(self).__name__}.eta and .zeta must have the same length "
                              f">= 1 (one spline term each), got {len(self.eta)} and "
                              f"{len(self.zeta)}")
+        if self.eps1 == 0 and self.eps2 == 0:
+            raise ValueError(f"{type(self).__name__}: parameters eps1=0 and eps2=0: at least "
+                             "one must be > 0 (with both 0, S is 0 and the potential a "
+                             "constant 0.5)")
 
 
 def delay_weights(n_taps: int) -> np.ndarray:

@@ -52,7 +52,7 @@ from lgmd_sim.models.baseline import (
 )
 from lgmd_sim.models.kernels import JIT_NO_FMA, fill_borders_as, row_index, staggered_arrays
 from lgmd_sim.models.sources import SOURCES
-from lgmd_sim.params import non_negative, one_of, optional, param
+from lgmd_sim.params import because, non_negative, one_of, optional, param, positive
 
 __all__ = ["LGMD1", "LGMD1Params"]
 
@@ -84,7 +84,8 @@ class LGMD1Params(BaselineParams):
                                   "same-sign excitation of the previous frame")
     t_ffi: float | None = param(
         None, f"{_PI}: its FFI gates spikes only, never K; {_PLGMD}: none (10 in {_SINGLE})",
-        check=optional(non_negative),
+        check=optional(because(positive, "at 0 the FFI holds the potential at 0.5 on every "
+                                         "frame; None turns it off")),
         doc="feed-forward inhibition: the potential rests at 0.5 while mean |P(t-1)| >= "
             "t_ffi; None: no FFI")
     g_layer: bool = param(True, f"{_PI}; {_PLGMD} (none in {_SINGLE}: K from sum S)",

@@ -51,6 +51,7 @@ from lgmd_sim.models.baseline import (
 from lgmd_sim.models.kernels import JIT_NO_FMA, fill_borders_as, row_index, staggered_arrays
 from lgmd_sim.models.sources import SOURCES
 from lgmd_sim.params import (
+    because,
     finite,
     in_range,
     non_negative,
@@ -141,7 +142,8 @@ class LGMD2Params(BaselineParams):
             "(False: the gate zeroes S only; v0.1)")
     global_ffi_base: float | None = param(
         None, f"{_SRC}: none (10 in {_OL}: AIM(t) >= 10 + 0.02 AIM(t-1))",
-        check=optional(non_negative),
+        check=optional(because(positive, "at 0 the global FFI holds K at 0.5 on every "
+                                         "frame; None turns it off")),
         doc="global FFI: K is set to 0.5 (before SFA) while PM_on + PM_off >= "
             "global_ffi_base + global_ffi_gain * (its previous value); None: off")
     global_ffi_gain: float = param(0.02, _OL, check=non_negative,
@@ -149,7 +151,8 @@ class LGMD2Params(BaselineParams):
     t_sfa: float = param(0.003, f"{_SRC} (Tsfa; 0.002 in {_OL})", check=finite,
                          doc="SFA: a rise of K by at most t_sfa counts as no rise (adapt)")
     tau_sfa: float = param(800.0, f"{_SHARED} (tau_sfa; a6 = 800 / (800 + t))",
-                           check=non_negative,
+                           check=because(positive, "at 0 the SFA decay is 0 and the "
+                                         "potential a constant 0.5"),
                            doc="SFA time constant (ms): decay = tau / (tau + dt) per frame")
     sfa_rise: str = param("decay", f"{_SHARED}: SFA_HPF returns hp_sfa * K on a rise",
                           check=one_of("decay", "follow"),
