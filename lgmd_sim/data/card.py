@@ -5,6 +5,7 @@ Both depend only on the dataset's files, so they are as reproducible as the epis
 
 from __future__ import annotations
 
+import re
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -20,6 +21,17 @@ __all__ = ["card", "contact_sheet", "sheet_frame"]
 TILE_WIDTH = 240
 #: ISI histogram bin width.
 ISI_BIN = 0.05
+#: The card's YAML front matter: Hugging Face `datasets` (``load_dataset("DIR")``, and the
+#: Hub for an upload of the folder) reads the per-frame labels and nothing else; without
+#: it, it would take the episode and task tables for data too.
+FRONT_MATTER = f"""---
+configs:
+- config_name: default
+  data_files:
+  - split: train
+    path: {re.sub(r"{[^}]*}", "*", layout.DATA_PATH)}
+---
+"""
 
 
 def sheet_frame(meta: Mapping[str, Any]) -> int:
@@ -105,6 +117,7 @@ def card(config: Any, episodes, info: Mapping[str, Any]) -> str:
                                  "exact" if fmt.lossless else ""))
     outcome = {o: sum(r["outcome"] == o for r in rows) for o in layout.OUTCOMES}
     lines = [
+        FRONT_MATTER,
         "# lgmd-sim jitter dataset",
         "",
         f"{total} episodes, {info['total_frames']} frames of camera streams from the lgmd-sim "
@@ -190,14 +203,25 @@ def card(config: Any, episodes, info: Mapping[str, Any]) -> str:
         "",
         "The layout follows the LeRobot dataset v3 conventions (meta/info.json with the "
         "feature schema, an episode table in meta/episodes/, chunked Parquet data with "
-        "`episode_index`, `frame_index`, `timestamp`), one data file and one video file "
-        "per episode; lgmd-sim's docs/datasets.md describes every column and where the "
-        "layout departs from LeRobot's. The labels load without lgmd-sim, e.g. "
-        "`pyarrow.parquet.read_table(\"DIR/data\")`, `pandas.read_parquet(\"DIR/data\")` "
-        "or `datasets.load_dataset(\"parquet\", data_files=\"DIR/data/*/*.parquet\")`; "
-        "the videos open with OpenCV and FFmpeg. With lgmd-sim: "
-        "`lgmd_sim.data.open(\"DIR\")` gives episodes with frames and labels, filters and "
-        "a clip sampler. " + noise_note,
+        "`episode_index`, `frame_index`, `timestamp`, `index`), one data file and one "
+        "video file per episode; lgmd-sim's docs/datasets.md says where the layout departs "
+        f"from LeRobot's. `{layout.STATS}` holds per-feature statistics (as LeRobot's). "
+        "The labels load without lgmd-sim: `datasets.load_dataset(\"DIR\")` (this card's "
+        "`configs` block names the data files, so a Hugging Face Hub upload of the folder "
+        "loads the same way), `pyarrow.parquet.read_table(\"DIR/data\")` or "
+        "`pandas.read_parquet(\"DIR/data\")`; the videos open with OpenCV and FFmpeg. "
+        "With lgmd-sim: `lgmd_sim.data.open(\"DIR\")` gives episodes with frames and "
+        "labels, filters and a clip sampler. " + noise_note,
         "",
+        "## Per-frame labels",
+        "",
+        "Every data file has the same schema, one row per frame (`meta/info.json`'s "
+        "`features` holds it in LeRobot's form):",
+        "",
+        "| column | type | unit | meaning |",
+        "|---|---|---|---|",
     ]
+    lines += [f"| `{c.name}` | {c.type} | {c.unit or '-'} | {c.doc} |"
+              for c in layout.columns(config.models, config.noise)]
+    lines.append("")
     return "\n".join(lines)

@@ -7,10 +7,11 @@ The layout follows the LeRobot dataset v3 conventions where they fit (see docs/d
     DIR/meta/config.json                                  the generation configuration
     DIR/meta/tasks.parquet                                one task per scenario
     DIR/meta/episodes/chunk-000/file-000.parquet          one row per episode
+    DIR/meta/stats.json                                   per-feature statistics
     DIR/meta/contact_sheet.png                            a frame per scenario and jitter
     DIR/meta/run.json                                     run record (not part of the identity)
     DIR/data/chunk-000/file-000.parquet                   labels of episode 0, a row a frame
-    DIR/videos/observation.images.camera/chunk-000/file-000.avi   its frames (FFV1)
+    DIR/videos/observation.images.camera/chunk-000/file-000.avi   its frames
 
 Episode ``i`` is file ``i % CHUNK_SIZE`` of chunk ``i // CHUNK_SIZE``: one file per episode,
 so that each episode is written (and resumed) on its own.
@@ -23,7 +24,7 @@ import os
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 #: The LeRobot format version whose layout this one follows.
 CODEBASE_VERSION = "v3.0"
@@ -39,11 +40,41 @@ TASKS = "meta/tasks.parquet"
 EPISODES = "meta/episodes/chunk-000/file-000.parquet"
 CONTACT_SHEET = "meta/contact_sheet.png"
 CARD = "README.md"
+#: Per-feature statistics, as LeRobot's.
+STATS = "meta/stats.json"
 #: Facts of each run (wall time, workers, the command as typed): excluded from the
 #: dataset's identity, the checksums and `verify`.
 RUNS = "meta/run.json"
 #: Key of the episode's metadata (JSON) in its data file's Parquet key-value metadata.
 EPISODE_KEY = b"lgmd_sim.episode"
+#: Prefix of the episode table's columns about the camera stream's files (LeRobot's names).
+VIDEO_COLUMNS = f"videos/{VIDEO_KEY}"
+#: The episode table's column of each episode's video checksum.
+VIDEO_SHA256 = f"{VIDEO_COLUMNS}/sha256"
+#: The episode table's columns, in order, and their types (see `arrow_type`): LeRobot's,
+#: this dataset's labels of each episode and the checksums of its files.
+EPISODE_COLUMNS: list[tuple[str, str]] = [
+    ("episode_index", "int64"), ("tasks", "string[]"), ("length", "int64"),
+    ("scenario", "string"), ("task_index", "int64"), ("jitter", "float64"),
+    ("seed", "int64"), ("outcome", "string"), ("collision_frame", "int64"),
+    ("near_miss", "bool"), ("closest_approach", "float64"),
+    ("closest_approach_frame", "int64"), ("goal_reached", "bool"), ("isi", "float64"),
+    ("fps", "float64"), ("height", "int64"), ("width", "int64"), ("version", "string"),
+    ("video_codec", "string"), ("config", "string"), ("data/chunk_index", "int64"),
+    ("data/file_index", "int64"), ("data/sha256", "string"), ("dataset_from_index", "int64"),
+    ("dataset_to_index", "int64"), (f"{VIDEO_COLUMNS}/chunk_index", "int64"),
+    (f"{VIDEO_COLUMNS}/file_index", "int64"), (f"{VIDEO_COLUMNS}/from_timestamp", "float64"),
+    (f"{VIDEO_COLUMNS}/to_timestamp", "float64"), (VIDEO_SHA256, "string"),
+]
+#: The task table's columns and their types.
+TASK_COLUMNS: list[tuple[str, str]] = [("task_index", "int64"), ("task", "string"),
+                                       ("scenario", "string")]
+#: meta/info.json's keys that readers rely on, and the JSON types of their values.
+INFO_KEYS: dict[str, type] = {
+    "codebase_version": str, "total_episodes": int, "total_frames": int, "total_tasks": int,
+    "chunks_size": int, "fps": float, "splits": dict, "data_path": str,
+    "video_path": str, "features": dict, "lgmd_sim": dict,
+}
 
 @dataclass(frozen=True)
 class VideoFormat:
@@ -93,41 +124,56 @@ VECTOR_NAMES: dict[str, list[str]] = {
     "action": ["v", "omega"],
 }
 
-#: Every per-frame column but the models', in order: (name, type, meaning). Types are
-#: pyarrow type names ("float64", "float32[3]" for a fixed-size list).
-COLUMNS: list[tuple[str, str, str]] = [
-    ("episode_index", "int64", "the episode"),
-    ("frame_index", "int64", "the frame within its episode, from 0"),
-    ("timestamp", "float32", "frame_index / fps (s), as LeRobot"),
-    ("task_index", "int64", "the scenario (meta/tasks.parquet)"),
-    ("time", "float64", "simulated time (s)"),
-    ("carrier_pos", "float64[3]", "carrier position (m, world frame)"),
-    ("carrier_quat", "float64[4]", "carrier orientation (quaternion w, x, y, z)"),
-    ("camera_pos", "float64[3]", "camera position (m, world frame)"),
-    ("camera_quat", "float64[4]", "camera orientation (quaternion w, x, y, z)"),
-    ("camera_angvel", "float64[3]", "camera angular velocity (rad/s, camera frame: x right, "
-     "y up, z backwards)"),
-    ("camera_linvel", "float64[3]", "camera linear velocity (m/s, camera frame)"),
-    ("threat_index", "int64", "the most threatening obstacle (-1: none)"),
-    ("threat_distance", "float64", "its surface distance from the carrier (m)"),
-    ("threat_bearing", "float64", "its bearing from the camera heading (rad, left +)"),
-    ("threat_closing_speed", "float64", "its closing speed (m/s, approaching +)"),
-    ("threat_ttc", "float64", "its time to collision (s; inf when not closing)"),
-    ("collision", "bool", "the carrier touches an obstacle on this frame"),
-    ("first_collision_frame", "int64", "the first collision frame so far (-1: none yet)"),
-    ("ssim", "float64", "SSIM with the previous frame (NaN on frame 0)"),
-    ("goal_distance", "float64", "distance to the goal (m; NaN without a goal)"),
-    ("goal_bearing", "float64", "bearing of the goal (rad; NaN without a goal)"),
-    ("goal_reached", "bool", "the goal is reached on this frame"),
-    ("observation.state", "float32[11]", "proprioception: wheel speeds (rad/s), gyro "
-     "(rad/s), accelerometer (m/s^2), the IMU's camera rotation since the last frame (rad)"),
-    ("observation.goal", "float32[3]", "goal observation (NaN without a goal)"),
-    ("action", "float32[2]", "the controller's action (v, omega) on seeing this frame "
-     "(NaN on the last frame)"),
-    ("reward", "float64", "reward of the step that led to this frame (0 on frame 0)"),
-    ("terminated", "bool", "the episode ended at this frame (collision or goal)"),
-    ("truncated", "bool", "the episode was cut at this frame (time limit)"),
-]
+class Column(NamedTuple):
+    """A per-frame label column: `type` a pyarrow type name ("float64", "float32[3]" for
+    a fixed-size list), `unit` "" where the value has none."""
+
+    name: str
+    type: str
+    unit: str
+    doc: str
+
+
+#: Every per-frame column but the models', in order: the one declaration the label
+#: schema, info.json's features and the dataset card are made from.
+COLUMNS: list[Column] = [Column(*c) for c in (
+    ("episode_index", "int64", "", "the episode"),
+    ("frame_index", "int64", "", "the frame within its episode, from 0"),
+    ("timestamp", "float32", "s", "frame_index / fps, as LeRobot"),
+    ("index", "int64", "", "the frame's index in the whole dataset (the episodes in order, "
+     "from 0), as LeRobot"),
+    ("task_index", "int64", "", "the scenario (meta/tasks.parquet)"),
+    ("time", "float64", "s", "simulated time"),
+    ("carrier_pos", "float64[3]", "m", "carrier position (world frame)"),
+    ("carrier_quat", "float64[4]", "", "carrier orientation (quaternion w, x, y, z)"),
+    ("camera_pos", "float64[3]", "m", "camera position (world frame)"),
+    ("camera_quat", "float64[4]", "", "camera orientation (quaternion w, x, y, z)"),
+    ("camera_angvel", "float64[3]", "rad/s", "camera angular velocity (camera frame: x "
+     "right, y up, z backwards)"),
+    ("camera_linvel", "float64[3]", "m/s", "camera linear velocity (camera frame)"),
+    ("threat_index", "int64", "", "the most threatening obstacle (-1: none)"),
+    ("threat_distance", "float64", "m", "its surface distance from the carrier"),
+    ("threat_bearing", "float64", "rad", "its bearing from the camera heading (left +)"),
+    ("threat_closing_speed", "float64", "m/s", "its closing speed (approaching +)"),
+    ("threat_ttc", "float64", "s", "its time to collision (inf when not closing)"),
+    ("collision", "bool", "", "the carrier touches an obstacle on this frame"),
+    ("first_collision_frame", "int64", "", "the first collision frame so far (-1: none "
+     "yet)"),
+    ("ssim", "float64", "", "SSIM with the previous frame (NaN on frame 0)"),
+    ("goal_distance", "float64", "m", "distance to the goal (NaN without a goal)"),
+    ("goal_bearing", "float64", "rad", "bearing of the goal (NaN without a goal)"),
+    ("goal_reached", "bool", "", "the goal is reached on this frame"),
+    ("observation.state", "float32[11]", "rad/s, m/s^2, rad", "proprioception: wheel "
+     "speeds (rad/s), gyro (rad/s), accelerometer (m/s^2), the IMU's camera rotation since "
+     "the last frame (rad)"),
+    ("observation.goal", "float32[3]", "m, 1, 1", "goal observation: distance, sine and "
+     "cosine of the bearing (NaN without a goal)"),
+    ("action", "float32[2]", "", "the controller's action (v, omega), each in [-1, 1] of "
+     "the carrier's max_speed and max_turn, on seeing this frame (NaN on the last frame)"),
+    ("reward", "float64", "", "reward of the step that led to this frame (0 on frame 0)"),
+    ("terminated", "bool", "", "the episode ended at this frame (collision or goal)"),
+    ("truncated", "bool", "", "the episode was cut at this frame (time limit)"),
+)]
 
 
 def model_columns(model: str, variant: str | None = None) -> tuple[str, str]:
@@ -136,31 +182,44 @@ def model_columns(model: str, variant: str | None = None) -> tuple[str, str]:
     return f"{model}.potential{tail}", f"{model}.alarm{tail}"
 
 
-def label_schema(models: Sequence[str], variants: Sequence[str]):  # -> pyarrow.Schema
-    """The per-frame schema: `COLUMNS`, then each model's potential and alarm on the clean
-    frames and on each noise variant."""
-    import pyarrow as pa
-
-    fields = [pa.field(name, _arrow_type(kind)) for name, kind, _doc in COLUMNS]
+def columns(models: Sequence[str], variants: Sequence[str]) -> list[Column]:
+    """Every per-frame column: `COLUMNS`, then each model's potential and alarm on the
+    clean frames and on each noise variant."""
+    out = list(COLUMNS)
     for variant in [None, *variants]:
+        on = "clean frames" if variant is None else f"frames with noise {variant}"
         for model in models:
             potential, alarm = model_columns(model, variant)
-            fields += [pa.field(potential, pa.float64()), pa.field(alarm, pa.bool_())]
-    return pa.schema(fields)
+            out += [Column(potential, "float64", "", f"{model} membrane potential on the {on}"),
+                    Column(alarm, "bool", "",
+                           f"{model} alarm (potential above its threshold) on the {on}")]
+    return out
 
 
-def _arrow_type(kind: str):
+def label_schema(models: Sequence[str], variants: Sequence[str]):  # -> pyarrow.Schema
+    """The per-frame schema (see `columns`)."""
+    import pyarrow as pa
+
+    return pa.schema([pa.field(c.name, arrow_type(c.type)) for c in columns(models, variants)])
+
+
+def arrow_type(kind: str):  # -> pyarrow.DataType
+    """The pyarrow type of a type name: "float64", "float32[3]" (a fixed-size list),
+    "string[]" (a list of any length)."""
     import pyarrow as pa
 
     base, _, size = kind.partition("[")
     scalar = {"int64": pa.int64(), "float32": pa.float32(), "float64": pa.float64(),
-              "bool": pa.bool_()}[base]
-    return pa.list_(scalar, int(size[:-1])) if size else scalar
+              "bool": pa.bool_(), "string": pa.string()}[base]
+    if not size:
+        return scalar
+    return pa.list_(scalar, int(size[:-1])) if size[:-1] else pa.list_(scalar)
 
 
 def features(models: Sequence[str], variants: Sequence[str], size: Sequence[int],
              fps: float, video_format: str) -> dict[str, dict[str, Any]]:
-    """info.json's feature schema, in LeRobot's form (dtype, shape, names)."""
+    """info.json's feature schema, in LeRobot's form (dtype, shape, names), with each
+    column's unit and meaning."""
     fmt = VIDEO_FORMATS[video_format]
     h, w = size
     out: dict[str, dict[str, Any]] = {VIDEO_KEY: {
@@ -169,19 +228,11 @@ def features(models: Sequence[str], variants: Sequence[str], size: Sequence[int]
                  "video.pix_fmt": fmt.pix_fmt, "video.fps": fps, "video.channels": 3,
                  "video.is_depth_map": False, "video.lossless": fmt.lossless,
                  "video.container": fmt.suffix[1:], "has_audio": False}}}
-    for name, kind, doc in COLUMNS:
-        base, _, n = kind.partition("[")
-        out[name] = {"dtype": "bool" if base == "bool" else base,
-                     "shape": [int(n[:-1]) if n else 1], "names": VECTOR_NAMES.get(name),
-                     "doc": doc}
-    for variant in [None, *variants]:
-        for model in models:
-            potential, alarm = model_columns(model, variant)
-            on = "clean frames" if variant is None else f"frames with noise {variant}"
-            out[potential] = {"dtype": "float64", "shape": [1], "names": None,
-                              "doc": f"{model} membrane potential on the {on}"}
-            out[alarm] = {"dtype": "bool", "shape": [1], "names": None,
-                          "doc": f"{model} alarm (potential above its threshold) on the {on}"}
+    for c in columns(models, variants):
+        base, _, n = c.type.partition("[")
+        out[c.name] = {"dtype": base, "shape": [int(n[:-1]) if n else 1],
+                       "names": VECTOR_NAMES.get(c.name), "unit": c.unit or None,
+                       "doc": c.doc}
     return out
 
 

@@ -13,6 +13,7 @@
 from __future__ import annotations
 
 import json
+import math
 import os
 import re
 from collections.abc import Iterator, Sequence
@@ -24,7 +25,8 @@ import numpy as np
 
 from lgmd_sim.data import layout
 
-__all__ = ["Clip", "Dataset", "Episode", "detect_inputs", "episodes", "open_dataset"]
+__all__ = ["Clip", "Dataset", "Episode", "detect_inputs", "episodes", "open_dataset",
+           "read_meta_table"]
 
 _EPISODE_SPEC = re.compile(r"(?P<path>.+):(?P<index>\d+)")
 
@@ -43,6 +45,9 @@ class Episode:
         meta: its row of the episode table (scenario, jitter, seed, length, outcome,
             collision_frame, closest_approach, isi, config...).
         video_path, data_path: its files.
+
+    Its files are checked to be its own as they are read (`read_labels`, `iter_frames`):
+    a swapped or copied file is refused, naming it, rather than served as this episode's.
     """
 
     def __init__(self, root: Path, meta: dict[str, Any], video: str):
@@ -88,8 +93,46 @@ class Episode:
     @property
     def labels(self):  # -> pyarrow.Table
         """The per-frame labels (a pyarrow Table; ``.to_pandas()`` with pandas)."""
+        return self.read_labels()
+
+    def read_labels(self, columns: Sequence[str] | None = None):  # -> pyarrow.Table
+        """The labels, or those `columns` of them; refused (ValueError naming the file)
+        unless the data file holds this episode's rows, every one: a swapped or copied
+        file would otherwise pass for this episode's, unnoticed by anything but verify."""
         _pa_mod, pq = _pa()
-        return pq.read_table(self.data_path)
+        import pyarrow.compute as pc
+
+        read = None if columns is None else list(dict.fromkeys(["episode_index", *columns]))
+        try:
+            table = pq.read_table(self.data_path, columns=read)
+        except (OSError, ValueError) as exc:
+            raise ValueError(f"{self.data_path}: cannot read episode {self.index}'s labels: "
+                             f"{exc}") from None
+        found = pc.min_max(table["episode_index"]).as_py()
+        if table.num_rows and (found["min"], found["max"]) != (self.index, self.index):
+            whose = (f"episode {found['min']}'s" if found["min"] == found["max"]
+                     else f"episodes {found['min']} to {found['max']}'s")
+            raise ValueError(f"{self.data_path}: holds {whose} labels, not episode "
+                             f"{self.index}'s (a swapped or copied file? lgmd-sim dataset "
+                             f"verify {self.root} checks every file)")
+        if table.num_rows != self.length:
+            raise ValueError(f"{self.data_path}: {table.num_rows} rows, episode {self.index} "
+                             f"has {self.length} frames")
+        return table if columns is None else table.select(list(columns))
+
+    def _check_video(self) -> None:
+        """Refuse a video that is not this episode's. Nothing in a video names its episode
+        and episodes of one length are common, so its SHA-256 is compared with the episode
+        table's: a few percent of the cost of decoding it."""
+        try:
+            digest = layout.sha256(self.video_path)
+        except OSError as exc:
+            raise ValueError(f"{self.video_path}: cannot read episode {self.index}'s video: "
+                             f"{exc.strerror or exc}") from None
+        if digest != self.meta[layout.VIDEO_SHA256]:
+            raise ValueError(f"{self.video_path}: not episode {self.index}'s video (its SHA-256 "
+                             f"differs from the episode table's; lgmd-sim dataset verify "
+                             f"{self.root} checks every file)")
 
     def iter_frames(self, noise: str | None = None) -> Iterator[np.ndarray]:
         """The frames, (H, W, 3) uint8 RGB, in order; with `noise` (one of the dataset's
@@ -99,6 +142,7 @@ class Episode:
         from lgmd_sim.video import VideoReader
 
         noises = noise_mod.parse(noise.replace("+", ",")) if noise else []
+        self._check_video()
         for i, rgb in enumerate(VideoReader(self.video_path)):
             yield noise_mod.apply(rgb, noises, self.seed, i) if noises else rgb
 
@@ -183,8 +227,8 @@ class Dataset:
 
     def labels(self, columns: Sequence[str] | None = None):  # -> pyarrow.Table
         """The labels of every episode of this view, one table (in episode order)."""
-        pa, pq = _pa()
-        tables = [pq.read_table(ep.data_path, columns=columns) for ep in self]
+        pa, _pq = _pa()
+        tables = [ep.read_labels(columns) for ep in self]
         return pa.concat_tables(tables) if tables else None
 
     def windows(self, length: int, stride: int = 1) -> list[tuple[int, int]]:
@@ -222,20 +266,86 @@ class Dataset:
 
 
 def open_dataset(path: str | os.PathLike) -> Dataset:
-    """Open the dataset in folder `path` (made by ``lgmd-sim dataset generate``)."""
-    _pa_mod, pq = _pa()
+    """Open the dataset in folder `path` (made by ``lgmd-sim dataset generate``); a meta
+    file of the wrong shape is refused with one line naming it."""
     root = Path(path)
     if not (root / layout.INFO).is_file():
         what = ("its generation has not finished (run the same command again to resume)"
                 if (root / layout.CONFIG).is_file() else "not an lgmd-sim dataset")
         raise ValueError(f"cannot open dataset {root}: no {layout.INFO}: {what}")
     try:
-        info = json.loads((root / layout.INFO).read_text())
-        config = json.loads((root / layout.CONFIG).read_text())
-        episodes = pq.read_table(root / layout.EPISODES)
-    except (OSError, ValueError) as exc:
+        info = _check_info(root / layout.INFO, _read_json(root / layout.INFO))
+        config = _check_config(root / layout.CONFIG, _read_json(root / layout.CONFIG))
+        episodes = read_meta_table(root / layout.EPISODES, layout.EPISODE_COLUMNS)
+    except ValueError as exc:
         raise ValueError(f"cannot open dataset {root}: {exc}") from None
     return Dataset(root, info, config, episodes)
+
+
+def read_meta_table(path: Path, columns: Sequence[tuple[str, str]]):  # -> pyarrow.Table
+    """A table of the dataset's meta folder, refused (ValueError naming it) unless it has
+    the declared `columns` (name, `layout.arrow_type` name), of their types."""
+    _pa_mod, pq = _pa()
+    try:
+        table = pq.read_table(path)
+    except (OSError, ValueError) as exc:
+        raise ValueError(f"{path}: cannot read it: {exc}") from None
+    for name, kind in columns:
+        want = layout.arrow_type(kind)
+        if name not in table.column_names:
+            raise ValueError(f"{path}: no column {name!r}")
+        if table.schema.field(name).type != want:
+            raise ValueError(f"{path}: column {name!r} is {table.schema.field(name).type}, "
+                             f"not {want}")
+    return table
+
+
+def _read_json(path: Path) -> Any:
+    try:
+        return json.loads(path.read_text())
+    except OSError as exc:
+        raise ValueError(f"{path}: cannot read it: {exc.strerror or exc}") from None
+    except ValueError as exc:  # not JSON, or not text
+        raise ValueError(f"{path}: not JSON ({exc})") from None
+
+
+_JSON_KINDS = {dict: "an object", list: "an array", str: "a string", bool: "a boolean",
+               int: "an integer", float: "a number", type(None): "null"}
+
+
+def _check_info(path: Path, info: Any) -> dict[str, Any]:
+    """info.json, with the keys the readers rely on, of their JSON types."""
+    if not isinstance(info, dict):
+        raise ValueError(f"{path}: holds {_JSON_KINDS[type(info)]}, not an object")
+    for key, kind in layout.INFO_KEYS.items():
+        if key not in info:
+            raise ValueError(f"{path}: no {key!r} key")
+        value = info[key]
+        # JSON has one number type: an integral fps reads back as an int
+        wanted = (int, float) if kind is float else kind
+        if not isinstance(value, wanted) or isinstance(value, bool):
+            raise ValueError(f"{path}: {key!r} is {_JSON_KINDS[type(value)]}, not "
+                             f"{_JSON_KINDS[kind]}")
+        if isinstance(value, int | float) and (value < 0 or not math.isfinite(value)):
+            raise ValueError(f"{path}: {key!r} is {value}, not a number >= 0")
+    if info["fps"] <= 0:
+        raise ValueError(f"{path}: 'fps' is {info['fps']}, not a positive number")
+    return info
+
+
+def _check_config(path: Path, config: Any) -> dict[str, Any]:
+    """config.json, with what the loader reads of it: the video format, the noise
+    variants (verify reads the rest)."""
+    if not isinstance(config, dict):
+        raise ValueError(f"{path}: holds {_JSON_KINDS[type(config)]}, not an object")
+    if config.get("video") not in layout.VIDEO_FORMATS:
+        raise ValueError(f"{path}: 'video' is {json.dumps(config.get('video'))}, not one of "
+                         f"{', '.join(layout.VIDEO_FORMATS)}")
+    noise = config.get("noise")
+    if not isinstance(noise, list) or not all(isinstance(v, str) for v in noise):
+        raise ValueError(f"{path}: 'noise' is {json.dumps(noise)}, not a list of noise "
+                         "variants")
+    return config
 
 
 def episodes(spec: str | os.PathLike) -> list[Episode] | None:
@@ -260,6 +370,7 @@ def detect_inputs(videos: Sequence[str]) -> list[tuple[str, str, int | None]]:
         if found is None:
             out.append((video, video, None))
         for ep in found or ():
+            ep._check_video()  # detect reads the file itself
             out.append((os.path.join(ep.root, f"episode_{ep.index:06d}"), str(ep.video_path),
                         ep.collision_frame))
     return out

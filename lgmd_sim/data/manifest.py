@@ -21,15 +21,8 @@ def episode_table(out: Path, metas: Sequence[Mapping[str, Any]]):  # -> pa.Table
     the episode (outcome, collision frame, ISI...) and the checksums of its files."""
     import pyarrow as pa
 
-    video_col = f"videos/{layout.VIDEO_KEY}"
-    rows: dict[str, list] = {k: [] for k in (
-        "episode_index", "tasks", "length", "scenario", "task_index", "jitter", "seed",
-        "outcome", "collision_frame", "near_miss", "closest_approach",
-        "closest_approach_frame", "goal_reached", "isi", "fps", "height", "width", "version",
-        "video_codec", "config", "data/chunk_index", "data/file_index", "data/sha256",
-        "dataset_from_index", "dataset_to_index", f"{video_col}/chunk_index",
-        f"{video_col}/file_index", f"{video_col}/from_timestamp", f"{video_col}/to_timestamp",
-        f"{video_col}/sha256")}
+    video_col = layout.VIDEO_COLUMNS
+    rows: dict[str, list] = {name: [] for name, _type in layout.EPISODE_COLUMNS}
     start = 0
     for m in metas:
         chunk, file = divmod(m["episode_index"], layout.CHUNK_SIZE)
@@ -51,12 +44,10 @@ def episode_table(out: Path, metas: Sequence[Mapping[str, Any]]):  # -> pa.Table
         rows[f"{video_col}/file_index"].append(file)
         rows[f"{video_col}/from_timestamp"].append(0.0)
         rows[f"{video_col}/to_timestamp"].append(m["length"] / m["fps"])
-        rows[f"{video_col}/sha256"].append(m["video_sha256"])
+        rows[layout.VIDEO_SHA256].append(m["video_sha256"])
         start += m["length"]
-    types = {"tasks": pa.list_(pa.string()), "collision_frame": pa.int64(),
-             "closest_approach": pa.float64(), "closest_approach_frame": pa.int64(),
-             "isi": pa.float64(), "jitter": pa.float64(), "fps": pa.float64()}
-    return pa.table({k: pa.array(v, type=types.get(k)) for k, v in rows.items()})
+    return pa.table({name: pa.array(rows[name], type=layout.arrow_type(kind))
+                     for name, kind in layout.EPISODE_COLUMNS})
 
 
 def info(config_json: Mapping[str, Any], metas: Sequence[Mapping[str, Any]],
@@ -111,9 +102,11 @@ def write_manifest(out: Path, config: Any, metas: Sequence[Mapping[str, Any]]) -
 
     config_json = config.as_json()
     episodes = episode_table(out, metas)
-    tasks = pa.table({"task_index": list(range(len(config.scenarios))),
-                      "task": [f"{s}: {scenario(s).description}" for s in config.scenarios],
-                      "scenario": list(config.scenarios)})
+    values = {"task_index": list(range(len(config.scenarios))),
+              "task": [f"{s}: {scenario(s).description}" for s in config.scenarios],
+              "scenario": list(config.scenarios)}
+    tasks = pa.table({name: pa.array(values[name], type=layout.arrow_type(kind))
+                      for name, kind in layout.TASK_COLUMNS})
     meta_info = info(config_json, metas, config.scenarios, config.video)
     sheet = card.contact_sheet(out, config, metas)
     text = card.card(config, episodes, meta_info)

@@ -53,7 +53,7 @@ class WindowDataset(torch.utils.data.Dataset):
             self._cache.move_to_end(position)
             return self._cache[position]
         ep = self.dataset[position]
-        labels = ep.labels.select(self.columns)
+        labels = ep.read_labels(self.columns)
         values = np.stack([labels[c].to_numpy(zero_copy_only=False).astype(np.float32)
                            for c in self.columns], axis=1)
         self._cache[position] = (ep.frames(self.noise), values)

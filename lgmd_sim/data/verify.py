@@ -1,7 +1,8 @@
 """`lgmd-sim dataset verify DIR`: is the dataset complete and consistent?
 
-Checks the counts (every episode of the configuration, once), the checksums of every data
-and video file, that every file belongs to the dataset, and the labels of each episode:
+Checks the shape of the meta files, the counts (every episode of the configuration, once),
+the task table, the checksums of every data and video file, that every file belongs to
+the dataset, and the labels of each episode:
 row count and frame count against the episode's length, frame indices 0..T-1, strictly
 increasing time and timestamps, the collision frame against the collision flags, the
 outcome against both. Each problem is one line naming the file or the episode.
@@ -23,21 +24,20 @@ __all__ = ["verify"]
 
 def verify(path: str | Path) -> tuple[list[str], dict[str, int]]:
     """The problems of the dataset in `path` (empty when it is sound) and its counts."""
-    from lgmd_sim.data.generate import GenerateConfig
-    from lgmd_sim.data.load import open_dataset
+    from lgmd_sim.data.load import open_dataset, read_meta_table
 
     root = Path(path)
     try:
         ds = open_dataset(root)
     except ValueError as exc:
         return [str(exc)], {}
+    try:
+        config = _config(ds.config)
+    except KeyError as exc:
+        return [f"{root / layout.CONFIG}: no {exc} key"], {}
+    except (TypeError, ValueError) as exc:
+        return [f"{root / layout.CONFIG}: {exc}"], {}
     problems: list[str] = []
-    cfg = ds.config
-    config = GenerateConfig(
-        tuple(cfg["scenarios"]), tuple(cfg["jitter"]), cfg["episodes"],
-        cfg["resolution"] if isinstance(cfg["resolution"], str) else tuple(cfg["resolution"]),
-        cfg["controller"], tuple(cfg["models"]), tuple(cfg["noise"]), cfg["video"], cfg["seed"],
-        cfg["overrides"])
     specs = config.specs()
     metas = ds.episodes.to_pylist()
     got = [(m["episode_index"], m["scenario"], m["jitter"], m["seed"]) for m in metas]
@@ -56,8 +56,17 @@ def verify(path: str | Path) -> tuple[list[str], dict[str, int]]:
     if ds.info.get("total_frames") != frames:
         problems.append(f"{root / layout.INFO}: total_frames is {ds.info.get('total_frames')}, "
                         f"the episodes have {frames}")
+    try:
+        tasks = read_meta_table(root / layout.TASKS, layout.TASK_COLUMNS)
+    except ValueError as exc:
+        problems.append(str(exc))
+    else:
+        if (tasks["scenario"].to_pylist() != list(config.scenarios)
+                or tasks["task_index"].to_pylist() != list(range(len(config.scenarios)))):
+            problems.append(f"{root / layout.TASKS}: the tasks are not the configuration's "
+                            "scenarios, in order")
     expected_files = {layout.INFO, layout.CONFIG, layout.TASKS, layout.EPISODES,
-                      layout.CONTACT_SHEET, layout.CARD, layout.RUNS}
+                      layout.STATS, layout.CONTACT_SHEET, layout.CARD, layout.RUNS}
     for m in metas:
         expected_files |= {layout.data_path(m["episode_index"]),
                            layout.video_path(m["episode_index"], config.video)}
@@ -74,6 +83,18 @@ def verify(path: str | Path) -> tuple[list[str], dict[str, int]]:
     return problems, {"episodes": len(metas), "frames": frames}
 
 
+def _config(cfg: dict[str, Any]):  # -> GenerateConfig
+    """The generation configuration of config.json (KeyError, TypeError or ValueError
+    where it is not one)."""
+    from lgmd_sim.data.generate import GenerateConfig
+
+    return GenerateConfig(
+        tuple(cfg["scenarios"]), tuple(cfg["jitter"]), cfg["episodes"],
+        cfg["resolution"] if isinstance(cfg["resolution"], str) else tuple(cfg["resolution"]),
+        cfg["controller"], tuple(cfg["models"]), tuple(cfg["noise"]), cfg["video"], cfg["seed"],
+        cfg["overrides"])
+
+
 def _name(key: tuple) -> str:
     index, scenario, jitter, seed = key
     return f"episode {index} ({scenario}, jitter {jitter:g}, seed {seed})"
@@ -86,9 +107,8 @@ def _check_episode(root: Path, m: dict[str, Any], video: str, fps: float) -> lis
     index = m["episode_index"]
     name = _name((index, m["scenario"], m["jitter"], m["seed"]))
     data, vid = root / layout.data_path(index), root / layout.video_path(index, video)
-    video_col = f"videos/{layout.VIDEO_KEY}/sha256"
     out = []
-    for path, wanted in ((data, m["data/sha256"]), (vid, m[video_col])):
+    for path, wanted in ((data, m["data/sha256"]), (vid, m[layout.VIDEO_SHA256])):
         if not path.is_file():
             out.append(f"{path}: missing ({name})")
         elif layout.sha256(path) != wanted:
@@ -138,6 +158,6 @@ def _check_episode(root: Path, m: dict[str, Any], video: str, fps: float) -> lis
         out.append(f"{layout.EPISODES}: {name} is marked {m['outcome']}, its labels say "
                    f"{outcome}")
     meta = json.loads((pq.read_metadata(data).metadata or {}).get(layout.EPISODE_KEY, b"{}"))
-    if meta.get("video_sha256") != m[video_col]:
+    if meta.get("video_sha256") != m[layout.VIDEO_SHA256]:
         out.append(f"{data}: names another video checksum than the episode table ({name})")
     return out
