@@ -34,6 +34,8 @@ SCENARIO = "lgmd_sim/RoughTerrainObstacles-v0"
 CRUISE, HEADING_GAIN = 0.6, 1.5
 #: Height (pixels) of the membrane-potential panel under the video.
 TRACE_HEIGHT = 210
+#: Dash length (points) of the thresholds in the summary.
+DASH = 4.0
 
 
 @dataclass
@@ -63,7 +65,8 @@ class Episode:
         return metrics.first_alarm(self.potentials[name], threshold=self.thresholds[name])
 
 
-def drive(seed: int, jitter: float, detectors: list[str], resolution: str = "paper") -> Episode:
+def drive(seed: int, jitter: float, detectors: list[str],
+          resolution: str | Sequence[int] = "paper") -> Episode:
     """Run one episode with the robot heading for the goal through the obstacle ahead,
     each detector ("model/preset+front", `models.parse_spec`) watching the camera."""
     import gymnasium as gym
@@ -106,6 +109,14 @@ def _rgb(name: str) -> tuple[int, ...]:
     return tuple(round(255 * c) for c in to_rgb(model_style(name)["color"]))
 
 
+def _by_threshold(ep: Episode) -> dict[float, list[str]]:
+    """The detectors of each threshold, in the episode's order."""
+    shared: dict[float, list[str]] = {}
+    for name, threshold in ep.thresholds.items():
+        shared.setdefault(threshold, []).append(name)
+    return shared
+
+
 def _trace_panel(ep: Episode, upto: int, width: int) -> np.ndarray:
     """The membrane potentials up to frame `upto`, drawn with OpenCV (fast, per frame)."""
     panel = np.full((TRACE_HEIGHT, width, 3), 255, np.uint8)
@@ -121,10 +132,16 @@ def _trace_panel(ep: Episode, upto: int, width: int) -> np.ndarray:
     cv2.rectangle(panel, (left, top), (right, bottom), (180, 180, 180), 1)
     for v in (0.5, 0.75, 1.0):
         cv2.putText(panel, f"{v:.2f}", (5, xy(0, v)[1] + 4), font, 0.4, (80, 80, 80), 1)
-    for threshold in sorted(set(ep.thresholds.values())):
-        cv2.line(panel, xy(0, threshold), xy(n - 1, threshold), (115, 115, 115), 1)
-        cv2.putText(panel, f"threshold {threshold:g}", (left + 5, xy(0, threshold)[1] - 5),
-                    font, 0.4, (0, 0, 0), 1)
+    for threshold, names in _by_threshold(ep).items():
+        y = xy(0, threshold)[1]
+        # dashes in turn in the colours of the detectors whose threshold it is
+        for i, x in enumerate(range(left, right, 6)):
+            cv2.line(panel, (x, y), (min(x + 5, right), y), _rgb(names[i % len(names)]), 1)
+        x = left + 5
+        for text, colour in [*((f"{name} ", _rgb(name)) for name in names),
+                             (f"threshold {threshold:g}", (0, 0, 0))]:
+            cv2.putText(panel, text, (x, y - 5), font, 0.4, colour, 1, cv2.LINE_AA)
+            x += cv2.getTextSize(text, font, 0.4, 1)[0][0]
     if ep.collision_frame is not None:
         x = xy(ep.collision_frame, 0.5)[0]
         cv2.line(panel, (x, top), (x, bottom), (0, 0, 0), 1)
@@ -213,9 +230,15 @@ def write_summary(ep: Episode, path: Path, title: str) -> None:
         if t is not None:
             mp.plot(time[t], potential[t], marker="v", ms=9, color=style["color"],
                     mec="black", ls="none")
-    for threshold in sorted(set(ep.thresholds.values())):
-        mp.axhline(threshold, label=f"threshold {threshold:g}", **THRESHOLD)
-    mp.set_ylim(0.45, 1.2)  # the band above 1 holds the legend: potentials stay below it
+    for threshold, names in _by_threshold(ep).items():
+        # one line per detector, in its colour; where thresholds coincide, their dashes
+        # alternate so that each stays visible
+        gap = DASH * max(len(names) - 1, 1)
+        for k, name in enumerate(names):
+            mp.axhline(threshold, label=f"threshold of {name}: {threshold:g}",
+                       **{**THRESHOLD, "color": model_style(name)["color"], "lw": 1.3,
+                          "ls": (k * DASH, (DASH, gap))})
+    mp.set_ylim(0.45, 1.32)  # the band above 1 holds the legend: potentials stay below it
     mp.set_yticks(np.arange(0.5, 1.01, 0.1))
     mp.set_ylabel("membrane potential")
     gt = fig.add_subplot(grid[2, :], sharex=mp)
@@ -248,16 +271,18 @@ def write_summary(ep: Episode, path: Path, title: str) -> None:
 
 
 def run(*, out: str | Path = "demo-out", seed: int = 2, jitter: float = 1.0,
-        detectors: Sequence[str] = ("feedback/calibrated-image", "feedback/paper")) -> int:
-    """Drive one episode with `detectors` watching (the first one's S layer shown); write
-    the video, the summary and the still into `out`; print where they are."""
+        detectors: Sequence[str] = ("feedback/calibrated-image", "feedback/paper"),
+        resolution: str | Sequence[int] = "paper") -> int:
+    """Drive one episode with `detectors` watching (the first one's S layer shown) at the
+    camera `resolution`; write the video, the summary and the still into `out`; print
+    where they are."""
     detectors = list(detectors)
     if not detectors:
         raise ValueError("--models: give at least one detector")
     for d in detectors:
         models.parse_spec(d)  # an unknown model, preset or front end: before the episode
     out = Path(out)
-    ep = drive(seed, jitter, detectors)
+    ep = drive(seed, jitter, detectors, resolution)
     video, summary, still = out / "demo.mp4", out / "demo.png", out / "demo_frame.png"
     write_video(ep, video, still)
     write_summary(ep, summary, f"RoughTerrainObstacles, jitter {jitter:g}, seed {seed}")

@@ -22,8 +22,8 @@ from collections.abc import Callable, Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-__all__ = ["atomic_output", "atomic_outputs", "canonical_json", "csv_text", "write_files",
-           "write_text_atomic"]
+__all__ = ["atomic_folder_outputs", "atomic_output", "atomic_outputs", "canonical_json",
+           "csv_text", "write_files", "write_text_atomic"]
 
 _PARTIAL = re.compile(r"\.(?P<pid>\d+)-[^.]+\.partial")
 
@@ -133,6 +133,25 @@ def atomic_output(path: str | os.PathLike) -> Iterator[Path]:
             yield tmp
         except OSError as exc:
             raise _named(exc, Path(path)) from exc
+
+
+@contextlib.contextmanager
+def atomic_folder_outputs(folder: str | os.PathLike, names: Sequence[str]) -> Iterator[Path]:
+    """Yield a hidden temporary folder inside `folder` in which to write the files `names`
+    (by any means, under those names); move them all into `folder` if the block succeeds,
+    as `atomic_outputs` does, for writers that take a folder rather than a file."""
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    for stale in folder.glob(".*.partial"):
+        match = _PARTIAL.fullmatch(stale.name)
+        if match and stale.is_dir() and not _alive(int(match["pid"])):
+            shutil.rmtree(stale, ignore_errors=True)
+    staging = Path(tempfile.mkdtemp(prefix=f".{os.getpid()}-", suffix=".partial", dir=folder))
+    try:
+        yield staging
+        _commit([(staging / name, folder / name) for name in names])
+    finally:
+        shutil.rmtree(staging, ignore_errors=True)
 
 
 def write_files(writers: Mapping[str | os.PathLike, Callable[[Path], None]]) -> None:

@@ -8,24 +8,27 @@
 ...     write(rgb)                         # lossless FFV1 in .mkv / .avi, MPEG-4 in .mp4
 
 Problems surface as a ValueError naming the file (and the frame, when a video stops
-decoding part-way), so ``lgmd-sim`` can report them in one line.
+decoding part-way), so ``lgmd-sim`` can report them in one line; a video that could not
+be written whole (a full disk) as an OSError naming it, and no file is left under its name.
 """
 
 from __future__ import annotations
 
 import contextlib
+import errno
 import os
 import re
+import shutil
 from collections.abc import Callable, Iterator
 from pathlib import Path
 
 import cv2
 import numpy as np
 
-from lgmd_sim.fileio import atomic_output
+from lgmd_sim.fileio import atomic_outputs
 
-__all__ = ["CODECS", "DEFAULT_FOLDER_FPS", "IMAGE_SUFFIXES", "VideoReader", "natural_key",
-           "video_writer"]
+__all__ = ["CODECS", "DEFAULT_FOLDER_FPS", "IMAGE_SUFFIXES", "VideoReader", "encoder",
+           "natural_key", "video_writer"]
 
 #: Frame rate assumed for image folders and for videos that do not state one.
 DEFAULT_FOLDER_FPS = 30.0
@@ -38,6 +41,10 @@ IMAGE_SUFFIXES = frozenset(
 #: and AVI; MPEG-4 Part 2 (lossy, small, plays everywhere) in MP4. All read back by OpenCV
 #: and FFmpeg.
 CODECS = {".mkv": "FFV1", ".avi": "FFV1", ".mp4": "mp4v"}
+
+#: Free space under which a video that came out short is put down to a full disk (FFmpeg
+#: fills the disk to its last block before a write fails; others may have freed a little).
+_FULL_BYTES = 1 << 20
 
 # FFmpeg's own log lines ("moov atom not found"...) would precede our one-line error on a
 # corrupt file; silence them unless the user asks (OpenCV reads this at the first open).
@@ -142,29 +149,94 @@ class VideoReader:
 
 
 @contextlib.contextmanager
+def encoder(path: str | os.PathLike, fourcc: str, fps: float, size: tuple[int, int], *,
+            name: str | os.PathLike | None = None) -> Iterator[Callable[[np.ndarray], None]]:
+    """Yield a function that appends an RGB uint8 frame of `size` (height, width) to the
+    video `path`, encoded with OpenCV's `fourcc`; when the block completes, check that the
+    file holds every frame written.
+
+    OpenCV's writer reports no failure: on a full disk FFmpeg drops the frames (and the
+    file's index) and the file stays short, so it is read back: its frame count and its
+    last frame. Errors name `name` (default: `path`), an OSError for a file that is short.
+    """
+    path = Path(path)
+    name = path if name is None else Path(name)
+    height, width = size
+    writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*fourcc), fps, (width, height))
+    if not writer.isOpened():
+        raise OSError(f"cannot write video '{name}': OpenCV has no {fourcc} encoder here")
+    written = 0
+
+    def write(rgb: np.ndarray) -> None:
+        nonlocal written
+        if rgb.shape != (height, width, 3) or rgb.dtype != np.uint8:
+            raise ValueError(f"video '{name}': frames must be ({height}, {width}, 3) uint8, "
+                             f"got {rgb.shape} {rgb.dtype}")
+        with _opencv_quiet():
+            writer.write(cv2.cvtColor(rgb, cv2.COLOR_RGB2BGR))
+        written += 1
+
+    try:
+        yield write
+    finally:
+        with _opencv_quiet():
+            writer.release()
+    _check_written(path, written, name)
+
+
+@contextlib.contextmanager
+def _opencv_quiet() -> Iterator[None]:
+    """OpenCV's warnings off: a failed write would print one per frame, before the one
+    line `_check_written` reports."""
+    level = cv2.utils.logging.getLogLevel()
+    cv2.utils.logging.setLogLevel(cv2.utils.logging.LOG_LEVEL_ERROR)
+    try:
+        yield
+    finally:
+        cv2.utils.logging.setLogLevel(level)
+
+
+def _check_written(path: Path, written: int, name: Path) -> None:
+    cap = cv2.VideoCapture(str(path))
+    try:
+        count = cap.get(cv2.CAP_PROP_FRAME_COUNT) if cap.isOpened() else 0
+        # the last frame, read back: a count restored from a header is not proof enough
+        complete = count == written and (written == 0 or (
+            cap.set(cv2.CAP_PROP_POS_FRAMES, written - 1) and cap.read()[0]))
+    finally:
+        cap.release()
+    if complete:
+        return
+    readable = _decodable_frames(path)
+    if shutil.disk_usage(path.parent).free < _FULL_BYTES:
+        raise OSError(errno.ENOSPC, f"cannot write video '{name}': no space left on device "
+                      f"({readable} of {written} frames written)")
+    raise OSError(errno.EIO, f"cannot write video '{name}': the file holds {readable} of "
+                  f"{written} frames written")
+
+
+def _decodable_frames(path: Path) -> int:
+    cap = cv2.VideoCapture(str(path))
+    n = 0
+    try:
+        while cap.isOpened() and cap.grab():
+            n += 1
+    finally:
+        cap.release()
+    return n
+
+
+@contextlib.contextmanager
 def video_writer(path: str | os.PathLike, fps: float, size: tuple[int, int]
                  ) -> Iterator[Callable[[np.ndarray], None]]:
     """Yield a function that appends an RGB uint8 frame of `size` (height, width) to the
-    video `path`; the file appears only once the block completes (see `lgmd_sim.fileio`).
-    The codec follows the suffix (`CODECS`)."""
+    video `path`; the file appears only once the block completes and the file is checked
+    (see `encoder`, `lgmd_sim.fileio`). The codec follows the suffix (`CODECS`)."""
     path = Path(path)
     codec = CODECS.get(path.suffix.lower())
     if codec is None:
         raise ValueError(f"cannot write video '{path}': use a suffix among "
                          f"{', '.join(CODECS)} (.mkv and .avi are lossless)")
-    height, width = size
-    with atomic_output(path) as tmp:
-        writer = cv2.VideoWriter(str(tmp), cv2.VideoWriter_fourcc(*codec), fps, (width, height))
-        if not writer.isOpened():
-            raise OSError(f"cannot write video '{path}': OpenCV has no {codec} encoder here")
-
-        def write(rgb: np.ndarray) -> None:
-            if rgb.shape != (height, width, 3) or rgb.dtype != np.uint8:
-                raise ValueError(f"video '{path}': frames must be ({height}, {width}, 3) uint8, "
-                                 f"got {rgb.shape} {rgb.dtype}")
-            writer.write(cv2.cvtColor(rgb, cv2.COLOR_RGB2BGR))
-
-        try:
-            yield write
-        finally:
-            writer.release()
+    # atomic_outputs, not atomic_output: the encoder's errors name `path` already
+    with atomic_outputs([path]) as (tmp,), encoder(tmp, codec, fps, size, name=path) as write:
+        yield write

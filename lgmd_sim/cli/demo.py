@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import argparse
 
-from lgmd_sim.cli.args import non_negative_float, non_negative_int
+from lgmd_sim.cli.args import non_negative_float, non_negative_int, resolution
 
 #: The best detector of the calibration (its held-out objective, docs/results.md).
 BEST = "feedback/calibrated-image"
@@ -35,10 +35,13 @@ def add(sub: argparse._SubParsersAction) -> None:
                    help="comma-separated detectors, MODEL[/PRESET][+FRONT END] (default "
                    f"{','.join(DETECTORS)}: the best detector, then the paper's model); "
                    "the first one's S layer is shown")
+    p.add_argument("--resolution", type=resolution, default="paper",
+                   help="camera resolution: paper (270x480, default), rl (120x160), small "
+                   "(64x64) or HxW")
 
 
 def run(args: argparse.Namespace) -> int:
     from lgmd_sim import demo, options
 
     return demo.run(out=args.out, seed=args.seed, jitter=args.jitter,
-                    detectors=options.comma_list(args.models))
+                    detectors=options.comma_list(args.models), resolution=args.resolution)
