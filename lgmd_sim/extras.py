@@ -18,6 +18,12 @@ EXTRAS = {
 }
 
 
+def install_command(extra: str) -> str:
+    """How a user installs `extra`: lgmd-sim is not on the package index, so from a
+    checkout, with the constraints that keep PyTorch to its CPU build."""
+    return f"from a checkout of lgmd-sim: pip install -c constraints.txt '.[{extra}]'"
+
+
 class MissingExtra(ImportError):
     """An optional dependency is not installed; the message says which extra brings it."""
 
@@ -28,4 +34,4 @@ def require(module: str, extra: str) -> ModuleType:
         return import_module(module)
     except ImportError as exc:
         raise MissingExtra(f"this needs {module.split('.')[0]}, which comes with the "
-                           f"'{extra}' extra: pip install 'lgmd-sim[{extra}]'") from exc
+                           f"'{extra}' extra; install it {install_command(extra)}") from exc

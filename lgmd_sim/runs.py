@@ -10,7 +10,9 @@ training, dataset generation). Layout of ``DIR``:
   time and machine, and the facts the job adds); ``status`` is "running" until the job
   calls `RunFolder.finish`;
 - ``records/<key>.json``: one record per finished job, written atomically as it
-  finishes, so that an interrupted run keeps them and resuming runs only the rest;
+  finishes, so that an interrupted run keeps them and resuming runs only the rest; a
+  record read back must be a JSON object holding the fields its job declares
+  (`RunFolder.records`), else it is refused naming the file;
 - whatever the job writes beside them.
 
 A folder that is not empty is used only to continue the same configuration: another
@@ -26,18 +28,35 @@ import time
 from collections.abc import Collection, Iterable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeAlias
 
 from lgmd_sim import __version__
 from lgmd_sim.fileio import canonical_json, write_text_atomic
 from lgmd_sim.machine import machine
 
-__all__ = ["RECORD", "RunFolder", "RunResult", "difference"]
+__all__ = ["NULL", "NUMBER", "RECORD", "Fields", "Maybe", "RunFolder", "RunResult", "difference"]
 
 #: The run's record, relative to its folder.
 RECORD = "run.json"
 #: What the record says of every run; a job's own facts come beside them.
 _OWN_KEYS = ("config", "command", "version", "machine", "sessions", "status", "wall_time_s")
+
+#: What a record (or a field of one) must hold: a type (isinstance); a mapping of field
+#: names to what each holds (a JSON object with those fields); a one-item list (a JSON
+#: array whose every item holds that item); a tuple of these (any one of them); `Maybe`.
+Fields: TypeAlias = "type | Mapping[str, Fields] | list[Fields] | tuple[Fields, ...] | Maybe"
+#: A field that holds a number (JSON has one kind: int or float here).
+NUMBER = (int, float)
+#: A field that may be null.
+NULL = type(None)
+
+
+@dataclass(frozen=True)
+class Maybe:
+    """A field a record may lack (its job reads it with a default); where it is there, it
+    holds `fields`."""
+
+    fields: Fields
 
 
 def difference(there: Any, here: Any, path: str = "") -> tuple[str, Any, Any] | None:
@@ -49,6 +68,47 @@ def difference(there: Any, here: Any, path: str = "") -> tuple[str, Any, Any] | 
                 return found
         return None
     return None if there == here else (path, there, here)
+
+
+def _mismatch(value: Any, fields: Fields, where: str = "") -> str | None:
+    """What of `value` does not hold what `fields` describes, or None."""
+    if isinstance(fields, Mapping):
+        if not isinstance(value, dict):
+            return f"{where or 'it'} is not a JSON object"
+        for name, holds in fields.items():
+            at = f"{where}.{name}" if where else name
+            if name in value:
+                found = _mismatch(value[name], holds, at)
+                if found:
+                    return found
+            elif not isinstance(holds, Maybe):
+                return f"it has no {at!r}"
+        return None
+    if isinstance(fields, Maybe):
+        return _mismatch(value, fields.fields, where)
+    if isinstance(fields, list):
+        if not isinstance(value, list):
+            return f"{where} is not a list"
+        return next(filter(None, (_mismatch(v, fields[0], f"{where}[{i}]")
+                                  for i, v in enumerate(value))), None)
+    if isinstance(fields, tuple):
+        fits = any(_mismatch(value, f, where) is None for f in fields)
+    else:
+        fits = isinstance(value, fields)
+    return None if fits else f"{where} is {json.dumps(value)[:40]}"
+
+
+def _read_json(file: Path, fields: Fields, remedy: str) -> Any:
+    """The JSON in `file`, which must hold `fields`; ValueError naming the file and
+    `remedy` where it cannot be read or holds something else."""
+    try:
+        data = json.loads(file.read_text())
+    except (OSError, ValueError) as exc:
+        raise ValueError(f"{file} is unreadable ({exc}): {remedy}") from None
+    problem = _mismatch(data, fields)
+    if problem:
+        raise ValueError(f"{file} is not what this run wrote there ({problem}): {remedy}")
+    return data
 
 
 def _show(value: Any) -> str:
@@ -115,13 +175,9 @@ class RunFolder:
         file = Path(path) / record
         if not file.is_file():
             return None
-        try:
-            data = json.loads(file.read_text())
-            data["config"]
-        except (OSError, ValueError, KeyError, TypeError) as exc:
-            raise ValueError(f"{file} is unreadable ({exc}): choose another folder or "
-                             "remove it") from None
-        return data
+        # a record from before sessions were kept has none
+        return _read_json(file, {"config": dict, "sessions": Maybe([dict])},
+                          "choose another folder or remove it")
 
     def _earlier(self, what: str, resume: bool, resume_hint: str, changeable: Collection[str]
                  ) -> tuple[list[dict[str, Any]], dict[str, Any]]:
@@ -131,11 +187,7 @@ class RunFolder:
             return [], {}
         recorded = self.recorded(self.path, self._record_name)
         if self._identity is not None and self._identity.is_file():
-            try:
-                held = json.loads(self._identity.read_text())
-            except (OSError, ValueError) as exc:
-                raise ValueError(f"{self._identity}: unreadable ({exc}); use another folder"
-                                 ) from None
+            held = _read_json(self._identity, {}, "use another folder")
         elif recorded is not None and self._identity is None:
             held = recorded["config"]
         else:
@@ -171,10 +223,14 @@ class RunFolder:
         write_text_atomic(self.records_dir / f"{key}.json",
                           json.dumps(record, allow_nan=False, separators=(",", ":")))
 
-    def records(self, keys: Iterable[str] | None = None) -> list[dict[str, Any]]:
-        """Stored records, in key order (only `keys`, when given)."""
+    def records(self, keys: Iterable[str] | None = None,
+                fields: Mapping[str, Fields] | None = None) -> list[dict[str, Any]]:
+        """Stored records, in key order (only `keys`, when given), each a JSON object
+        holding `fields` (what the job reads of it); ValueError naming the first record
+        that is not (truncated, or changed since its job wrote it)."""
         wanted = sorted(self.done() if keys is None else keys)
-        return [json.loads((self.records_dir / f"{k}.json").read_text()) for k in wanted]
+        return [_read_json(self.records_dir / f"{k}.json", fields or {},
+                           "remove it, and resume to run its job again") for k in wanted]
 
     def note(self, **facts: Any) -> None:
         """Add facts to the run's record now (e.g. a training run's hyperparameters)."""

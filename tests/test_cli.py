@@ -86,7 +86,9 @@ def test_a_missing_extra_is_a_one_line_error_naming_it(monkeypatch):
     from lgmd_sim.extras import MissingExtra, require
 
     monkeypatch.setitem(sys.modules, "stable_baselines3", None)  # as if not installed
-    with pytest.raises(MissingExtra, match=r"'rl' extra: pip install 'lgmd-sim\[rl\]'"):
+    hint = (r"'rl' extra; install it from a checkout of lgmd-sim: "
+            r"pip install -c constraints\.txt '\.\[rl\]'")
+    with pytest.raises(MissingExtra, match=hint):
         require("stable_baselines3", "rl")
     assert require("numpy", "rl").__name__ == "numpy"
 

@@ -28,9 +28,9 @@ from typing import Any
 import numpy as np
 
 from lgmd_sim import metrics, options
-from lgmd_sim.fileio import csv_text, write_text_atomic
+from lgmd_sim.fileio import atomic_folder_outputs, csv_text, write_text_atomic
 from lgmd_sim.parallel import Job, run_jobs
-from lgmd_sim.runs import RunFolder, RunResult
+from lgmd_sim.runs import NULL, NUMBER, Maybe, RunFolder, RunResult
 
 __all__ = ["Cell", "ClosedLoopConfig", "episode", "plan", "run", "summarise",
            "summary_markdown"]
@@ -122,6 +122,16 @@ def episode(cell: Cell, seed: int, *, resolution: Any, cruise: float, horizon: f
         view["collision_frame"] = collision if collision >= 0 else None
         record["top_view"] = view
     return record
+
+
+#: What the tables read of an episode's record: one holding less is refused on resuming.
+RECORD_FIELDS = {
+    "scenario": str, "jitter": NUMBER, "controller": str, "model": (str, NULL),
+    "preset": (str, NULL), "tag": Maybe((str, NULL)), "seed": int, "time_s": NUMBER,
+    "collided": bool, "goal_reached": bool, "false_alarms": int,
+    "progress": Maybe((NUMBER, NULL)),
+    "first_alarm_ttc_s": (NUMBER, NULL), "lead_time_s": (NUMBER, NULL),
+}
 
 
 def _lead_time(times: np.ndarray, onsets: np.ndarray, collision: int) -> float | None:
@@ -348,10 +358,13 @@ def run(config: ClosedLoopConfig, out: str | Path, *, resume: bool = False,
             for cell in cells for seed in seeds if cell.key(seed) not in done]
     run_jobs(jobs, lambda job, record: folder.store(job.key, record), workers=workers,
              ray_address=ray_address, progress=progress, desc="closed-loop")
-    records = folder.records([cell.key(seed) for cell in cells for seed in seeds])
-    rows = write_tables(folder.path, [{k: v for k, v in r.items() if k != "top_view"}
+    records = folder.records([cell.key(seed) for cell in cells for seed in seeds],
+                             RECORD_FIELDS)
+    outputs = ["episodes.csv", "summary.csv", "summary.md", *figures.CLOSED_LOOP]
+    with atomic_folder_outputs(folder.path, outputs) as staging:  # all of them, or none
+        rows = write_tables(staging, [{k: v for k, v in r.items() if k != "top_view"}
                                       for r in records])
-    figures.closed_loop(folder.path, rows, [r for r in records if "top_view" in r])
+        figures.closed_loop(staging, rows, [r for r in records if "top_view" in r])
     folder.finish(episodes=len(records))
-    files = ["episodes.csv", "summary.csv", "summary.md", *figures.CLOSED_LOOP, "run.json"]
+    files = [*outputs, "run.json"]
     return RunResult(folder.path, rows, files)

@@ -27,7 +27,7 @@ import numpy as np
 from lgmd_sim import metrics, options
 from lgmd_sim.fileio import csv_text, write_files, write_text_atomic
 from lgmd_sim.parallel import Job, run_jobs
-from lgmd_sim.runs import RunFolder, RunResult
+from lgmd_sim.runs import NULL, NUMBER, RunFolder, RunResult
 
 __all__ = ["Clip", "OpenLoopConfig", "clip_job", "run", "summarise",
            "summary_markdown"]
@@ -118,6 +118,16 @@ def clip_job(clip: Clip, detectors: Sequence[tuple[str, str]], noises: Sequence[
         if figure and not variant:
             record["figure_png"] = base64.b64encode(_clip_figure(clip, seen, d)).decode()
     return record
+
+
+#: What the tables and figures read of a clip's record: one holding less is refused on
+#: resuming.
+RECORD_FIELDS = {
+    "scenario": str, "jitter": NUMBER, "collision_frame": (int, NULL), "near": list,
+    "rows": [{"noise": str, "detector": str, "isi": (NUMBER, NULL), "mpsi": (NUMBER, NULL),
+              "si": (NUMBER, NULL), "crossed": bool, "outcome": str, "lead_s": (NUMBER, NULL),
+              "potential": list}],
+}
 
 
 def _clip_figure(clip: Clip, frames: Sequence[np.ndarray], d: Any) -> bytes:
@@ -332,7 +342,7 @@ def run(config: OpenLoopConfig, out: str | Path, *, resume: bool = False,
     }) for c in clips if c.key not in done]
     run_jobs(jobs, lambda job, record: folder.store(job.key, record), workers=workers,
              ray_address=ray_address, progress=progress, desc="open-loop", unit="clip")
-    records = folder.records([c.key for c in clips])
+    records = folder.records([c.key for c in clips], RECORD_FIELDS)
     rows = summarise(records)
     write_text_atomic(folder.path / "summary.csv", csv_text(rows, _COLUMNS))
     write_text_atomic(folder.path / "summary.md", summary_markdown(rows))

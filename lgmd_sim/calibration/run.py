@@ -31,7 +31,7 @@ from lgmd_sim.calibration.search import SPACES, THRESHOLDS, candidates, evaluate
 from lgmd_sim.fileio import write_files, write_text_atomic
 from lgmd_sim.models import presets
 from lgmd_sim.parallel import Job, run_jobs
-from lgmd_sim.runs import RunFolder, RunResult
+from lgmd_sim.runs import NULL, RunFolder, RunResult
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -113,6 +113,14 @@ class CalibrateConfig:
                 "heldout_seeds": [self.heldout_seed, self.seeds],
                 "resolution": self.resolution,
                 "groups": clip_mod.DEFAULT_GROUPS, "late": obj.LATE, "seed": self.seed}
+
+
+#: What the search reads of a clip's record and of a candidate's: one holding less is
+#: refused on resuming.
+CLIP_FIELDS = {"key": str, "kind": str, "frames": int, "collision_frame": (int, NULL)}
+CANDIDATE_FIELDS = {"detector": str, "index": int, "params": dict,
+                    "sets": {"search": [list], "heldout": [list]}}
+
 
 def preset_name(detector: str) -> tuple[str, str]:
     """The (model, preset) a calibrated detector becomes: "calibrated", the feedback
@@ -226,7 +234,7 @@ def calibrate(config: CalibrateConfig, out: str | Path, *, resume: bool = False,
     common = {"workers": workers, "ray_address": ray_address, "progress": progress}
     run_jobs(jobs, lambda job, rec: folder.store(job.key, {**rec, "key": job.key[5:]}),
              desc="recording clips", unit="clip", **common)
-    clip_sets = {name: folder.records([f"clip-{s.key}" for s in specs])
+    clip_sets = {name: folder.records([f"clip-{s.key}" for s in specs], CLIP_FIELDS)
                  for name, specs in sets.items()}
     cands = [c for d in config.detectors for c in candidates(d, config.budget, config.seed)]
     jobs = [Job(c.key, evaluate, {"candidate": c, "folder": str(clip_dir),
@@ -234,7 +242,8 @@ def calibrate(config: CalibrateConfig, out: str | Path, *, resume: bool = False,
             for c in cands if c.key not in done]
     run_jobs(jobs, lambda job, rec: folder.store(job.key, rec), desc="candidates",
              unit="candidate", **common)
-    chosen = [choose(folder.records([c.key for c in cands if c.detector == d]), clip_sets)
+    chosen = [choose(folder.records([c.key for c in cands if c.detector == d],
+                                  CANDIDATE_FIELDS), clip_sets)
               for d in config.detectors]
     write_text_atomic(folder.path / "summary.md", summary_markdown(chosen))
     fig = calibration_figure(chosen)

@@ -38,7 +38,7 @@ def add(sub: argparse._SubParsersAction) -> None:
         "same episode seeds. Controllers: straight (no avoidance), oracle (the avoidance "
         "manoeuvre triggered by ground truth) and reactive (the manoeuvre triggered by an "
         "LGMD model's alarm, one cell per detector). Writes DIR/episodes.csv (one row per "
-        "episode), DIR/summary.csv and summary.md (collision and success rates with 95%% "
+        "episode), DIR/summary.csv and summary.md (collision and success rates with 95% "
         "Wilson intervals, false alarms per minute, lead times), figures and run.json.",
     )
     b.add_argument("--scenarios", default="RoughTerrainObstacles",

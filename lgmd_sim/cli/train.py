@@ -14,6 +14,7 @@ from pathlib import Path
 from typing import Any
 
 from lgmd_sim.cli.args import print_result, resolution
+from lgmd_sim.extras import install_command
 
 
 def add(sub: argparse._SubParsersAction) -> None:
@@ -23,10 +24,11 @@ def add(sub: argparse._SubParsersAction) -> None:
         "potential history, alarm and S-layer grid, with the proprioception and goal; an MLP) "
         "or small stacked grey frames (--obs pixels; a CNN) to drive to the goal without "
         "colliding. Vectorised environments, observation normalisation, validation on fixed "
-        "held-out seeds, checkpoints, TensorBoard logs; writes DIR/policy.zip and "
+        "held-out seeds, checkpoints, TensorBoard logs; writes DIR/policy.npz and "
         "policy.json (a policy for lgmd-sim eval), DIR/best/, DIR/learning_curve.png, "
         "DIR/summary.md and DIR/run.json. The reward is the environment's (lgmd-sim envs "
-        "NAME).",
+        "NAME). Needs the rl extra, stable-baselines3 and PyTorch (install it "
+        f"{install_command('rl')}).",
     )
     p.add_argument("--algo", help="ppo or sac (default ppo)")
     p.add_argument("--env", metavar="ID", help="Gymnasium id of the environment (default "

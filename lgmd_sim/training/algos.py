@@ -12,7 +12,9 @@ from __future__ import annotations
 
 import ast
 import inspect
-from collections.abc import Iterable, Mapping
+import types
+import typing
+from collections.abc import Callable, Iterable, Mapping
 from typing import Any
 
 from lgmd_sim.extras import require
@@ -44,28 +46,72 @@ HYPERPARAMETERS: dict[tuple[str, str], dict[str, Any]] = {
 }
 
 
+#: Constructor arguments the run sets itself (`make_model`), never a hyperparameter.
+_SET_BY_THE_RUN = {"self", "policy", "env", "seed", "device", "verbose", "_init_setup_model"}
+#: How a message names the value a type annotation asks for.
+_NAMES = {bool: "True or False", int: "an integer", float: "a number", str: "a string",
+          dict: "a dict", tuple: "a tuple", list: "a list", type(None): "None"}
+
+
+def _fits(value: Any, annotation: Any) -> bool:
+    """Whether `value` (a Python literal) is of the type `annotation` asks for; a type
+    this cannot read (a forward reference) takes anything."""
+    origin, args = typing.get_origin(annotation), typing.get_args(annotation)
+    if annotation in (inspect.Parameter.empty, Any) or isinstance(
+            annotation, str | typing.ForwardRef):
+        return True
+    if origin in (typing.Union, types.UnionType):
+        return any(_fits(value, a) for a in args)
+    if annotation is float:  # an integer is a number too, as stable-baselines3 takes it
+        return isinstance(value, int | float) and not isinstance(value, bool)
+    if annotation is int:
+        return isinstance(value, int) and not isinstance(value, bool)
+    if origin is Callable:  # a schedule: no literal is one
+        return callable(value)
+    if origin is tuple and args and Ellipsis not in args:
+        return (isinstance(value, tuple) and len(value) == len(args)
+                and all(_fits(v, a) for v, a in zip(value, args, strict=True)))
+    if origin is type:  # a class: no literal is one
+        return False
+    return isinstance(value, origin or annotation)
+
+
+def _expected(annotation: Any) -> str:
+    """What `annotation` asks for, in words ("a number", "an integer or a tuple")."""
+    members = (typing.get_args(annotation) if typing.get_origin(annotation) in (
+        typing.Union, types.UnionType) else (annotation,))
+    names = [_NAMES.get(typing.get_origin(m) or m) for m in members]
+    return " or ".join(dict.fromkeys(n for n in names if n)) or str(annotation)
+
+
 def parse_overrides(items: Iterable[str], algo: str) -> dict[str, Any]:
     """``KEY=VALUE`` overrides of `algo`'s constructor arguments, each value a Python
-    literal (``n_steps=64``, ``policy_kwargs={'net_arch': [32, 32]}``).
+    literal (``n_steps=64``, ``policy_kwargs={'net_arch': [32, 32]}``) of the type the
+    constructor declares for it.
 
     Raises:
-        ValueError: not KEY=VALUE, not a literal, or a key the algorithm does not take.
+        ValueError: not KEY=VALUE, a key the algorithm does not take (or the run sets),
+            or a value of another type.
     """
     from lgmd_sim.policies.folder import ALGOS
 
     cls = getattr(require("stable_baselines3", "rl"), ALGOS[algo])
-    valid = set(inspect.signature(cls.__init__).parameters) - {"self", "policy", "env", "seed"}
+    taken = {name: p.annotation for name, p in inspect.signature(cls.__init__).parameters.items()
+             if name not in _SET_BY_THE_RUN}
     out: dict[str, Any] = {}
     for item in items:
         key, sep, text = item.partition("=")
         if not sep:
             raise ValueError(f"hyperparameter {item!r} is not KEY=VALUE")
-        if key not in valid:
+        if key not in taken:
             raise ValueError(f"unknown hyperparameter {key!r} for {algo}")
         try:
-            out[key] = ast.literal_eval(text)
+            value = ast.literal_eval(text)
         except (ValueError, SyntaxError):
-            out[key] = text  # a plain word: a string ("auto")
+            value = text  # a plain word: a string ("auto")
+        if not _fits(value, taken[key]):
+            raise ValueError(f"--hp {item}: {algo}'s {key} must be {_expected(taken[key])}")
+        out[key] = value
     return out
 
 
@@ -76,8 +122,16 @@ def hyperparameters(algo: str, obs: str, overrides: Mapping[str, Any] | None = N
 
 
 def make_model(algo: str, venv: Any, kwargs: Mapping[str, Any], seed: int) -> Any:
-    """A new stable-baselines3 model of `algo` on `venv` (on the CPU)."""
+    """A new stable-baselines3 model of `algo` on `venv` (on the CPU); ValueError where
+    the library refuses a hyperparameter's value (``batch_size=1``, ``learning_rate=-1``,
+    ``policy_kwargs={'foo': 1}``)."""
     from lgmd_sim.policies.folder import ALGOS
 
     cls = getattr(require("stable_baselines3", "rl"), ALGOS[algo])
-    return cls("MultiInputPolicy", venv, seed=seed, device="cpu", verbose=0, **kwargs)
+    try:
+        return cls("MultiInputPolicy", venv, seed=seed, device="cpu", verbose=0, **kwargs)
+    # stable-baselines3 (and PyTorch's optimiser, the policy's constructor) check the
+    # values this way
+    except (AssertionError, ValueError, TypeError) as exc:
+        raise ValueError(f"--hp: {algo} refuses these hyperparameters: "
+                         f"{' '.join(str(exc).split())}") from None

@@ -11,7 +11,7 @@ Layout of ``DIR``:
 - ``run.json`` (`lgmd_sim.runs.RunFolder`): the configuration, the machine, and per
   session (the first run and each resume) the exact command, wall time, versions,
   environment seeds, steps and throughput;
-- ``policy.zip``, ``policy.json``: the final policy (a policy folder, see
+- ``policy.npz``, ``policy.json``: the final policy (a policy folder, see
   `lgmd_sim.policies.folder`); ``best/``: the one with the best validation score;
 - ``checkpoints/``: what ``--resume DIR`` continues from;
 - ``logs/session-N/``: stable-baselines3's CSV log (``progress.csv``) and TensorBoard
@@ -189,7 +189,8 @@ def train(config: TrainConfig, out: str | Path, *, resume: bool = False,
     Raises:
         ValueError: a folder holding something else, a run without a checkpoint, a step
             budget already reached, seeds that would reach the validation seeds, an
-            environment whose reward is not finite (one line each).
+            environment whose reward is not finite, a hyperparameter value
+            stable-baselines3 refuses (one line each, leaving no run behind).
     """
     require("stable_baselines3", "rl")
     require("tensorboard", "rl")
@@ -233,7 +234,6 @@ def _train(out: Path, config: TrainConfig, kwargs: dict[str, Any], first_seed: i
     try:
         bare = _bare_speed(envs, policy.env_id)
         keys = _normalize_keys(envs.venv.observation_space, policy.obs)
-        folder.start()
         earlier = len(folder.sessions) - 1
         if earlier:
             venv, model = _load_checkpoint(checkpoints, envs.venv, policy.algo)
@@ -242,6 +242,7 @@ def _train(out: Path, config: TrainConfig, kwargs: dict[str, Any], first_seed: i
             venv = VecNormalize(envs.venv, norm_obs_keys=keys, gamma=kwargs.get("gamma", 0.99),
                                 norm_reward=policy.algo == "ppo")  # SAC: rewards as they are
             model = algos.make_model(policy.algo, venv, kwargs, config.seed)
+        folder.start()  # only now: hyperparameters the library refuses leave no run behind
         folder.session.update(versions=_versions(), env_seeds=[first_seed, config.envs])
         folder.note(policy=policy.to_json(), hyperparameters=kwargs, seeds={
             "training": "from the first of each session's env_seeds",
@@ -294,7 +295,7 @@ def _train(out: Path, config: TrainConfig, kwargs: dict[str, Any], first_seed: i
                          + (f" ({policy.model}/{policy.preset})" if policy.model else ""))
     folder.finish()
     write_text_atomic(out / "summary.md", summary_markdown(out))
-    files = ["policy.zip", "policy.json", "best/", "learning_curve.png", "summary.md",
+    files = ["policy.npz", "policy.json", "best/", "learning_curve.png", "summary.md",
              "run.json", "logs/", "checkpoints/"]
     return RunResult(out, _validation_rows(out), files)
 

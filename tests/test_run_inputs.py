@@ -1,0 +1,236 @@
+"""What a run reads that a user may have changed or got wrong: a run folder's records
+(a bench or calibration record with other content, truncated, not JSON), training
+hyperparameters of the wrong type, and the words of the help texts and the missing-extra
+hint. Each is refused in one line naming the thing, before any work starts."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import shutil
+import sys
+
+import pytest
+
+from lgmd_sim import cli
+from lgmd_sim.runs import RunFolder
+
+# One episode, one clip: the machinery of a full run, in seconds.
+CLOSED = ["bench", "closed-loop", "--scenarios", "StationaryApproach", "--jitter", "0",
+          "--controllers", "straight", "--seeds", "1", "--resolution", "small",
+          "--workers", "1", "--no-progress"]
+OPEN = ["bench", "open-loop", "--scenarios", "StationaryApproach", "--jitter", "0",
+        "--models", "lgmd1", "--seeds", "1", "--resolution", "small", "--noise-levels", "",
+        "--workers", "1", "--no-progress"]
+CALIBRATE = ["calibrate", "--detectors", "lgmd1", "--budget", "1", "--seeds", "1",
+             "--resolution", "small", "--workers", "1", "--no-progress"]
+
+
+def _made(tmp_path_factory, argv: list[str]):
+    out = tmp_path_factory.mktemp("run") / "done"
+    assert cli.main([*argv, "--out", str(out)]) == 0
+    return out
+
+
+@pytest.fixture(scope="module")
+def closed(tmp_path_factory):
+    return _made(tmp_path_factory, CLOSED)
+
+
+@pytest.fixture(scope="module")
+def opened(tmp_path_factory):
+    return _made(tmp_path_factory, OPEN)
+
+
+@pytest.fixture(scope="module")
+def calibrated(tmp_path_factory):
+    return _made(tmp_path_factory, CALIBRATE)
+
+
+def _one_line_naming(capsys, path) -> str:
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and str(path) in err, err
+    return err
+
+
+def _resume_with(done, tmp_path, capsys, argv, record: str, text: str) -> str:
+    """Resume a copy of the finished run `done` whose record `record` holds `text`: refused
+    in one line naming that record."""
+    out = tmp_path / "copy"
+    shutil.copytree(done, out)
+    (bad,) = (out / "records").glob(record)
+    bad.write_text(text)
+    assert cli.main([*argv, "--out", str(out), "--resume"]) == 2
+    return _one_line_naming(capsys, bad)
+
+
+def _truncated(done, record: str) -> str:
+    (file,) = (done / "records").glob(record)
+    return file.read_text()[:50]
+
+
+def _without(done, record: str, *path: str | int) -> str:
+    """The record with the field at `path` (keys and list indices) removed."""
+    (file,) = (done / "records").glob(record)
+    data = json.loads(file.read_text())
+    holder = data
+    for step in path[:-1]:
+        holder = holder[step]
+    del holder[path[-1]]
+    return json.dumps(data)
+
+
+@pytest.mark.parametrize("text", [
+    '{"scenario": "x"}',  # the issue's case: a KeyError traceback
+    "[]",
+    '{"scenario": "StationaryApproach", "jitter": 0, "controller": "straight", "model": null,'
+    ' "preset": null, "seed": 1000, "frames": 3, "time_s": 0.1, "collided": "yes",'
+    ' "goal_reached": false, "false_alarms": 0, "first_alarm_ttc_s": null,'
+    ' "lead_time_s": null}',  # every field, one of the wrong type
+    None,  # truncated: the message did not name the file
+])
+def test_a_closed_loop_record_that_is_not_one_is_refused_naming_it(closed, tmp_path, capsys,
+                                                                    text):
+    record = "StationaryApproach-j0-straight-s1000.json"
+    err = _resume_with(closed, tmp_path, capsys, CLOSED, record,
+                       _truncated(closed, record) if text is None else text)
+    assert "remove it" in err
+
+
+@pytest.mark.parametrize("path", [("rows",), ("rows", 0, "detector"), ("collision_frame",),
+                                  None])
+def test_an_open_loop_record_that_is_not_one_is_refused_naming_it(opened, tmp_path, capsys,
+                                                                   path):
+    record = "StationaryApproach-j0-s0.json"
+    text = _truncated(opened, record) if path is None else _without(opened, record, *path)
+    _resume_with(opened, tmp_path, capsys, OPEN, record, text)
+
+
+@pytest.mark.parametrize(("record", "path"), [
+    ("clip-PassBy-j0-s0.json", None),
+    ("clip-PassBy-j0-s0.json", ("kind",)),
+    ("lgmd1-000.json", ("sets",)),
+    ("lgmd1-000.json", None),
+])
+def test_a_calibration_record_that_is_not_one_is_refused_naming_it(calibrated, tmp_path,
+                                                                    capsys, record, path):
+    text = _truncated(calibrated, record) if path is None else _without(calibrated, record,
+                                                                         *path)
+    _resume_with(calibrated, tmp_path, capsys, CALIBRATE, record, text)
+
+
+def test_a_resumed_run_with_good_records_still_completes(closed, tmp_path):
+    out = tmp_path / "copy"
+    shutil.copytree(closed, out)
+    assert cli.main([*CLOSED, "--out", str(out), "--resume"]) == 0
+    assert (out / "summary.csv").read_bytes() == (closed / "summary.csv").read_bytes()
+
+
+@pytest.mark.parametrize("text", ['{"config": [1]}', '{"config": {}, "sessions": "x"}', "[]"])
+def test_a_run_record_of_another_shape_is_one_line_naming_it(tmp_path, text):
+    (tmp_path / "run.json").write_text(text)
+    with pytest.raises(ValueError, match=r"run\.json") as exc:
+        RunFolder(tmp_path, {"a": 1}, "cmd", resume=True)
+    assert "\n" not in str(exc.value)
+
+
+def test_an_identity_file_of_another_shape_is_one_line_naming_it(tmp_path):
+    (tmp_path / "config.json").write_text("[1, 2]")
+    with pytest.raises(ValueError, match=r"config\.json"):
+        RunFolder(tmp_path, {"a": 1}, "cmd", resume=True, identity="config.json")
+
+
+# --- hyperparameters ------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(("algo", "item", "message"), [
+    ("ppo", "learning_rate=abc", "learning_rate=abc: ppo's learning_rate must be a number"),
+    ("ppo", "batch_size=1.5", "batch_size=1.5: ppo's batch_size must be an integer"),
+    ("ppo", "gamma=x", "gamma=x: ppo's gamma must be a number"),
+    ("ppo", "n_steps=True", "n_steps=True: ppo's n_steps must be an integer"),
+    ("ppo", "policy_kwargs=[64]", "policy_kwargs=[64]: ppo's policy_kwargs must be"),
+    ("ppo", "normalize_advantage=1", "normalize_advantage=1: ppo's normalize_advantage"),
+    ("sac", "train_freq=(1,2)", "train_freq=(1,2): sac's train_freq must be"),
+    ("sac", "ent_coef=[0.1]", "ent_coef=[0.1]: sac's ent_coef must be"),
+    ("ppo", "warp=9", "unknown hyperparameter 'warp' for ppo"),
+    ("ppo", "device='cuda'", "unknown hyperparameter 'device' for ppo"),  # the run sets it
+])
+def test_a_hyperparameter_of_the_wrong_type_is_refused_naming_it(algo, item, message):
+    pytest.importorskip("stable_baselines3")
+    from lgmd_sim.training.algos import parse_overrides
+
+    with pytest.raises(ValueError) as exc:
+        parse_overrides([item], algo)
+    assert message in str(exc.value) and "\n" not in str(exc.value)
+
+
+def test_good_hyperparameters_are_taken_as_given():
+    pytest.importorskip("stable_baselines3")
+    from lgmd_sim.training.algos import parse_overrides
+
+    assert parse_overrides(["learning_rate=3e-4", "batch_size=64", "clip_range_vf=None",
+                            "policy_kwargs={'net_arch': [32, 32]}", "gamma=1"], "ppo") == {
+        "learning_rate": 3e-4, "batch_size": 64, "clip_range_vf": None,
+        "policy_kwargs": {"net_arch": [32, 32]}, "gamma": 1}
+    assert parse_overrides(["ent_coef=auto_0.1", "train_freq=(1, 'episode')",
+                            "target_entropy=-2.0"], "sac") == {
+        "ent_coef": "auto_0.1", "train_freq": (1, "episode"), "target_entropy": -2.0}
+
+
+@pytest.mark.parametrize(("hp", "message"), [
+    ("learning_rate=abc", "learning_rate=abc"),
+    # the right type, a value stable-baselines3, PyTorch or the policy refuses
+    ("batch_size=1", "batch_size"),
+    ("learning_rate=-1", "learning rate"),
+    ("policy_kwargs={'foo': 1}", "foo"),
+])
+def test_train_refuses_bad_hyperparameters_in_one_line_leaving_no_folder(tmp_path, capsys, hp,
+                                                                         message):
+    pytest.importorskip("stable_baselines3")
+    out = tmp_path / "never"
+    assert cli.main(["train", "--env", "lgmd_sim/StationaryApproach-v0", "--resolution",
+                     "small", "--envs", "1", "--steps", "64", "--hp", "n_steps=64", "--hp", hp,
+                     "--no-progress", "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and message in err and "--hp" in err, err
+    assert not out.exists()
+
+
+# --- words a user reads ---------------------------------------------------------------------
+
+
+def _parsers(parser: argparse.ArgumentParser, name: str = "lgmd-sim"):
+    yield name, parser
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            for sub, p in action.choices.items():
+                yield from _parsers(p, f"{name} {sub}")
+
+
+def test_every_help_text_prints_its_percent_signs_once():
+    from lgmd_sim.cli import build_parser
+
+    texts = {name: p.format_help() for name, p in _parsers(build_parser())}
+    assert "lgmd-sim bench closed-loop" in texts and "lgmd-sim dataset generate" in texts
+    assert "95% Wilson" in " ".join(texts["lgmd-sim bench closed-loop"].split())
+    assert not [name for name, text in texts.items() if "%%" in text]
+
+
+def test_train_help_says_it_needs_the_rl_extra_and_how_to_install_it():
+    import subprocess
+
+    text = " ".join(subprocess.run([sys.executable, "-m", "lgmd_sim.cli", "train", "--help"],
+                                   capture_output=True, text=True, check=True).stdout.split())
+    assert "Needs the rl extra" in text
+    assert "from a checkout of lgmd-sim: pip install -c constraints.txt '.[rl]'" in text
+
+
+def test_the_missing_extra_hint_is_a_command_that_works_from_a_checkout(monkeypatch):
+    from lgmd_sim.extras import MissingExtra, require
+
+    monkeypatch.setitem(sys.modules, "stable_baselines3", None)  # as if not installed
+    with pytest.raises(MissingExtra) as exc:
+        require("stable_baselines3", "rl")
+    message = str(exc.value)
+    assert "'rl' extra" in message and "lgmd-sim[" not in message
+    assert "from a checkout of lgmd-sim: pip install -c constraints.txt '.[rl]'" in message
