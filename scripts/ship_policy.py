@@ -2,10 +2,11 @@
 
     .venv/bin/python scripts/ship_policy.py runs/train/sac-feedback --eval runs/eval-190k
 
-Copies the run's policy.zip and policy.json into the package and writes POLICY.md beside
-them: the command that started the training, the run's summary (its sessions and
-validation), and the run's rows of the evaluation's table (the rows of docs/training.md,
-whose page scripts/training_page.py writes from the same runs). NAME (--name) defaults to
+Copies the run's policy.npz and policy.json (a policy folder: arrays and JSON, no pickle)
+into the package and writes POLICY.md beside them: the command that started the
+training, the run's summary (its sessions and validation), and the run's rows of the
+evaluation's table (the rows of docs/training.md, whose page scripts/training_page.py
+writes from the same runs). NAME (--name) defaults to
 the policy `lgmd-sim eval` and the "policy" controller use (lgmd_sim.policies.DEFAULT),
 so releasing a run without --name replaces it. The three files move into place together
 (lgmd_sim.fileio.write_files): a failed release leaves the shipped policy as it was.
@@ -25,6 +26,7 @@ from training_page import ROOT, run_summary, table
 
 from lgmd_sim.fileio import write_files
 from lgmd_sim.policies import DEFAULT
+from lgmd_sim.policies.folder import CONFIG_FILE, MODEL_FILE
 
 POLICIES = ROOT / "lgmd_sim" / "policies"
 
@@ -47,15 +49,15 @@ def policy_md(run: Path, eval_run: Path, name: str) -> str:
 
 def ship(run: Path, eval_run: Path, name: str = DEFAULT) -> Path:
     """Write lgmd_sim/policies/`name`/ from `run` and its evaluation; the folder."""
-    missing = [f for f in ("policy.zip", "policy.json", "run.json", "summary.md")
+    missing = [f for f in (MODEL_FILE, CONFIG_FILE, "run.json", "summary.md")
                if not (run / f).is_file()]
     if missing:
         raise SystemExit(f"ship_policy.py: {run} is not a finished training run (no "
                          f"{', '.join(missing)})")
     folder = POLICIES / name
     text = policy_md(run, eval_run, name)
-    write_files({folder / "policy.zip": _copier(run / "policy.zip"),
-                 folder / "policy.json": _copier(run / "policy.json"),
+    write_files({folder / MODEL_FILE: _copier(run / MODEL_FILE),
+                 folder / CONFIG_FILE: _copier(run / CONFIG_FILE),
                  folder / "POLICY.md": lambda tmp: tmp.write_text(text)})
     return folder
 

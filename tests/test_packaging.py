@@ -35,7 +35,7 @@ def test_wheel_carries_envs_assets_and_markers(wheel):
     from lgmd_sim import policies
 
     for name in policies.available():  # the shipped policies, each a whole policy folder
-        assert {f"lgmd_sim/policies/{name}/{f}" for f in ("policy.zip", "policy.json",
+        assert {f"lgmd_sim/policies/{name}/{f}" for f in ("policy.npz", "policy.json",
                                                          "POLICY.md")} <= set(names)
     assert policies.DEFAULT in policies.available()
     assert any(n.endswith(".dist-info/licenses/LICENSE") or n.endswith("/LICENSE")

@@ -41,7 +41,7 @@ def run(tmp_path_factory):
 
 
 def test_a_tiny_run_goes_end_to_end(run):
-    for name in ("policy.zip", "policy.json", "best/policy.zip", "best/policy.json",
+    for name in ("policy.npz", "policy.json", "best/policy.npz", "best/policy.json",
                  "summary.md", "checkpoints/model.zip", "checkpoints/vecnormalize.pkl"):
         assert (run / name).is_file(), name
     assert (run / "learning_curve.png").stat().st_size > 10_000

@@ -14,6 +14,7 @@ from lgmd_sim.cli.args import (
     print_result,
     run_folder_kwargs,
 )
+from lgmd_sim.extras import install_command
 
 
 def add(sub: argparse._SubParsersAction) -> None:
@@ -24,11 +25,19 @@ def add(sub: argparse._SubParsersAction) -> None:
         "own, beside Straight, Oracle and ReactiveAvoid with each detector, on the same "
         "held-out seeds, in the environment each policy was trained in. Writes the "
         "benchmark's tables and figures, and DIR/eval.md (collision and success rates and "
-        "distance travelled per controller).",
+        "distance travelled per controller). Needs the rl extra, stable-baselines3 and "
+        f"PyTorch (install it {install_command('rl')}). Trust: a policy folder is "
+        "policy.json and policy.npz, the network's weights as plain arrays, loaded without "
+        "unpickling, so evaluating a policy from anyone runs none of its author's code. "
+        "stable-baselines3's own files are pickles, which run whatever their author put in "
+        "them when loaded: eval never reads them, but "
+        "`lgmd-sim train --resume DIR` loads DIR/checkpoints/ (model.zip, vecnormalize.pkl, "
+        "replay_buffer.pkl) and `python -m lgmd_sim.policies.convert DIR` an older "
+        "folder's policy.zip: use those only on files you made or from someone you trust.",
     )
     p.add_argument("policies", nargs="*", metavar="POLICY",
-                   help="policy folders (as lgmd-sim train writes them) or shipped policy "
-                   "names (default: shipped, the shipped policy)")
+                   help="policy folders (policy.json and policy.npz, as lgmd-sim train writes "
+                   "them) or shipped policy names (default: shipped, the shipped policy)")
     p.add_argument("--controllers", default="straight,oracle,reactive",
                    help="the hand-made controllers beside the policies, comma-separated, or "
                    "none (default straight,oracle,reactive)")

@@ -27,7 +27,7 @@ def _shapes(space: gym.spaces.Dict) -> dict[str, tuple[int, ...]]:
 @dataclass(frozen=True)
 class PolicyParams(CheckedParams):
     path: str = param("shipped", DESIGN, check=_text,
-                      doc="a policy folder (policy.zip and policy.json, as lgmd-sim train "
+                      doc="a policy folder (policy.npz and policy.json, as lgmd-sim train "
                           "writes it), or a shipped policy's name ('shipped': the default)")
 
 

@@ -1,8 +1,11 @@
 """Trained policies: the policy folder on disk, what a policy observes, and the policies
 that ship with lgmd-sim.
 
-- `lgmd_sim.policies.folder`: a policy folder (the model, its `PolicyConfig`, the frozen
-  observation normalisation), `save` and `load`, as `lgmd-sim train` writes them;
+- `lgmd_sim.policies.folder`: a policy folder (the network's weights as plain arrays, its
+  architecture and `PolicyConfig`, the frozen observation normalisation: data, no
+  pickle), `save` and `load`, as `lgmd-sim train` writes them;
+- `lgmd_sim.policies.convert`: ``python -m lgmd_sim.policies.convert DIR`` rewrites a
+  trusted folder of the earlier format (stable-baselines3's pickled ``policy.zip``);
 - `lgmd_sim.policies.observe`: the observation pipeline of a `PolicyConfig`, shared by
   the `lgmd_sim.controllers.Policy` controller and training;
 - the shipped policies: each a policy folder beside this file, with a ``POLICY.md`` (the

@@ -49,13 +49,16 @@ class EvalConfig:
 
     def __post_init__(self) -> None:
         from lgmd_sim import controllers, options
+        from lgmd_sim.policies import load
 
         hand_made = [c for c in controllers.available() if c != "policy"]
         object.__setattr__(self, "policies", tuple(self.policies) or ("shipped",))
         object.__setattr__(self, "controllers", tuple(
             options.names(self.controllers, hand_made, "controller(s)")
             if self.controllers else ()))
-        self.bench()  # the policies and every episode option, checked now
+        self.bench()  # the policies' configurations and every episode option, checked now
+        for policy in self.policies:  # and their networks, before any run folder is made
+            load(policy)
 
     def bench(self) -> ClosedLoopConfig:
         """The closed-loop benchmark that evaluates the policies: their cells beside the
