@@ -14,6 +14,7 @@ EXTRAS = {
     "rl": "stable-baselines3 and PyTorch (CPU build): training and evaluating policies",
     "ray": "Ray: benchmarks and dataset generation as tasks on a cluster (--ray)",
     "data": "pyarrow: labelled datasets with per-frame labels in Parquet",
+    "lerobot": "PyAV and pyarrow: lgmd-sim dataset export --format lerobot (H.264/AV1 MP4 videos)",
     "dev": "pytest and ruff: the test suite and the linter",
 }
 

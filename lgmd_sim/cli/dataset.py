@@ -13,7 +13,7 @@ from lgmd_sim.cli.args import add_parallel_options, non_negative_int, positive_i
 
 def add(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
-        "dataset", help="generate and verify labelled jitter datasets",
+        "dataset", help="generate, verify and export labelled jitter datasets",
         description="Labelled jitter datasets: camera frames stored losslessly with the "
         "world's exact ground truth on every frame, in a LeRobot-like layout "
         "(see docs/datasets.md). Needs the 'data' extra (pyarrow).",
@@ -59,6 +59,20 @@ def add(sub: argparse._SubParsersAction) -> None:
         "problem on a line and exit with status 1 if there is any.",
     )
     v.add_argument("path", metavar="DIR", help="the dataset folder")
+    e = what.add_parser(
+        "export", help="write a dataset in another format (LeRobot's)",
+        description="Write the dataset SRC as a LeRobot v3.0 dataset in the new folder DEST, "
+        "which LeRobot's LeRobotDataset opens: the frames re-encoded as MP4 (lossy), the "
+        "labels with their index column, LeRobot's task table and feature statistics. "
+        "DEST appears only when complete. Needs the 'lerobot' extra (PyAV, pyarrow).",
+    )
+    e.add_argument("source", metavar="SRC", help="the dataset folder")
+    e.add_argument("dest", metavar="DEST", help="the new folder to write")
+    e.add_argument("--format", choices=("lerobot",), default="lerobot",
+                   help="the format (default lerobot: LeRobot's dataset v3.0)")
+    e.add_argument("--codec", choices=("h264", "av1"), default="h264",
+                   help="the videos' codec: h264 (default; CRF 18, decoded everywhere) or av1 "
+                   "(LeRobot's own default; CRF 30, smaller, slower to write)")
 
 
 def config_from_args(args: argparse.Namespace) -> Any:
@@ -100,6 +114,14 @@ def run(args: argparse.Namespace) -> int:
             return 1
         print(f"{args.path}: OK: {counts['episodes']} episodes, {counts['frames']} frames; "
               "counts, checksums and labels consistent")
+        return 0
+    if args.what == "export":
+        from lgmd_sim.data.export import ExportConfig, export
+
+        s = export(ExportConfig(args.source, args.dest, args.format, args.codec))
+        print(f"{s.path}: {s.episodes} episodes, {s.frames} frames as a LeRobot v3.0 dataset "
+              f"({s.codec} MP4) in {s.seconds:.1f} s; open it with "
+              f"LeRobotDataset('local/{s.path.name}', root='{s.path}')")
         return 0
     from lgmd_sim.data.generate import generate
     from lgmd_sim.parallel import WorkerDied

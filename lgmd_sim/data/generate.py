@@ -42,7 +42,7 @@ import numpy as np
 from lgmd_sim import options
 from lgmd_sim.data import layout
 from lgmd_sim.data.manifest import write_manifest
-from lgmd_sim.fileio import remove_stale_partials, write_files
+from lgmd_sim.fileio import canonical_json, remove_stale_partials, write_files, write_text_atomic
 from lgmd_sim.parallel import Job, default_workers, run_jobs
 from lgmd_sim.runs import RunFolder
 
@@ -281,21 +281,16 @@ def make_episode(spec: EpisodeSpec) -> EpisodeResult:
 @contextlib.contextmanager
 def _encoder(path: Path, fmt: layout.VideoFormat, fps: float, size: tuple[int, int]
              ) -> Iterator[Callable[[np.ndarray], None]]:
-    """Yield a function appending RGB frames to the video `path` in format `fmt`.
+    """Yield a function appending RGB frames to the video `path` in format `fmt`; the file
+    is checked to hold them all (`lgmd_sim.video.encoder`).
 
     Not `lgmd_sim.video.video_writer`: its codec follows the suffix (FFV1 for .avi), and
     its atomic rename is not needed in a job's private temporary folder.
     """
-    import cv2
+    from lgmd_sim.video import encoder
 
-    h, w = size
-    writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*fmt.fourcc), fps, (w, h))
-    if not writer.isOpened():
-        raise OSError(f"cannot write {fmt.codec} video: OpenCV has no {fmt.fourcc} encoder here")
-    try:
-        yield lambda rgb: writer.write(cv2.cvtColor(rgb, cv2.COLOR_RGB2BGR))
-    finally:
-        writer.release()
+    with encoder(path, fmt.fourcc, fps, size) as write:
+        yield write
 
 
 def _append_labels(columns: dict[str, list], spec: EpisodeSpec, step: Any, fps: float,
@@ -304,6 +299,7 @@ def _append_labels(columns: dict[str, list], spec: EpisodeSpec, step: Any, fps: 
     columns["episode_index"].append(spec.index)
     columns["frame_index"].append(step.index)
     columns["timestamp"].append(step.index / fps)
+    columns["index"].append(None)  # set by _finish_episodes: the episodes before are unknown
     columns["task_index"].append(spec.task_index)
     for name in ("time", "carrier_pos", "carrier_quat", "camera_pos", "camera_quat",
                  "camera_angvel", "camera_linvel", "threat_index", "threat_distance",
@@ -400,6 +396,30 @@ def _store(out: Path, spec: EpisodeSpec, result: EpisodeResult) -> None:
     })
 
 
+def _finish_episodes(out: Path, specs: list[EpisodeSpec]) -> None:
+    """Set each data file's ``index`` column (a frame's index in the whole dataset, known
+    once every episode before it is made, in any order) and write meta/stats.json from
+    every episode's labels. Files already right are left as they are, so a rerun, or a
+    run killed half-way through this, changes nothing more."""
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    from lgmd_sim.data.stats import feature_stats
+
+    tables, start = [], 0
+    for spec in specs:
+        path = out / layout.data_path(spec.index)
+        table = pq.read_table(path)
+        index = pa.array(np.arange(start, start + table.num_rows), pa.int64())
+        if not table["index"].equals(pa.chunked_array([index])):
+            table = table.set_column(table.schema.get_field_index("index"), "index", index)
+            write_files({path: lambda tmp, t=table: pq.write_table(t, tmp, compression="zstd")})
+        tables.append(table)
+        start += table.num_rows
+    stats = feature_stats(pa.concat_tables(tables))
+    write_text_atomic(out / layout.STATS, canonical_json(stats))
+
+
 def generate(config: GenerateConfig, out: str | Path, *, workers: int | None = None,
              ray_address: str | None = None, progress: bool | None = None,
              command: str = "") -> Summary:
@@ -452,6 +472,7 @@ def generate(config: GenerateConfig, out: str | Path, *, workers: int | None = N
         run_jobs([Job(s.key, make_episode, {"spec": s}) for s in todo], store,
                  workers=workers, ray_address=ray_address, progress=progress,
                  desc=f"dataset {out.name}", count=lambda r: r.meta["length"])
+        _finish_episodes(out, specs)
         write_manifest(out, config, [metas[s.index] for s in specs])
         seconds = time.monotonic() - start
         frames = sum(m["length"] for m in metas.values())
@@ -462,7 +483,9 @@ def generate(config: GenerateConfig, out: str | Path, *, workers: int | None = N
         return summary
     except OSError as exc:
         if exc.errno in (errno.ENOSPC, errno.EDQUOT):
-            raise OSError(f"no space left on the device of {out}: "
-                          f"{len(metas)} complete episodes are kept; free space and run the "
-                          "same command again to resume") from None
+            # an episode's video is encoded in the temporary folder before it is stored
+            full = out if str(out) in str(exc) else Path(tempfile.gettempdir())
+            raise OSError(f"no space left on the device of {full}: "
+                          f"{len(metas)} complete episodes are kept in {out}; free space and "
+                          "run the same command again to resume") from None
         raise
