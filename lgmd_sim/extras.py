@@ -15,6 +15,7 @@ EXTRAS = {
     "ray": "Ray: benchmarks and dataset generation as tasks on a cluster (--ray)",
     "data": "pyarrow: labelled datasets with per-frame labels in Parquet",
     "lerobot": "PyAV and pyarrow: lgmd-sim dataset export --format lerobot (H.264/AV1 MP4 videos)",
+    "video": "moviepy: Gymnasium's RecordVideo wrapper (recording episodes)",
     "dev": "pytest and ruff: the test suite and the linter",
 }
 

@@ -19,22 +19,81 @@ __all__ = ["CLOSED_LOOP", "closed_loop", "open_loop"]
 CLOSED_LOOP = ("collisions_vs_jitter.png", "false_alarms_vs_collisions.png",
                "trajectories.png")
 _CONTROLLER_STYLES = {
-    "oracle": {"color": "black", "ls": "-", "lw": 1.6, "marker": "s"},
-    "straight": {"color": "0.55", "ls": ":", "lw": 1.6, "marker": "x"},
+    "oracle": {"color": "black", "ls": "-", "marker": "s"},
+    "straight": {"color": "0.6", "ls": (0, (1, 1)), "marker": "D"},
 }
+#: The other cells' colours, in turn: matplotlib's tab10 without its grey (the straight
+#: controller's) and its brown (the obstacles'), so that no two cells of a run look alike
+#: before the ninth; markers and dashes vary too, so that the ninth still differs.
+_PALETTE = ["#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#e377c2", "#bcbd22",
+            "#17becf"]
+_MARKERS = ["o", "^", "v", "P", "h", "<", ">", "p", "d"]
+_DASHES = ["-", (0, (5, 1.5)), (0, (6, 1.5, 1.5, 1.5))]
+#: Line width and marker size of a cell, and their growth per cell drawn after it on the
+#: same place: lines or points that coincide nest (the last drawn, narrowest, on top).
+_LW, _LW_STEP = 1.6, 1.5
+_MS, _MS_STEP = 7.0, 3.5
+#: Margin of the trajectory panels around the paths, obstacles and goal (m).
+_PAD = 0.4
 
 
-#: Colours of trained policies' cells, by the order of their tags in the run.
-_POLICY_COLOURS = ["#56B4E9", "#7F3C8D", "#17BECF", "#8C564B", "#BCBD22", "#E15759"]
+def _label(r: dict[str, Any]) -> str:
+    from lgmd_sim.bench.closed_loop import Cell
+
+    return Cell(r["scenario"], r["jitter"], r["controller"], r["model"], r["preset"],
+                tag=r.get("tag")).label
 
 
-def _style(row: dict[str, Any], tags: Sequence[str] = ()) -> dict[str, Any]:
-    if row.get("tag") in tags:  # a trained policy: a colour of its own, dash-dotted
-        colour = _POLICY_COLOURS[list(tags).index(row["tag"]) % len(_POLICY_COLOURS)]
-        return {"color": colour, "ls": "-.", "lw": 1.8, "marker": "^"}
-    if row["model"] is None:
-        return dict(_CONTROLLER_STYLES.get(row["controller"], {"color": "0.3", "marker": "^"}))
-    return {**model_style(f"{row['model']}/{row['preset']}"), "marker": "o"}
+def _styles(rows: Sequence[dict[str, Any]]) -> dict[str, dict[str, Any]]:
+    """Each cell's colour, dashes and marker, the same in every figure of the run, and its
+    rank (``k``, 0 for the first drawn, of ``n``)."""
+    first = {_label(r): r for r in rows}
+    fixed = sorted((c for c, r in first.items() if not r["model"] and not r.get("tag")
+                    and r["controller"] in _CONTROLLER_STYLES), reverse=True)
+    others = sorted(set(first) - set(fixed))
+    styles = {cell: dict(_CONTROLLER_STYLES[first[cell]["controller"]]) for cell in fixed}
+    for i, cell in enumerate(others):
+        styles[cell] = {"color": _PALETTE[i % len(_PALETTE)],
+                        "ls": _DASHES[i // len(_PALETTE) % len(_DASHES)],
+                        "marker": _MARKERS[i % len(_MARKERS)]}
+    # straight, oracle, then the rest: the baselines at the bottom
+    for k, cell in enumerate(styles):
+        styles[cell].update(k=k, n=len(styles))
+    return styles
+
+
+def _covers(shapes: Sequence[np.ndarray], tolerance: float) -> list[np.ndarray]:
+    """For each (n, 2) array of points, in drawing order: per point, how many of the arrays
+    drawn after it pass within `tolerance` of it (would hide it there): its widening."""
+    def near(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+        return (np.linalg.norm(a[:, None] - b[None], axis=-1) < tolerance).any(axis=1)
+
+    return [np.sum([near(a, b) for b in shapes[i + 1:]], axis=0, dtype=int)
+            * np.ones(len(a), int) for i, a in enumerate(shapes)]
+
+
+def _line(style: dict[str, Any], widen: int) -> dict[str, Any]:
+    """Matplotlib line arguments of a cell under `widen` lines that coincide with it (solid
+    then: the stripe around the narrower lines on top)."""
+    return {"color": style["color"], "ls": style["ls"] if widen == 0 else "-",
+            "lw": _LW + _LW_STEP * widen,
+            "zorder": 2 + style["k"] / style["n"], "solid_capstyle": "butt"}
+
+
+def _point(style: dict[str, Any], widen: int) -> dict[str, Any]:
+    """Matplotlib marker arguments of a cell under `widen` points that coincide with it."""
+    return {"marker": style["marker"], "ms": _MS + _MS_STEP * widen, "color": style["color"],
+            "mec": "black", "mew": 0.6, "ls": "none", "zorder": 3 + style["k"] / style["n"]}
+
+
+def _legend(fig, styles: dict[str, dict[str, Any]], note: str, lines: bool) -> None:
+    from matplotlib.lines import Line2D
+
+    handles = [Line2D([], [], label=cell, color=st["color"], ls=st["ls"] if lines else "none",
+                      lw=_LW + 0.4, marker=st["marker"], ms=7, mec="black", mew=0.6)
+               for cell, st in styles.items()]
+    fig.legend(handles=handles, loc="outside right upper", fontsize="small",
+               title=note, title_fontsize="x-small", alignment="left")
 
 
 def _save(fig, path: Path) -> None:
@@ -44,112 +103,160 @@ def _save(fig, path: Path) -> None:
 def closed_loop(folder: Path, rows: Sequence[dict[str, Any]],
                 examples: Sequence[dict[str, Any]]) -> None:
     """The closed-loop figures (`CLOSED_LOOP`) from the summary rows and the records that
-    carry a top view (one seed per cell)."""
+    carry a top view (one seed per cell); each cell has one style in all three."""
     scenarios = sorted({r["scenario"] for r in rows})
-    tags = sorted({r["tag"] for r in rows if r.get("tag")})
-    _rates_vs_jitter(folder / CLOSED_LOOP[0], rows, scenarios, tags)
-    _false_alarms_vs_collisions(folder / CLOSED_LOOP[1], rows, scenarios, tags)
-    _trajectories(folder / CLOSED_LOOP[2], examples, scenarios, tags)
+    styles = _styles(rows)
+    _rates_vs_jitter(folder / CLOSED_LOOP[0], rows, scenarios, styles)
+    _false_alarms_vs_collisions(folder / CLOSED_LOOP[1], rows, scenarios, styles)
+    _trajectories(folder / CLOSED_LOOP[2], examples, scenarios, styles)
 
 
 def _rates_vs_jitter(path: Path, rows: Sequence[dict[str, Any]], scenarios: list[str],
-                     tags: Sequence[str]) -> None:
+                     styles: dict[str, dict[str, Any]]) -> None:
     fig = figure(figsize=(11, 3.6 * len(scenarios)))
     axes = fig.subplots(len(scenarios), 2, squeeze=False)
+    span = max(1.0, np.ptp([r["jitter"] for r in rows]))
     for (ax_col, ax_suc), sc in zip(axes, scenarios, strict=True):
         lines: dict[str, list[dict[str, Any]]] = defaultdict(list)
-        for r in rows:
+        for r in sorted(rows, key=lambda r: (list(styles).index(r["cell"]), r["jitter"])):
             if r["scenario"] == sc:
                 lines[r["cell"]].append(r)
-        for cell, rs in sorted(lines.items()):
-            rs.sort(key=lambda r: r["jitter"])
-            jit = np.array([r["jitter"] for r in rs])
-            style = _style(rs[0], tags)
-            for ax, rate, ci in ((ax_col, "collision_rate", "collision_ci"),
-                                 (ax_suc, "success_rate", "success_ci")):
+        for ax, rate, ci in ((ax_col, "collision_rate", "collision_ci"),
+                             (ax_suc, "success_rate", "success_ci")):
+            curves = [np.array([[r["jitter"] / span, r[rate]] for r in rs])
+                      for rs in lines.values()]
+            covers = [int(c.max()) for c in _covers(curves, 0.02)]
+            for (cell, rs), widen in zip(lines.items(), covers, strict=True):
+                jit = np.array([r["jitter"] for r in rs])
                 y = np.array([r[rate] for r in rs])
                 err = np.abs(np.array([r[ci] for r in rs]).T - y)
-                ax.errorbar(jit, y, yerr=err, capsize=3, label=cell, **style)
+                marker = _point(styles[cell], widen)
+                ax.errorbar(jit, y, yerr=err, capsize=3, elinewidth=1.0, marker=marker["marker"],
+                            ms=marker["ms"], mec="black", mew=0.6,
+                            **_line(styles[cell], widen))
         for ax, what in ((ax_col, "collision rate"), (ax_suc, "success rate")):
-            ax.set_ylim(-0.03, 1.03)
+            ax.set_ylim(-0.05, 1.05)
             ax.set_xlabel("jitter level")
             ax.set_ylabel(what)
             ax.set_title(f"{sc}: {what} (95% Wilson CI)", fontsize="medium")
             ax.grid(alpha=0.3)
-        ax_suc.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize="small")
+    _legend(fig, styles, "equal results nest:\nthe first listed widest", lines=True)
     _save(fig, path)
 
 
 def _false_alarms_vs_collisions(path: Path, rows: Sequence[dict[str, Any]],
-                                scenarios: list[str], tags: Sequence[str]) -> None:
-    fig = figure(figsize=(8.5, 4.2 * len(scenarios)))
-    axes = fig.subplots(len(scenarios), 1, squeeze=False)[:, 0]
-    markers = ["o", "s", "^", "D", "v", "P"]
-    for ax, sc in zip(axes, scenarios, strict=True):
-        jitters = sorted({r["jitter"] for r in rows if r["scenario"] == sc})
-        for r in rows:
-            if r["scenario"] != sc:
-                continue
-            style = _style(r, tags)
-            ax.plot(r["false_alarms_per_min"], r["collision_rate"], ls="none", ms=8,
-                    marker=markers[jitters.index(r["jitter"]) % len(markers)],
-                    color=style["color"], mec="black", mew=0.5)
-        for cell in sorted({r["cell"] for r in rows if r["scenario"] == sc}):
-            r = next(x for x in rows if x["cell"] == cell)
-            ax.plot([], [], ls="none", marker="o", color=_style(r, tags)["color"], label=cell)
-        for k, j in enumerate(jitters):
-            ax.plot([], [], ls="none", marker=markers[k % len(markers)], color="white",
-                    mec="black", label=f"jitter {j:g}")
-        ax.set_xlabel("false alarms per minute")
-        ax.set_ylabel("collision rate")
-        ax.set_ylim(-0.03, 1.03)
-        ax.grid(alpha=0.3)
-        ax.set_title(f"{sc}: the cost of avoiding (lower left is better)", fontsize="medium")
-        ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize="small")
+                                scenarios: list[str], styles: dict[str, dict[str, Any]]
+                                ) -> None:
+    """One panel per scenario and jitter level: each cell's false alarms per minute and
+    collision rate; equal points nest (the first listed largest)."""
+    jitters = sorted({r["jitter"] for r in rows})
+    fig = figure(figsize=(3.6 * len(jitters) + 2.8, 3.3 * len(scenarios)))
+    axes = fig.subplots(len(scenarios), len(jitters), squeeze=False, sharex=True,
+                        sharey=True)
+    span = max(1.0, max(r["false_alarms_per_min"] for r in rows))
+    order = list(styles)
+    for i, sc in enumerate(scenarios):
+        for ax, j in zip(axes[i], jitters, strict=True):
+            cells = sorted((r for r in rows if r["scenario"] == sc and r["jitter"] == j),
+                           key=lambda r: order.index(r["cell"]))
+            points = [np.array([[r["false_alarms_per_min"] / span, r["collision_rate"]]])
+                      for r in cells]
+            for r, widen in zip(cells, _covers(points, 0.03), strict=True):
+                ax.plot(r["false_alarms_per_min"], r["collision_rate"],
+                        **_point(styles[r["cell"]], int(widen[0])))
+            ax.set_title(f"{sc}, jitter {j:g}", fontsize="medium")
+            ax.grid(alpha=0.3)
+            ax.set_xlabel("false alarms per minute")
+        axes[i, 0].set_ylabel("collision rate")
+    axes[0, 0].set_ylim(-0.08, 1.08)
+    axes[0, 0].set_xlim(-0.06 * span, 1.06 * span)
+    fig.suptitle("The cost of avoiding (lower left is better)", fontsize="medium")
+    _legend(fig, styles, "equal points nest:\nthe first listed largest", lines=False)
     _save(fig, path)
 
 
+def _bounds(group: Sequence[dict[str, Any]]) -> np.ndarray:
+    """(x0, y0), (x1, y1) around one panel's paths, obstacles and goal."""
+    view = group[0]["top_view"]
+    points = [np.array(r["top_view"]["path"]).reshape(-1, 2) for r in group]
+    for ob in view["obstacles"]:
+        if "polygon" in ob:
+            points.append(np.array(ob["polygon"]))
+        else:
+            x, y, radius = ob["circle"]
+            points.append(np.array([[x - radius, y - radius], [x + radius, y + radius]]))
+    if view["goal"]:
+        points.append(np.array([view["goal"]]))
+    xy = np.concatenate(points)
+    return np.array([xy.min(axis=0) - _PAD, xy.max(axis=0) + _PAD])
+
+
 def _trajectories(path: Path, examples: Sequence[dict[str, Any]], scenarios: list[str],
-                  tags: Sequence[str]) -> None:
-    """Top views of one seed per jitter level: terrain, obstacles, each controller's path."""
+                  styles: dict[str, dict[str, Any]]) -> None:
+    """Top views of one seed per jitter level: terrain, obstacles, each controller's path;
+    the axes span what is drawn (one extent per scenario, shared by its panels)."""
     from matplotlib.patches import Circle, Polygon
 
     panels = sorted({(r["scenario"], r["jitter"]) for r in examples})
     if not panels:
         return
-    cols = len({j for _, j in panels})
-    fig = figure(figsize=(5.2 * cols, 4.4 * len(scenarios)))
-    axes = fig.subplots(len(scenarios), cols, squeeze=False)
     jitters = sorted({j for _, j in panels})
-    for (sc, j) in panels:
-        ax = axes[scenarios.index(sc), jitters.index(j)]
-        group = [r for r in examples if r["scenario"] == sc and r["jitter"] == j]
+    order = list(styles)
+    groups = {p: sorted((r for r in examples if (r["scenario"], r["jitter"]) == p),
+                        key=lambda r: order.index(_label(r))) for p in panels}
+    extents = {}
+    for sc in scenarios:
+        boxes = [_bounds(g) for (s, _), g in groups.items() if s == sc]
+        if boxes:
+            extents[sc] = np.array([np.min([b[0] for b in boxes], axis=0),
+                                    np.max([b[1] for b in boxes], axis=0)])
+    width = 4.6  # inches per panel; its height follows the extent (equal axes)
+    heights = [float(np.clip(width * np.divide(*np.diff(e, axis=0)[0][::-1]), 1.6, 6.0))
+               for e in extents.values()]
+    fig = figure(figsize=(width * len(jitters) + 3.2, sum(heights) + 0.9 * len(heights)))
+    axes = fig.subplots(len(extents), len(jitters), squeeze=False,
+                        height_ratios=heights)
+    rows_of = list(extents)
+    for ax in axes.ravel():
+        ax.axis("off")  # panels without a top view stay empty
+    for (sc, j), group in groups.items():
+        ax = axes[rows_of.index(sc), jitters.index(j)]
+        ax.axis("on")
         view = group[0]["top_view"]
         if "terrain" in view:
             ax.imshow(np.array(view["terrain"]), origin="lower", extent=view["extent"],
-                      cmap="Greys", alpha=0.55)
+                      cmap="Greys", alpha=0.45, zorder=0)
         for ob in view["obstacles"]:
             patch = (Polygon(ob["polygon"]) if "polygon" in ob
                      else Circle(ob["circle"][:2], ob["circle"][2]))
-            patch.set(facecolor="#8C564B", edgecolor="black", lw=0.6)
+            patch.set(facecolor="#8C564B", edgecolor="black", lw=0.6, zorder=1)
             ax.add_patch(patch)
-        for r in sorted(group, key=lambda r: (r["model"] is None, r["controller"])):
-            xy = np.array(r["top_view"]["path"])
-            style = {k: v for k, v in _style(r, tags).items() if k != "marker"}
-            label = r["controller"] + (f": {r['model']}/{r['preset']}" if r["model"] else
-                                       f": {r['tag']}" if r.get("tag") else "")
-            ax.plot(xy[:, 0], xy[:, 1], label=label, **style)
+        paths = [np.array(r["top_view"]["path"]).reshape(-1, 2) for r in group]
+        ends = []  # each path's end: the cell's marker, with a black cross at a collision
+        for r, xy, cover in zip(group, paths, _covers(paths, 0.05), strict=True):
+            # wider only where later paths run over it: nested stripes there
+            for level in range(cover.max(), -1, -1):
+                ax.plot(*np.where((cover >= level)[:, None], xy, np.nan).T,
+                        **_line(styles[_label(r)], level))
             hit = r["top_view"]["collision_frame"]
-            if hit is not None:
-                ax.plot(*xy[hit], marker="X", ms=10, color=style["color"], mec="black")
+            ends.append(xy[hit if hit is not None else -1][None])
+        for r, end, cover in zip(group, ends, _covers(ends, 0.15), strict=True):
+            ax.plot(*end[0], **_point(styles[_label(r)], int(cover[0])))
+            if r["top_view"]["collision_frame"] is not None:
+                ax.plot(*end[0], marker="x", ms=6, mew=1.6, color="black", ls="none",
+                        zorder=4)
         if view["goal"]:
-            ax.plot(*view["goal"], marker="*", ms=16, color="gold", mec="black", ls="none")
+            ax.plot(*view["goal"], marker="*", ms=16, color="gold", mec="black", ls="none",
+                    zorder=4)
+        (x0, y0), (x1, y1) = extents[sc]
+        ax.set_xlim(x0, x1)
+        ax.set_ylim(y0, y1)
         ax.set_aspect("equal")
-        ax.set_title(f"{sc}, jitter {j:g}, seed {group[0]['seed']} (X: collision)",
-                     fontsize="small")
+        ax.set_title(f"{sc}, jitter {j:g}, seed {group[0]['seed']}", fontsize="small")
         ax.set_xlabel("x (m)")
         ax.set_ylabel("y (m)")
-    axes[0, -1].legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize="small")
+    _legend(fig, styles, "marker: the path's end (x: a collision);\nequal paths nest as "
+            "stripes,\nthe first listed widest", lines=True)
     _save(fig, path)
 
 

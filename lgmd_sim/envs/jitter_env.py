@@ -29,13 +29,15 @@ class JitterEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
       distance in m, sine and cosine of its bearing from the camera's heading, positive
       to the left).
     - Action: Box [-1, 1]^2, scaled to (linear velocity, angular velocity) by
-      ``max_speed`` and ``max_turn``; values outside are clipped; NaN or infinite values
-      raise ValueError. A tripod ignores the action.
+      ``max_speed`` and ``max_turn``; values outside are clipped; NaN, infinite or
+      complex values raise ValueError. A tripod ignores the action.
     - Reward: ``progress_reward`` per metre of progress towards the goal, minus
       ``collision_penalty`` on a step with a collision, minus ``effort_penalty`` times the
       squared action norm.
     - Terminated on a collision (if ``terminate_on_collision``) or on reaching the goal;
-      truncated after ``time_limit * fps`` steps.
+      truncated after ``time_limit * fps`` steps. A step after either, without a reset,
+      raises ``gymnasium.error.ResetNeeded`` (Gymnasium's `OrderEnforcing` only checks
+      the first step).
     - ``info``: the ground truth of the frame (see `JitterWorld`): time, frame_index, carrier
       and camera pose, camera angular and linear velocity (camera frame: x right, y up,
       z backwards), the camera's rotation since the previous frame (rotation vectors in
@@ -106,10 +108,15 @@ class JitterEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
                                                  dict[str, Any]]:
         self._check_open()
         if self._needs_reset:
-            raise gym.error.ResetNeeded("call reset() before step()")
-        a = np.asarray(action, dtype=np.float64)
+            raise gym.error.ResetNeeded("call reset() before step()" if self._steps == 0 else
+                                        "the episode has ended (terminated or truncated): "
+                                        "call reset() before step()")
+        a = np.asarray(action)
         if a.shape != (2,):
             raise ValueError(f"action must have shape (2,), got {a.shape}")
+        if np.iscomplexobj(a):  # casting would drop the imaginary part silently
+            raise ValueError(f"action must be real, got {a.tolist()}")
+        a = a.astype(np.float64)
         if not np.isfinite(a).all():
             raise ValueError(f"action must be finite, got {a.tolist()}")
         a = np.clip(a, -1.0, 1.0)
@@ -127,6 +134,7 @@ class JitterEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
             reached = truth["goal_distance"] < p.goal_radius
         terminated = reached or (p.terminate_on_collision and truth["collision"])
         truncated = not terminated and self._steps >= p.max_steps
+        self._needs_reset = terminated or truncated
         info = {**truth, "goal_reached": reached, "is_success": reached}
         return self._observation(), reward, terminated, truncated, info
 

@@ -4,8 +4,11 @@ MuJoCo reads ``MUJOCO_GL`` once, when ``mujoco`` is first imported, so every mod
 `lgmd_sim.world` imports mujoco from here: ``from lgmd_sim.world.gl import mujoco``.
 
 Order of choice: an explicit ``MUJOCO_GL`` set by the user wins; otherwise EGL (headless,
-works with Mesa's software renderer and on GPUs) when libEGL loads, else OSMesa when
-libOSMesa loads, else EGL anyway so that the error names the missing library.
+works with Mesa's software renderer and on GPUs) when its libraries load, else OSMesa when
+libOSMesa loads. When the backend's library does not load, importing this module raises
+OSError in one line naming it and the Debian/Ubuntu packages that bring it: PyOpenGL
+would otherwise fail deep inside MuJoCo's import (``'NoneType' object has no attribute
+'glGetError'``) or at the first frame.
 
 Worker processes (vector environments) render with one Mesa software-rasteriser thread
 each (``LP_NUM_THREADS=1`` unless set) and run OpenCV single-threaded: the parallelism
@@ -22,28 +25,63 @@ import os
 
 import cv2
 
+#: Per headless backend, the libraries PyOpenGL loads (each entry: alternatives, any one
+#: will do) and the Debian/Ubuntu packages that bring them (README, "Offscreen rendering").
+_NEEDS = {"egl": (("EGL",), ("OpenGL", "GL")), "osmesa": (("OSMesa",),)}
+_PACKAGES = {"egl": "libegl1 libegl-mesa0 libgl1-mesa-dri libopengl0 libglx0",
+             "osmesa": "libosmesa6"}
+
 
 def _loads(name: str) -> bool:
-    path = ctypes.util.find_library(name)
-    if path is None:
-        return False
-    try:
-        ctypes.CDLL(path)
-    except OSError:
-        return False
-    return True
+    # find_library's path, then the names PyOpenGL itself tries (so that a library only on
+    # LD_LIBRARY_PATH, which ldconfig does not list, counts as present, as it is for PyOpenGL)
+    found = ctypes.util.find_library(name)
+    base = f"lib{name}.so"
+    for path in ([found] if found else []) + [base] + [f"{base}.{i}" for i in range(9, -1, -1)]:
+        try:
+            ctypes.CDLL(path)
+        except OSError:
+            continue
+        return True
+    return False
+
+
+def _missing(backend: str) -> list[str]:
+    """The libraries of `backend` that do not load, as "libX" or "libX or libY"."""
+    return [" or ".join(f"lib{n}" for n in names)
+            for names in _NEEDS.get(backend, ()) if not any(map(_loads, names))]
 
 
 def choose_backend() -> str:
-    """The backend to use: the user's ``MUJOCO_GL`` if set, else "egl", else "osmesa"."""
+    """The backend to use: the user's ``MUJOCO_GL`` if set, else the first of "egl" and
+    "osmesa" whose libraries load (none: "egl", which `check_backend` refuses)."""
     user = os.environ.get("MUJOCO_GL", "").strip()
     if user:
         return user
-    if _loads("EGL"):
-        return "egl"
-    if _loads("OSMesa"):
-        return "osmesa"
-    return "egl"
+    return next((b for b in ("egl", "osmesa") if not _missing(b)), "egl")
+
+
+def check_backend(backend: str) -> None:
+    """Raise OSError (one line: the library, the packages) unless `backend` can load, and
+    ValueError when ``PYOPENGL_PLATFORM`` names another one."""
+    user = bool(os.environ.get("MUJOCO_GL", "").strip())
+    platform = os.environ.get("PYOPENGL_PLATFORM", "").strip()
+    if backend in _NEEDS and platform and platform.lower() != backend:
+        chosen = "MUJOCO_GL" if user else "the one whose libraries load here"
+        raise ValueError(f"PYOPENGL_PLATFORM={platform} but MuJoCo's GL backend is {backend} "
+                         f"({chosen}): unset PYOPENGL_PLATFORM or make the two agree")
+    missing = _missing(backend)
+    if not missing:
+        return
+    if user:
+        other = "osmesa" if backend == "egl" else "egl"
+        raise OSError(f"MUJOCO_GL={backend}: {', '.join(missing)} does not load (offscreen "
+                      f"rendering); install it (Debian/Ubuntu: sudo apt-get install "
+                      f"{_PACKAGES[backend]}) or choose another backend (MUJOCO_GL={other})")
+    raise OSError(f"offscreen rendering needs EGL or OSMesa and neither loads "
+                  f"({', '.join(missing + _missing('osmesa'))}); install one (Debian/Ubuntu: "
+                  f"sudo apt-get install {_PACKAGES['egl']} for EGL, or "
+                  f"{_PACKAGES['osmesa']} for OSMesa)")
 
 
 def _single_threaded_worker() -> None:
@@ -79,6 +117,7 @@ os.register_at_fork(before=_before_fork, after_in_parent=_after_fork_in_parent,
                     after_in_child=_after_fork_in_child)
 
 BACKEND = choose_backend()
+check_backend(BACKEND)
 os.environ["MUJOCO_GL"] = BACKEND
 if BACKEND in ("egl", "osmesa"):
     # PyOpenGL must agree with MuJoCo's context type; a user's explicit choice stays.
@@ -86,4 +125,4 @@ if BACKEND in ("egl", "osmesa"):
 
 import mujoco  # noqa: E402  (must follow the MUJOCO_GL choice above)
 
-__all__ = ["BACKEND", "choose_backend", "mujoco"]
+__all__ = ["BACKEND", "check_backend", "choose_backend", "mujoco"]

@@ -12,11 +12,17 @@
   outputs as separately wrapped environments. `LGMDFeatures` documents the keys.
 - `NoiseObservation`: seeded Gaussian, salt-and-pepper and shake noise on the frame.
 - `FrameObservation`: the frame alone, as a Box.
+- `ResizeFrame`: the frame resized, the other keys kept (Gymnasium's `ResizeObservation`
+  takes a Box only).
+
+Every one records its arguments (`gymnasium.utils.RecordConstructorArgs`), so that
+``gym.make(env.spec)`` rebuilds the wrapped environment and Gymnasium's ``check_env``
+passes on it.
 """
 
 from typing import Any
 
-from lgmd_sim.envs.wrappers.frames import FrameObservation, NoiseObservation
+from lgmd_sim.envs.wrappers.frames import FrameObservation, NoiseObservation, ResizeFrame
 from lgmd_sim.envs.wrappers.lgmd import (
     KEYS,
     LGMDFeatures,
@@ -25,7 +31,7 @@ from lgmd_sim.envs.wrappers.lgmd import (
 )
 
 __all__ = ["KEYS", "FrameObservation", "LGMDFeatures", "LGMDObservation",
-           "LGMDVectorObservation", "NoiseObservation", "VecLGMDObservation"]
+           "LGMDVectorObservation", "NoiseObservation", "ResizeFrame", "VecLGMDObservation"]
 
 
 def __getattr__(name: str) -> Any:

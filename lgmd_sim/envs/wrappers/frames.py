@@ -1,7 +1,9 @@
-"""Wrappers on the camera frame: seeded noise (the paper's noisy streams), the frame alone.
+"""Wrappers on the camera frame: seeded noise (the paper's noisy streams), the frame alone,
+the frame resized.
 
 >>> env = NoiseObservation(gym.make("lgmd_sim/PassBy-v0"), "gaussian:0.005,saltpepper:0.005")
 >>> env = FrameObservation(gym.make("lgmd_sim/PassBy-v0"))   # obs: the frame only
+>>> env = ResizeFrame(gym.make("lgmd_sim/PassBy-v0"), (64, 64))  # obs["frame"]: 64 x 64
 """
 
 from __future__ import annotations
@@ -9,6 +11,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from typing import Any
 
+import cv2
 import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
@@ -24,7 +27,7 @@ def check_frame_space(space: gym.Space) -> None:
                          f"(a jitter environment's), got {space}")
 
 
-class NoiseObservation(gym.Wrapper):
+class NoiseObservation(gym.Wrapper, gym.utils.RecordConstructorArgs):
     """Corrupt the camera frame with seeded noise (`lgmd_sim.noise`), as the paper's dataset (d).
 
     ``obs["frame"]`` becomes ``noise.apply(frame, noises, episode_seed, index)``, with the
@@ -48,7 +51,9 @@ class NoiseObservation(gym.Wrapper):
     """
 
     def __init__(self, env: gym.Env, noise: str | Sequence[noise_lib.Noise]) -> None:
-        super().__init__(env)
+        # recorded for env.spec, so that gym.make(env.spec) rebuilds the wrapper
+        gym.utils.RecordConstructorArgs.__init__(self, noise=noise)
+        gym.Wrapper.__init__(self, env)
         check_frame_space(env.observation_space)
         if not isinstance(noise, str) and not (
             isinstance(noise, Sequence) and all(isinstance(n, noise_lib.Noise) for n in noise)
@@ -81,13 +86,47 @@ class NoiseObservation(gym.Wrapper):
         return {**obs, "frame": noisy.reshape(frame.shape)}
 
 
-class FrameObservation(gym.ObservationWrapper):
+class FrameObservation(gym.ObservationWrapper, gym.utils.RecordConstructorArgs):
     """Observe the camera frame alone (a Box), e.g. for image-only policies."""
 
     def __init__(self, env: gym.Env) -> None:
-        super().__init__(env)
+        gym.utils.RecordConstructorArgs.__init__(self)
+        gym.ObservationWrapper.__init__(self, env)
         check_frame_space(env.observation_space)
         self.observation_space = env.observation_space["frame"]
 
     def observation(self, observation: dict[str, np.ndarray]) -> np.ndarray:
         return observation["frame"]
+
+
+class ResizeFrame(gym.ObservationWrapper, gym.utils.RecordConstructorArgs):
+    """Resize the camera frame of the Dict observation, the other keys unchanged.
+
+    Gymnasium's `ResizeObservation` takes a Box observation only; this does what it does
+    (OpenCV's area interpolation, ``shape`` as (height, width)) to ``obs["frame"]``. Put it
+    outside `LGMDObservation` to have the models watch the full frame and a policy see a
+    small one; to render small in the first place, make the env with ``resolution=[h, w]``.
+
+    Args:
+        env: an environment with a Dict observation holding a uint8 ``"frame"``.
+        shape: (height, width) of the resized frame, in pixels.
+    """
+
+    def __init__(self, env: gym.Env, shape: tuple[int, int]) -> None:
+        gym.utils.RecordConstructorArgs.__init__(self, shape=shape)
+        gym.ObservationWrapper.__init__(self, env)
+        check_frame_space(env.observation_space)
+        if not (isinstance(shape, Sequence) and not isinstance(shape, str) and len(shape) == 2
+                and all(isinstance(v, int | np.integer) and not isinstance(v, bool) and v > 0
+                        for v in shape)):
+            raise ValueError(f"shape must be (height, width) of positive integers, got {shape!r}")
+        self.shape = (int(shape[0]), int(shape[1]))
+        frame = env.observation_space["frame"]
+        self._frame_space = spaces.Box(0, 255, self.shape + frame.shape[2:], np.uint8)
+        self.observation_space = spaces.Dict({**env.observation_space.spaces,
+                                              "frame": self._frame_space})
+
+    def observation(self, observation: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+        # cv2 takes (width, height) and drops the channel axis of a grey frame
+        frame = cv2.resize(observation["frame"], self.shape[::-1], interpolation=cv2.INTER_AREA)
+        return {**observation, "frame": frame.reshape(self._frame_space.shape)}

@@ -215,7 +215,7 @@ class LGMDFeatures:
         return copied
 
 
-class LGMDObservation(gym.Wrapper):
+class LGMDObservation(gym.Wrapper, gym.utils.RecordConstructorArgs):
     """LGMD models watching the camera: their potentials, alarms and S-layer map observed.
 
     Adds ``lgmd_potential``, ``lgmd_alarm`` and ``lgmd_grid`` to the observation and the
@@ -239,7 +239,11 @@ class LGMDObservation(gym.Wrapper):
                  preset: str | None = None, history: int = 8,
                  grid: tuple[int, int] | None = (1, 3), keep_frame: bool = True,
                  **params: Any) -> None:
-        super().__init__(env)
+        # recorded for env.spec, so that gym.make(env.spec) rebuilds the wrapper
+        gym.utils.RecordConstructorArgs.__init__(self, model=model, preset=preset,
+                                                 history=history, grid=grid,
+                                                 keep_frame=keep_frame, **params)
+        gym.Wrapper.__init__(self, env)
         self.features = LGMDFeatures(1, model, preset=preset, history=history, grid=grid,
                                      keep_frame=keep_frame, **params)
         self.observation_space = self.features.observation_space(env.observation_space)
