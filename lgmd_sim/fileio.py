@@ -46,12 +46,16 @@ def _alive(pid: int) -> bool:
 
 
 def remove_stale_partials(target: Path) -> None:
-    """Remove temporaries of `target` left by processes that no longer run."""
+    """Remove temporaries of `target` (files, or folders for a folder made whole) left by
+    processes that no longer run."""
     pattern = f".{glob.escape(target.name)}.*.partial{glob.escape(target.suffix)}"
     for stale in target.parent.glob(pattern):
         match = _PARTIAL.match(stale.name[len(target.name) + 1:])
         if match and not _alive(int(match["pid"])):
-            stale.unlink(missing_ok=True)
+            if stale.is_dir():
+                shutil.rmtree(stale, ignore_errors=True)
+            else:
+                stale.unlink(missing_ok=True)
 
 
 def _named(exc: OSError, target: Path, verb: str = "write") -> OSError:

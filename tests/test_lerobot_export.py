@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import errno
 import json
+import os
 from pathlib import Path
 
 import numpy as np
@@ -213,6 +214,24 @@ def test_a_failed_export_leaves_nothing(dataset, tmp_path, monkeypatch):
     with pytest.raises(OSError, match=r"no space left.*out"):
         export_mod.export(export_mod.ExportConfig(dataset, tmp_path / "out"))
     assert list(tmp_path.iterdir()) == []  # neither DEST nor its temporary folder
+
+
+def test_an_export_killed_outright_leaves_a_folder_the_next_one_removes(dataset, tmp_path):
+    """A SIGKILLed export cannot remove its hidden temporary folder; the next export to
+    the same DEST removes it (its process is gone), and leaves a running one's alone."""
+    import subprocess
+
+    from lgmd_sim.data.export import ExportConfig, export
+
+    pytest.importorskip("av")
+    dead = subprocess.Popen(["true"])
+    dead.wait()
+    stale = tmp_path / f".out.{dead.pid}-x1.partial"
+    live = tmp_path / f".out.{os.getpid()}-x2.partial"
+    for folder in (stale, live):
+        (folder / "data").mkdir(parents=True)
+    export(ExportConfig(dataset, tmp_path / "out"))
+    assert not stale.exists() and live.is_dir() and (tmp_path / "out").is_dir()
 
 
 def test_cli_export(dataset, tmp_path, capsys):

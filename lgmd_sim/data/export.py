@@ -30,7 +30,7 @@ import numpy as np
 
 from lgmd_sim.data import layout
 from lgmd_sim.data.stats import feature_stats, image_stats
-from lgmd_sim.fileio import canonical_json
+from lgmd_sim.fileio import canonical_json, remove_stale_partials
 
 __all__ = ["CODECS", "FORMATS", "Codec", "ExportConfig", "ExportSummary", "export"]
 
@@ -126,6 +126,7 @@ def export(config: ExportConfig) -> ExportSummary:
                          "needs an even height and width")
     dest = config.dest
     dest.parent.mkdir(parents=True, exist_ok=True)
+    remove_stale_partials(dest)  # an export killed outright left its folder
     tmp = Path(tempfile.mkdtemp(prefix=f".{dest.name}.{os.getpid()}-", suffix=".partial",
                                 dir=dest.parent))
     try:
