@@ -61,7 +61,7 @@ def examples() -> list[dict]:
                 "terrain": np.zeros((5, 5)).tolist(), "extent": [-10.0, 20.0, -12.0, 12.0]}
         records.append({"scenario": "RoughTerrainObstacles", "jitter": j, "seed": 1000,
                         "controller": controller, "model": model, "preset": preset,
-                        "tag": None, "top_view": view})
+                        "tag": None, "cell": cell, "top_view": view})
     return records
 
 

@@ -358,13 +358,16 @@ def run(config: ClosedLoopConfig, out: str | Path, *, resume: bool = False,
             for cell in cells for seed in seeds if cell.key(seed) not in done]
     run_jobs(jobs, lambda job, record: folder.store(job.key, record), workers=workers,
              ray_address=ray_address, progress=progress, desc="closed-loop")
-    records = folder.records([cell.key(seed) for cell in cells for seed in seeds],
-                             RECORD_FIELDS)
-    outputs = ["episodes.csv", "summary.csv", "summary.md", *figures.CLOSED_LOOP]
+    runs = [(cell, seed) for cell in cells for seed in seeds]
+    records = folder.records([cell.key(seed) for cell, seed in runs], RECORD_FIELDS)
+    examples = [{**r, "cell": cell.label} for (cell, _), r in zip(runs, records, strict=True)
+                if "top_view" in r]
+    outputs = ["episodes.csv", "summary.csv", "summary.md",
+               *figures.closed_loop_figures(bool(examples))]
     with atomic_folder_outputs(folder.path, outputs) as staging:  # all of them, or none
         rows = write_tables(staging, [{k: v for k, v in r.items() if k != "top_view"}
                                       for r in records])
-        figures.closed_loop(staging, rows, [r for r in records if "top_view" in r])
+        figures.closed_loop(staging, rows, examples)
     folder.finish(episodes=len(records))
     files = [*outputs, "run.json"]
     return RunResult(folder.path, rows, files)

@@ -13,7 +13,7 @@ from lgmd_sim import metrics
 from lgmd_sim.fileio import write_files
 from lgmd_sim.plots import figure, model_style
 
-__all__ = ["CLOSED_LOOP", "closed_loop", "open_loop"]
+__all__ = ["CLOSED_LOOP", "closed_loop", "closed_loop_figures", "open_loop"]
 
 #: The closed-loop benchmark's figures.
 CLOSED_LOOP = ("collisions_vs_jitter.png", "false_alarms_vs_collisions.png",
@@ -37,17 +37,10 @@ _MS, _MS_STEP = 7.0, 3.5
 _PAD = 0.4
 
 
-def _label(r: dict[str, Any]) -> str:
-    from lgmd_sim.bench.closed_loop import Cell
-
-    return Cell(r["scenario"], r["jitter"], r["controller"], r["model"], r["preset"],
-                tag=r.get("tag")).label
-
-
 def _styles(rows: Sequence[dict[str, Any]]) -> dict[str, dict[str, Any]]:
     """Each cell's colour, dashes and marker, the same in every figure of the run, and its
     rank (``k``, 0 for the first drawn, of ``n``)."""
-    first = {_label(r): r for r in rows}
+    first = {r["cell"]: r for r in rows}
     fixed = sorted((c for c, r in first.items() if not r["model"] and not r.get("tag")
                     and r["controller"] in _CONTROLLER_STYLES), reverse=True)
     others = sorted(set(first) - set(fixed))
@@ -100,15 +93,23 @@ def _save(fig, path: Path) -> None:
     write_files({path: lambda tmp: fig.savefig(tmp, format="png", dpi=110)})
 
 
+def closed_loop_figures(top_views: bool) -> tuple[str, ...]:
+    """The names of the figures `closed_loop` writes: the trajectories only when records
+    carry top views."""
+    return CLOSED_LOOP if top_views else CLOSED_LOOP[:2]
+
+
 def closed_loop(folder: Path, rows: Sequence[dict[str, Any]],
                 examples: Sequence[dict[str, Any]]) -> None:
-    """The closed-loop figures (`CLOSED_LOOP`) from the summary rows and the records that
-    carry a top view (one seed per cell); each cell has one style in all three."""
+    """The closed-loop figures (`closed_loop_figures`) from the summary rows and the
+    records that carry a top view (one seed per cell, each with its row's "cell" label);
+    each cell has one style in every figure."""
     scenarios = sorted({r["scenario"] for r in rows})
     styles = _styles(rows)
     _rates_vs_jitter(folder / CLOSED_LOOP[0], rows, scenarios, styles)
     _false_alarms_vs_collisions(folder / CLOSED_LOOP[1], rows, scenarios, styles)
-    _trajectories(folder / CLOSED_LOOP[2], examples, scenarios, styles)
+    if examples:
+        _trajectories(folder / CLOSED_LOOP[2], examples, scenarios, styles)
 
 
 def _rates_vs_jitter(path: Path, rows: Sequence[dict[str, Any]], scenarios: list[str],
@@ -198,12 +199,10 @@ def _trajectories(path: Path, examples: Sequence[dict[str, Any]], scenarios: lis
     from matplotlib.patches import Circle, Polygon
 
     panels = sorted({(r["scenario"], r["jitter"]) for r in examples})
-    if not panels:
-        return
     jitters = sorted({j for _, j in panels})
     order = list(styles)
     groups = {p: sorted((r for r in examples if (r["scenario"], r["jitter"]) == p),
-                        key=lambda r: order.index(_label(r))) for p in panels}
+                        key=lambda r: order.index(r["cell"])) for p in panels}
     extents = {}
     for sc in scenarios:
         boxes = [_bounds(g) for (s, _), g in groups.items() if s == sc]
@@ -237,11 +236,11 @@ def _trajectories(path: Path, examples: Sequence[dict[str, Any]], scenarios: lis
             # wider only where later paths run over it: nested stripes there
             for level in range(cover.max(), -1, -1):
                 ax.plot(*np.where((cover >= level)[:, None], xy, np.nan).T,
-                        **_line(styles[_label(r)], level))
+                        **_line(styles[r["cell"]], level))
             hit = r["top_view"]["collision_frame"]
             ends.append(xy[hit if hit is not None else -1][None])
         for r, end, cover in zip(group, ends, _covers(ends, 0.15), strict=True):
-            ax.plot(*end[0], **_point(styles[_label(r)], int(cover[0])))
+            ax.plot(*end[0], **_point(styles[r["cell"]], int(cover[0])))
             if r["top_view"]["collision_frame"] is not None:
                 ax.plot(*end[0], marker="x", ms=6, mew=1.6, color="black", ls="none",
                         zorder=4)
