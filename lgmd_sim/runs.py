@@ -88,14 +88,14 @@ def _mismatch(value: Any, fields: Fields, where: str = "") -> str | None:
         return _mismatch(value, fields.fields, where)
     if isinstance(fields, list):
         if not isinstance(value, list):
-            return f"{where} is not a list"
+            return f"{where or 'it'} is not a list"
         return next(filter(None, (_mismatch(v, fields[0], f"{where}[{i}]")
                                   for i, v in enumerate(value))), None)
     if isinstance(fields, tuple):
         fits = any(_mismatch(value, f, where) is None for f in fields)
-    else:
-        fits = isinstance(value, fields)
-    return None if fits else f"{where} is {json.dumps(value)[:40]}"
+    else:  # JSON's true and false are not numbers, though Python's bool is an int
+        fits = isinstance(value, fields) and (fields is bool or not isinstance(value, bool))
+    return None if fits else f"{where or 'it'} is {json.dumps(value)[:40]}"
 
 
 def _read_json(file: Path, fields: Fields, remedy: str) -> Any:

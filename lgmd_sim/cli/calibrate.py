@@ -56,9 +56,10 @@ def add(sub: argparse._SubParsersAction) -> None:
                    "presets")
     p.add_argument("--presets-file", metavar="PATH", default=None,
                    help="merge the calibrated presets into PATH instead of your presets "
-                   "file (implies --save-presets); the models read only "
-                   "$LGMD_SIM_DATA_DIR/calibrated.json, so a PATH named calibrated.json "
-                   "serves them once LGMD_SIM_DATA_DIR names its folder")
+                   "file (implies --save-presets); the models read only your presets file "
+                   "(calibrated.json in $LGMD_SIM_DATA_DIR, else in the user data folder), "
+                   "so a PATH named calibrated.json serves them once LGMD_SIM_DATA_DIR "
+                   "names its folder")
     add_run_folder_options(p, "calibration")
     add_parallel_options(p, "clips and candidates")
 

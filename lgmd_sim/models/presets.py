@@ -35,7 +35,8 @@ PACKAGE = Path(__file__).resolve().parents[1]
 #: The environment variable naming the user data folder (its calibrated.json).
 DATA_DIR_VARIABLE = "LGMD_SIM_DATA_DIR"
 #: What a preset keeps of the calibration that made it.
-PROVENANCE = ("command", "search_seeds", "heldout_seeds", "resolution", "budget")
+PROVENANCE = ("command", "objective", "search_seeds", "heldout_seeds", "resolution", "budget",
+              "figure")
 
 
 def user_data_dir() -> Path:

@@ -120,7 +120,8 @@ BACKEND = choose_backend()
 check_backend(BACKEND)
 os.environ["MUJOCO_GL"] = BACKEND
 if BACKEND in ("egl", "osmesa"):
-    # PyOpenGL must agree with MuJoCo's context type; a user's explicit choice stays.
+    # PyOpenGL must agree with MuJoCo's context type (check_backend refused a
+    # PYOPENGL_PLATFORM that does not).
     os.environ.setdefault("PYOPENGL_PLATFORM", BACKEND)
 
 import mujoco  # noqa: E402  (must follow the MUJOCO_GL choice above)

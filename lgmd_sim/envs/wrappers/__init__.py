@@ -15,7 +15,8 @@
 - `ResizeFrame`: the frame resized, the other keys kept (Gymnasium's `ResizeObservation`
   takes a Box only).
 
-Every one records its arguments (`gymnasium.utils.RecordConstructorArgs`), so that
+Every single-environment wrapper records its arguments
+(`gymnasium.utils.RecordConstructorArgs`), so that
 ``gym.make(env.spec)`` rebuilds the wrapped environment and Gymnasium's ``check_env``
 passes on it.
 """
