@@ -5,9 +5,9 @@
 Merges the calibration's DIR/calibrated.json (written by `lgmd-sim calibrate --out DIR`)
 into the package's presets file in this checkout: the presets it holds replace those of
 the same model and name, every other shipped preset stays, and each keeps the calibration
-that made it (its command, seeds, resolution and budget). This is the only way the shipped
-presets change; `lgmd-sim calibrate --save-presets` writes the user's presets file
-(lgmd_sim.models.presets). The file moves into place complete or not at all. Afterwards
+that made it (its command, objective, seeds, resolution, budget and figure). This is the
+only way the shipped presets change; `lgmd-sim calibrate --save-presets` writes the user's
+presets file (lgmd_sim.models.presets). The file moves into place complete or not at all. Afterwards
 run the tests (tests/test_presets.py, tests/test_calibration.py) and remake
 docs/results.md from the same run (scripts/results_page.py).
 """
@@ -21,6 +21,8 @@ from pathlib import Path
 from lgmd_sim.models import presets
 
 ROOT = Path(__file__).resolve().parents[1]
+# This checkout's file, not presets.CALIBRATED: that is the imported package's, which may
+# be an installed copy.
 SHIPPED = ROOT / "lgmd_sim" / "models" / "calibrated.json"
 
 
