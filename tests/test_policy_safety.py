@@ -68,6 +68,7 @@ CORRUPTIONS = {
         "clip": 10.0, "epsilon": 1e-8, "mean": {"goal": [0.0]}, "var": {"goal": [1.0]}})),
     "an unknown network argument": lambda f: _edit_json(
         f, lambda d: d["network"]["kwargs"].update(warp=9)),
+    "an unknown algorithm": lambda f: _edit_json(f, lambda d: d["config"].update(algo="dqn")),
 }
 
 
@@ -142,7 +143,7 @@ def test_the_safe_format_round_trips_and_carries_no_pickle(model, good):
     env = observe(base_env(config), config)
     obs, _ = env.reset(seed=3)
     for _ in range(5):
-        ours, _ = loaded.model.predict(obs, deterministic=True)
+        ours, _ = loaded.network.predict(obs, deterministic=True)
         theirs, _ = sb3.predict(obs, deterministic=True)
         np.testing.assert_array_equal(ours, theirs)
         obs, *_ = env.step(ours)
@@ -167,16 +168,22 @@ def test_a_policy_naming_a_module_to_import_is_refused(good, tmp_path):
         policies.load(odd)
 
 
+def _older(model, good, folder):
+    """A policy folder of the earlier format: `model`'s policy.zip beside `good`'s
+    policy.json without its network."""
+    folder.mkdir()
+    model[0].save(folder / "policy.zip")
+    data = json.loads((good / "policy.json").read_text())
+    del data["network"]
+    (folder / "policy.json").write_text(json.dumps(data))
+    return folder
+
+
 def test_an_older_folder_converts_to_the_same_actions(model, good, tmp_path, capsys):
     from lgmd_sim.policies import convert
 
     sb3, config = model
-    older = tmp_path / "older"
-    older.mkdir()
-    sb3.save(older / "policy.zip")
-    data = json.loads((good / "policy.json").read_text())
-    del data["network"]
-    (older / "policy.json").write_text(json.dumps(data))
+    older = _older(model, good, tmp_path / "older")
     with pytest.raises(ValueError, match="convert"):
         policies.load(older)
     convert.main([str(older)])
@@ -185,7 +192,52 @@ def test_an_older_folder_converts_to_the_same_actions(model, good, tmp_path, cap
     env = observe(base_env(config), config)
     obs, _ = env.reset(seed=4)
     for _ in range(5):
-        ours, _ = loaded.model.predict(obs, deterministic=True)
+        ours, _ = loaded.network.predict(obs, deterministic=True)
         np.testing.assert_array_equal(ours, sb3.predict(obs, deterministic=True)[0])
         obs, *_ = env.step(ours)
     env.close()
+
+
+def _rezip(file, edit) -> None:
+    """Rewrite the zip `file` with each member's bytes through `edit` (None: dropped)."""
+    with zipfile.ZipFile(file) as z:
+        members = {name: edit(name, z.read(name)) for name in z.namelist()}
+    with zipfile.ZipFile(file, "w") as z:
+        for name, data in members.items():
+            if data is not None:
+                z.writestr(name, data)
+
+
+def _pickled_space(name, data):
+    if name != "data":
+        return data
+    return json.dumps({**json.loads(data), "observation_space": {
+        ":type:": "<class 'x'>", ":serialized:": "AAAA"}}).encode()
+
+
+OLDER_CORRUPTIONS = {
+    "not a zip": lambda f: (f / "policy.zip").write_bytes(b"not a zip"),
+    "no data": lambda f: _rezip(f / "policy.zip", lambda n, d: None if n == "data" else d),
+    "truncated weights": lambda f: _rezip(
+        f / "policy.zip", lambda n, d: d[:3] if n.endswith(".pth") else d),
+    "a pickle that is not one": lambda f: _rezip(f / "policy.zip", _pickled_space),
+    "statistics without var": lambda f: _edit_json(
+        f, lambda d: d.update(normalize={"mean": {"goal": [0.0]}})),
+    "statistics of numbers": lambda f: _edit_json(
+        f, lambda d: d.update(normalize={"mean": 3, "var": 1, "clip": 1, "epsilon": 1})),
+}
+
+
+@pytest.mark.parametrize("corrupt", OLDER_CORRUPTIONS.values(), ids=OLDER_CORRUPTIONS)
+def test_converting_a_corrupt_older_folder_is_one_line_naming_its_file(model, good, tmp_path,
+                                                                     capsys, corrupt):
+    from lgmd_sim.policies import convert
+
+    older = _older(model, good, tmp_path / "older")
+    corrupt(older)
+    with pytest.raises(SystemExit) as exc:
+        convert.main([str(older)])
+    err = capsys.readouterr().err.strip()
+    assert exc.value.code == 2
+    assert len(err.splitlines()) == 1 and str(older / "policy.") in err, err
+    assert not (older / "policy.npz").exists()

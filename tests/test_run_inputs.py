@@ -154,6 +154,10 @@ def test_an_identity_file_of_another_shape_is_one_line_naming_it(tmp_path):
     ("sac", "ent_coef=[0.1]", "ent_coef=[0.1]: sac's ent_coef must be"),
     ("ppo", "warp=9", "unknown hyperparameter 'warp' for ppo"),
     ("ppo", "device='cuda'", "unknown hyperparameter 'device' for ppo"),  # the run sets it
+    # policy.json holds policy_kwargs: JSON has no sets, and makes every key a string
+    ("ppo", "policy_kwargs={'net_arch': {8}}", "ppo's policy_kwargs must be JSON"),
+    ("sac", "policy_kwargs={'net_arch': {'pi': [8], 1: [8]}}",
+     "sac's policy_kwargs must be JSON"),
 ])
 def test_a_hyperparameter_of_the_wrong_type_is_refused_naming_it(algo, item, message):
     pytest.importorskip("stable_baselines3")
@@ -183,6 +187,8 @@ def test_good_hyperparameters_are_taken_as_given():
     ("batch_size=1", "batch_size"),
     ("learning_rate=-1", "learning rate"),
     ("policy_kwargs={'foo': 1}", "foo"),
+    # a network stable-baselines3 builds, that policy.json cannot hold: refused before training
+    ("policy_kwargs={'net_arch': {8}}", "policy_kwargs"),
 ])
 def test_train_refuses_bad_hyperparameters_in_one_line_leaving_no_folder(tmp_path, capsys, hp,
                                                                          message):

@@ -69,7 +69,7 @@ class Policy(Controller):
                              f"{size[1]}: run it at resolution {res}")
         wrapped = observe(env, self.policy.config)
         seen, trained = (_shapes(wrapped.observation_space),
-                         _shapes(self.policy.model.observation_space))
+                         _shapes(self.policy.network.observation_space))
         if seen != trained:
             raise ValueError(f"policy {self.policy.name} was trained on observations {trained}, "
                              f"this environment gives {seen}: it changed since; retrain")
@@ -78,5 +78,5 @@ class Policy(Controller):
     def act(self, obs: Mapping[str, np.ndarray], info: Mapping[str, Any]) -> np.ndarray:
         if "lgmd_alarm" in obs:
             self.alarm = bool(obs["lgmd_alarm"].any())
-        action, _ = self.policy.model.predict(self.policy.normalize(obs), deterministic=True)
+        action, _ = self.policy.network.predict(self.policy.normalize(obs), deterministic=True)
         return np.asarray(action, np.float32)

@@ -2,8 +2,10 @@
 that ship with lgmd-sim.
 
 - `lgmd_sim.policies.folder`: a policy folder (the network's weights as plain arrays, its
-  architecture and `PolicyConfig`, the frozen observation normalisation: data, no
+  architecture, `PolicyConfig` and the frozen observation normalisation: data, no
   pickle), `save` and `load`, as `lgmd-sim train` writes them;
+- `lgmd_sim.policies.config`: `PolicyConfig` (the environment and observation pipeline
+  a policy was trained with) and `Normalizer` (its frozen observation normalisation);
 - `lgmd_sim.policies.convert`: ``python -m lgmd_sim.policies.convert DIR`` rewrites a
   trusted folder of the earlier format (stable-baselines3's pickled ``policy.zip``);
 - `lgmd_sim.policies.observe`: the observation pipeline of a `PolicyConfig`, shared by
@@ -22,16 +24,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from lgmd_sim.policies.folder import (
-    LoadedPolicy,
-    Normalizer,
-    PolicyConfig,
-    load,
-    load_config,
-    name_of,
-    resolve,
-    save,
-)
+from lgmd_sim.policies.config import Normalizer, PolicyConfig
+from lgmd_sim.policies.folder import LoadedPolicy, load, load_config, name_of, resolve, save
 
 __all__ = ["DEFAULT", "LoadedPolicy", "Normalizer", "PolicyConfig", "available", "load",
            "load_config", "name_of", "path", "resolve", "save"]

@@ -4,10 +4,11 @@ A *policy folder* holds
 
 - ``policy.npz``: the network's weights, plain arrays (NumPy's format, read with
   ``allow_pickle=False``);
-- ``policy.json``: its `PolicyConfig` (the environment and the observation pipeline it
-  was trained with), the network's architecture (the stable-baselines3 policy and its
-  keyword arguments), the observation-normalisation statistics frozen at save time, and
-  facts about its training (steps, command, versions).
+- ``policy.json``: its `lgmd_sim.policies.config.PolicyConfig` (the environment and the
+  observation pipeline it was trained with), the network's architecture (the
+  stable-baselines3 policy and its keyword arguments), the observation-normalisation
+  statistics frozen at save time (`lgmd_sim.policies.config.Normalizer`), and facts about
+  its training (steps, command, versions).
 
 Neither file can hold code, so a policy folder from anyone is safe to load: `load`
 builds the network from the architecture and the environment's spaces, then fills in
@@ -30,7 +31,7 @@ import textwrap
 import zipfile
 import zlib
 from collections.abc import Mapping
-from dataclasses import asdict, dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -38,9 +39,10 @@ import numpy as np
 
 from lgmd_sim.extras import require
 from lgmd_sim.fileio import write_files
+from lgmd_sim.policies.config import Normalizer, PolicyConfig
 
-__all__ = ["ALGOS", "MODEL_FILE", "OBS", "SB3_FILE", "LoadedPolicy", "Normalizer",
-           "PolicyConfig", "convert", "load", "load_config", "name_of", "resolve", "save"]
+__all__ = ["ALGOS", "MODEL_FILE", "OBS", "SB3_FILE", "LoadedPolicy", "convert", "load",
+           "load_config", "name_of", "resolve", "save"]
 
 #: The algorithms `lgmd-sim train` offers: name -> stable-baselines3 class.
 ALGOS = {"ppo": "PPO", "sac": "SAC"}
@@ -51,98 +53,14 @@ MODEL_FILE, CONFIG_FILE = "policy.npz", "policy.json"
 SB3_FILE = "policy.zip"
 
 
-@dataclass(frozen=True)
-class PolicyConfig:
-    """The environment a policy was trained in and the observation pipeline it sees.
-
-    Attributes:
-        algo: a key of `ALGOS`.
-        obs: "features" (an LGMD model's potentials, alarm and S-layer grid with the
-            proprioception and goal; an MLP policy) or "pixels" (the last `frame_stack`
-            grey frames at `frame_size` with the proprioception and goal; a CNN policy).
-        env_id: the Gymnasium id of the environment.
-        resolution: the frame size the environment renders (a preset name or [H, W]).
-        jitter: the jitter level it was trained at.
-        model, preset: the LGMD model and its preset (features).
-        history, grid: the potentials observed and the S-layer grid (features).
-        frame_size, frame_stack: the observed frames (pixels).
-    """
-
-    algo: str
-    obs: str
-    env_id: str
-    resolution: str | tuple[int, int] = "rl"
-    jitter: float = 1.0
-    model: str | None = None
-    preset: str | None = None
-    history: int = 8
-    grid: tuple[int, int] = (1, 3)
-    frame_size: tuple[int, int] = (60, 80)
-    frame_stack: int = 4
-
-    def to_json(self) -> dict[str, Any]:
-        return json.loads(json.dumps(asdict(self)))
-
-    @classmethod
-    def from_json(cls, data: Mapping[str, Any]) -> PolicyConfig:
-        def pair(v: Any) -> Any:
-            return tuple(v) if isinstance(v, list) else v
-
-        return cls(**{k: pair(v) for k, v in data.items()})
-
-
-@dataclass(frozen=True)
-class Normalizer:
-    """Observation normalisation as stable-baselines3's ``VecNormalize`` does it, with its
-    statistics frozen: ``clip((obs - mean) / sqrt(var + epsilon), -clip, clip)`` per key,
-    as float32; keys without statistics pass unchanged. Empty: the identity."""
-
-    mean: Mapping[str, np.ndarray] = field(default_factory=dict)
-    var: Mapping[str, np.ndarray] = field(default_factory=dict)
-    clip: float = 10.0
-    epsilon: float = 1e-8
-
-    @classmethod
-    def of(cls, vec_normalize: Any | None) -> Normalizer:
-        """The statistics of a ``VecNormalize`` (None: no normalisation)."""
-        if vec_normalize is None or not vec_normalize.norm_obs:
-            return cls()
-        rms = vec_normalize.obs_rms
-        return cls({k: rms[k].mean.copy() for k in vec_normalize.norm_obs_keys},
-                   {k: rms[k].var.copy() for k in vec_normalize.norm_obs_keys},
-                   float(vec_normalize.clip_obs), float(vec_normalize.epsilon))
-
-    def __call__(self, obs: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
-        out = dict(obs)
-        for k in self.mean:
-            z = (obs[k] - self.mean[k]) / np.sqrt(self.var[k] + self.epsilon)
-            out[k] = np.clip(z, -self.clip, self.clip).astype(np.float32)
-        return out
-
-    def to_json(self) -> dict[str, Any] | None:
-        if not self.mean:
-            return None
-        return {"clip": self.clip, "epsilon": self.epsilon,
-                "mean": {k: v.tolist() for k, v in self.mean.items()},
-                "var": {k: v.tolist() for k, v in self.var.items()}}
-
-    @classmethod
-    def from_json(cls, data: Mapping[str, Any] | None) -> Normalizer:
-        if not data:
-            return cls()
-        return cls({k: np.asarray(v, float) for k, v in data["mean"].items()},
-                   {k: np.asarray(v, float) for k, v in data["var"].items()},
-                   float(data["clip"]), float(data["epsilon"]))
-
-
 @dataclass
 class LoadedPolicy:
-    """A policy ready to act: its folder, configuration, model (a stable-baselines3
+    """A policy ready to act: its folder, configuration, network (a stable-baselines3
     policy, on the CPU, in evaluation mode) and normaliser."""
 
     folder: Path
     config: PolicyConfig
-    model: Any
+    network: Any
     normalize: Normalizer
     facts: dict[str, Any]
 
@@ -195,6 +113,10 @@ def _read_config(folder: Path) -> tuple[Path, PolicyConfig, dict[str, Any]]:
     except (ValueError, KeyError, TypeError) as exc:
         raise ValueError(f"{folder / CONFIG_FILE} is not a policy configuration ({exc})"
                          ) from None
+    if config.algo not in ALGOS or config.obs not in OBS:
+        raise ValueError(f"{folder / CONFIG_FILE}: a policy of {config.algo!r} on "
+                         f"{config.obs!r}, not one of {', '.join(ALGOS)} on "
+                         f"{' or '.join(OBS)}")
     return folder, config, data
 
 
@@ -217,11 +139,7 @@ def load(path: str | os.PathLike) -> LoadedPolicy:
     import torch
 
     weights = _weights(folder / MODEL_FILE)
-    try:
-        normalize = Normalizer.from_json(data.get("normalize"))
-    except (KeyError, TypeError, ValueError, AttributeError) as exc:
-        raise ValueError(f"{folder / CONFIG_FILE}: its \"normalize\" is not observation "
-                         f"statistics ({exc!r})") from None
+    normalize = _normalizer(folder, data)
     network = data.get("network") or {}
     aliases = getattr(sb3, ALGOS[config.algo]).policy_aliases
     if network.get("policy") not in aliases or not isinstance(network.get("kwargs"), dict):
@@ -249,6 +167,15 @@ def load(path: str | os.PathLike) -> LoadedPolicy:
                          ) from None
     policy.set_training_mode(False)
     return LoadedPolicy(folder, config, policy, normalize, data.get("trained", {}))
+
+
+def _normalizer(folder: Path, data: Mapping[str, Any]) -> Normalizer:
+    """The observation statistics of policy.json's `data`, in `folder`."""
+    try:
+        return Normalizer.from_json(data.get("normalize"))
+    except (KeyError, TypeError, ValueError, AttributeError) as exc:
+        raise ValueError(f"{folder / CONFIG_FILE}: its \"normalize\" is not observation "
+                         f"statistics ({exc!r})") from None
 
 
 def _weights(file: Path) -> dict[str, np.ndarray]:
@@ -299,15 +226,25 @@ def convert(folder: str | os.PathLike) -> Path:
     """Rewrite the policy folder `folder` of stable-baselines3's ``policy.zip`` (as
     written before `MODEL_FILE`) in this format: policy.npz, and policy.json with the
     network. The zip is unpickled: convert only one you made or that comes from someone
-    you trust. It stays in place, and nothing loads it any more."""
+    you trust. It stays in place, and nothing loads it any more.
+
+    Raises:
+        ValueError: a folder without both files; a policy.json or policy.zip this cannot
+            read (one line naming the file).
+    """
     folder = Path(folder)
     if not ((folder / SB3_FILE).is_file() and (folder / CONFIG_FILE).is_file()):
         raise ValueError(f"no policy to convert in {folder}: expected {SB3_FILE} and "
                          f"{CONFIG_FILE}")
     _, config, data = _read_config(folder)
+    normalize = _normalizer(folder, data)
     algo = getattr(require("stable_baselines3", "rl"), ALGOS[config.algo])
     # Schedules are pickled functions, needless to act and fragile across versions.
     custom = {"learning_rate": 0.0, "lr_schedule": lambda _: 0.0, "clip_range": lambda _: 0.0}
-    model = algo.load(folder / SB3_FILE, device="cpu", custom_objects=custom)
-    return save(folder, model, config, Normalizer.from_json(data.get("normalize")),
-                **data.get("trained", {}))
+    try:
+        model = algo.load(folder / SB3_FILE, device="cpu", custom_objects=custom)
+    except Exception as exc:  # unpickling fails in whatever way the bytes lead it to
+        raise ValueError(f"{folder / SB3_FILE}: not a {ALGOS[config.algo]} model file "
+                         "stable-baselines3 can load ("
+                         f"{textwrap.shorten(f'{type(exc).__name__}: {exc}', 300)})") from None
+    return save(folder, model, config, normalize, **data.get("trained", {}))

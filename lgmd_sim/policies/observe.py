@@ -1,5 +1,5 @@
 """What a policy observes: one Gymnasium environment wrapped as the policy of a
-`PolicyConfig` sees it (before normalisation).
+`lgmd_sim.policies.config.PolicyConfig` sees it (before normalisation).
 
 `observe` is the pipeline both sides share: the `lgmd_sim.controllers.Policy` controller
 acts on it in the benchmark, and training (`lgmd_sim.training.envs.make_vec_env`) builds
@@ -20,7 +20,7 @@ from gymnasium import spaces
 from lgmd_sim.envs.wrappers import LGMDObservation
 from lgmd_sim.envs.wrappers.frames import check_frame_space
 from lgmd_sim.frames import to_grey
-from lgmd_sim.policies.folder import PolicyConfig
+from lgmd_sim.policies.config import PolicyConfig
 
 __all__ = ["PixelObservation", "base_env", "observe"]
 

@@ -84,14 +84,27 @@ def _expected(annotation: Any) -> str:
     return " or ".join(dict.fromkeys(n for n in names if n)) or str(annotation)
 
 
+def _not_json(value: Any) -> str | None:
+    """The first part of `value` (a Python literal) that JSON does not hold as it is: a
+    set, bytes, a complex number, a key that is not a string (JSON would make it one);
+    None if there is none."""
+    if isinstance(value, dict):
+        keys = [k for k in value if not isinstance(k, str)]
+        return f"the key {keys[0]!r}" if keys else _not_json(list(value.values()))
+    if isinstance(value, list | tuple):
+        return next(filter(None, map(_not_json, value)), None)
+    return None if value is None or isinstance(value, str | int | float) else repr(value)
+
+
 def parse_overrides(items: Iterable[str], algo: str) -> dict[str, Any]:
     """``KEY=VALUE`` overrides of `algo`'s constructor arguments, each value a Python
     literal (``n_steps=64``, ``policy_kwargs={'net_arch': [32, 32]}``) of the type the
-    constructor declares for it.
+    constructor declares for it; ``policy_kwargs`` go to the policy folder's policy.json,
+    so they must be JSON.
 
     Raises:
         ValueError: not KEY=VALUE, a key the algorithm does not take (or the run sets),
-            or a value of another type.
+            a value of another type, or policy_kwargs that are not JSON.
     """
     from lgmd_sim.policies.folder import ALGOS
 
@@ -111,6 +124,11 @@ def parse_overrides(items: Iterable[str], algo: str) -> dict[str, Any]:
             value = text  # a plain word: a string ("auto")
         if not _fits(value, taken[key]):
             raise ValueError(f"--hp {item}: {algo}'s {key} must be {_expected(taken[key])}")
+        # checked now, not when the first policy is saved after training
+        if key == "policy_kwargs" and (part := _not_json(value)):
+            raise ValueError(f"--hp {item}: {algo}'s policy_kwargs must be JSON (policy.json "
+                             f"holds them): strings, numbers, lists and dicts with string "
+                             f"keys, not {part}")
         out[key] = value
     return out
 

@@ -18,7 +18,7 @@ from typing import Any
 
 import gymnasium as gym
 
-from lgmd_sim.policies.folder import PolicyConfig
+from lgmd_sim.policies.config import PolicyConfig
 from lgmd_sim.policies.observe import base_env, observe
 
 __all__ = ["VecEnvs", "make_vec_env"]

@@ -42,7 +42,8 @@ import numpy as np
 from lgmd_sim import __version__, options
 from lgmd_sim.extras import require
 from lgmd_sim.fileio import write_text_atomic
-from lgmd_sim.policies.folder import ALGOS, OBS, PolicyConfig
+from lgmd_sim.policies.config import PolicyConfig
+from lgmd_sim.policies.folder import ALGOS, OBS
 from lgmd_sim.runs import RunFolder, RunResult
 
 __all__ = ["RESUMABLE", "VALIDATION_SEED", "TrainConfig", "resumable", "summary_markdown",

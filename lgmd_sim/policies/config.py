@@ -1,0 +1,99 @@
+"""What a policy folder records besides the network: `PolicyConfig` (the environment a
+policy was trained in and the observation pipeline it sees) and `Normalizer` (its
+observation normalisation, frozen). Both are plain data, to and from policy.json.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Mapping
+from dataclasses import asdict, dataclass, field
+from typing import Any
+
+import numpy as np
+
+__all__ = ["Normalizer", "PolicyConfig"]
+
+
+@dataclass(frozen=True)
+class PolicyConfig:
+    """The environment a policy was trained in and the observation pipeline it sees.
+
+    Attributes:
+        algo: a key of `lgmd_sim.policies.folder.ALGOS`.
+        obs: "features" (an LGMD model's potentials, alarm and S-layer grid with the
+            proprioception and goal; an MLP policy) or "pixels" (the last `frame_stack`
+            grey frames at `frame_size` with the proprioception and goal; a CNN policy).
+        env_id: the Gymnasium id of the environment.
+        resolution: the frame size the environment renders (a preset name or [H, W]).
+        jitter: the jitter level it was trained at.
+        model, preset: the LGMD model and its preset (features).
+        history, grid: the potentials observed and the S-layer grid (features).
+        frame_size, frame_stack: the observed frames (pixels).
+    """
+
+    algo: str
+    obs: str
+    env_id: str
+    resolution: str | tuple[int, int] = "rl"
+    jitter: float = 1.0
+    model: str | None = None
+    preset: str | None = None
+    history: int = 8
+    grid: tuple[int, int] = (1, 3)
+    frame_size: tuple[int, int] = (60, 80)
+    frame_stack: int = 4
+
+    def to_json(self) -> dict[str, Any]:
+        return json.loads(json.dumps(asdict(self)))
+
+    @classmethod
+    def from_json(cls, data: Mapping[str, Any]) -> PolicyConfig:
+        def pair(v: Any) -> Any:
+            return tuple(v) if isinstance(v, list) else v
+
+        return cls(**{k: pair(v) for k, v in data.items()})
+
+
+@dataclass(frozen=True)
+class Normalizer:
+    """Observation normalisation as stable-baselines3's ``VecNormalize`` does it, with its
+    statistics frozen: ``clip((obs - mean) / sqrt(var + epsilon), -clip, clip)`` per key,
+    as float32; keys without statistics pass unchanged. Empty: the identity."""
+
+    mean: Mapping[str, np.ndarray] = field(default_factory=dict)
+    var: Mapping[str, np.ndarray] = field(default_factory=dict)
+    clip: float = 10.0
+    epsilon: float = 1e-8
+
+    @classmethod
+    def of(cls, vec_normalize: Any | None) -> Normalizer:
+        """The statistics of a ``VecNormalize`` (None: no normalisation)."""
+        if vec_normalize is None or not vec_normalize.norm_obs:
+            return cls()
+        rms = vec_normalize.obs_rms
+        return cls({k: rms[k].mean.copy() for k in vec_normalize.norm_obs_keys},
+                   {k: rms[k].var.copy() for k in vec_normalize.norm_obs_keys},
+                   float(vec_normalize.clip_obs), float(vec_normalize.epsilon))
+
+    def __call__(self, obs: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
+        out = dict(obs)
+        for k in self.mean:
+            z = (obs[k] - self.mean[k]) / np.sqrt(self.var[k] + self.epsilon)
+            out[k] = np.clip(z, -self.clip, self.clip).astype(np.float32)
+        return out
+
+    def to_json(self) -> dict[str, Any] | None:
+        if not self.mean:
+            return None
+        return {"clip": self.clip, "epsilon": self.epsilon,
+                "mean": {k: v.tolist() for k, v in self.mean.items()},
+                "var": {k: v.tolist() for k, v in self.var.items()}}
+
+    @classmethod
+    def from_json(cls, data: Mapping[str, Any] | None) -> Normalizer:
+        if not data:
+            return cls()
+        return cls({k: np.asarray(v, float) for k, v in data["mean"].items()},
+                   {k: np.asarray(v, float) for k, v in data["var"].items()},
+                   float(data["clip"]), float(data["epsilon"]))
