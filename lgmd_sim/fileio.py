@@ -2,15 +2,17 @@
 
 Every output is written to a hidden temporary beside it (``.NAME.PID-XXXX.partial.EXT``)
 and moved into place only when complete; a set of outputs (a video's CSV, JSON and
-figure) moves into place as a whole or not at all. An error names the output it concerns.
-A run killed outright (SIGKILL, a power cut) can leave temporaries behind: the next write
-of the same output removes those whose process is gone.
+figure) moves into place as a whole or not at all, and a folder (``atomic_folder``) is
+made whole in ``.NAME.PID-XXXX.partial`` and renamed. An error names the output it
+concerns. A run killed outright (SIGKILL, a power cut) can leave temporaries behind: the
+next write of the same output removes those whose process is gone.
 """
 
 from __future__ import annotations
 
 import contextlib
 import csv
+import errno
 import glob
 import io
 import json
@@ -22,8 +24,9 @@ from collections.abc import Callable, Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-__all__ = ["atomic_folder_outputs", "atomic_output", "atomic_outputs", "canonical_json",
-           "csv_text", "write_files", "write_text_atomic"]
+__all__ = ["atomic_folder", "atomic_folder_outputs", "atomic_output", "atomic_outputs",
+           "canonical_json", "csv_text", "json_kind", "read_json", "write_files",
+           "write_text_atomic"]
 
 _PARTIAL = re.compile(r"\.(?P<pid>\d+)-[^.]+\.partial")
 
@@ -45,17 +48,22 @@ def _alive(pid: int) -> bool:
     return True
 
 
-def remove_stale_partials(target: Path) -> None:
-    """Remove temporaries of `target` (files, or folders for a folder made whole) left by
-    processes that no longer run."""
-    pattern = f".{glob.escape(target.name)}.*.partial{glob.escape(target.suffix)}"
-    for stale in target.parent.glob(pattern):
-        match = _PARTIAL.match(stale.name[len(target.name) + 1:])
+def _remove_dead(parent: Path, prefix: str, suffix: str = "") -> None:
+    """Remove the temporaries ``PREFIX.PID-XXXX.partialSUFFIX`` in `parent` (files or
+    folders) whose process no longer runs."""
+    for stale in parent.glob(f"{glob.escape(prefix)}.*.partial{glob.escape(suffix)}"):
+        # the whole middle: `prefix` + ".x" is another output's prefix
+        match = _PARTIAL.fullmatch(stale.name[len(prefix):len(stale.name) - len(suffix)])
         if match and not _alive(int(match["pid"])):
             if stale.is_dir():
                 shutil.rmtree(stale, ignore_errors=True)
             else:
                 stale.unlink(missing_ok=True)
+
+
+def remove_stale_partials(target: Path) -> None:
+    """Remove temporaries of the file `target` left by processes that no longer run."""
+    _remove_dead(target.parent, f".{target.name}", target.suffix)
 
 
 def _named(exc: OSError, target: Path, verb: str = "write") -> OSError:
@@ -146,16 +154,37 @@ def atomic_folder_outputs(folder: str | os.PathLike, names: Sequence[str]) -> It
     as `atomic_outputs` does, for writers that take a folder rather than a file."""
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
-    for stale in folder.glob(".*.partial"):
-        match = _PARTIAL.fullmatch(stale.name)
-        if match and stale.is_dir() and not _alive(int(match["pid"])):
-            shutil.rmtree(stale, ignore_errors=True)
+    _remove_dead(folder, "")
     staging = Path(tempfile.mkdtemp(prefix=f".{os.getpid()}-", suffix=".partial", dir=folder))
     try:
         yield staging
         _commit([(staging / name, folder / name) for name in names])
     finally:
         shutil.rmtree(staging, ignore_errors=True)
+
+
+@contextlib.contextmanager
+def atomic_folder(dest: str | os.PathLike) -> Iterator[Path]:
+    """Yield a hidden temporary folder beside `dest` in which to write a whole folder;
+    rename it to `dest` if the block succeeds, else remove it.
+
+    Raises:
+        FileExistsError: `dest` appeared while the block ran (a rename would replace an
+            empty folder unnoticed); it is left as it is.
+    """
+    dest = Path(dest)
+    dest.parent.mkdir(parents=True, exist_ok=True)
+    _remove_dead(dest.parent, f".{dest.name}")
+    tmp = Path(tempfile.mkdtemp(prefix=f".{dest.name}.{os.getpid()}-", suffix=".partial",
+                                dir=dest.parent))
+    try:
+        yield tmp
+        os.chmod(tmp, 0o777 & ~_umask())  # mkdtemp makes it private; the output is not
+        if dest.exists():
+            raise FileExistsError(errno.EEXIST, os.strerror(errno.EEXIST), str(dest))
+        os.rename(tmp, dest)
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
 
 
 def write_files(writers: Mapping[str | os.PathLike, Callable[[Path], None]]) -> None:
@@ -178,6 +207,26 @@ def _umask() -> int:
     mask = os.umask(0)
     os.umask(mask)
     return mask
+
+
+def read_json(path: str | os.PathLike) -> Any:
+    """The JSON value in the file `path`; ValueError, one line naming the file, where it
+    cannot be read or is not JSON."""
+    try:
+        return json.loads(Path(path).read_text())
+    except OSError as exc:
+        raise ValueError(f"{path}: cannot read it: {exc.strerror or exc}") from None
+    except ValueError as exc:  # not JSON, or not text
+        raise ValueError(f"{path}: not JSON ({exc})") from None
+
+
+_JSON_KINDS = {dict: "an object", list: "an array", str: "a string", bool: "a boolean",
+               int: "an integer", float: "a number", type(None): "null"}
+
+
+def json_kind(kind: type) -> str:
+    """A JSON type's name in a message: "an object" (dict), "a string" (str)..."""
+    return _JSON_KINDS[kind]
 
 
 def canonical_json(value: Any) -> str:

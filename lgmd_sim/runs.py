@@ -31,7 +31,7 @@ from pathlib import Path
 from typing import Any, TypeAlias
 
 from lgmd_sim import __version__
-from lgmd_sim.fileio import canonical_json, write_text_atomic
+from lgmd_sim.fileio import canonical_json, read_json, write_text_atomic
 from lgmd_sim.machine import machine
 
 __all__ = ["NULL", "NUMBER", "RECORD", "Fields", "Maybe", "RunFolder", "RunResult", "difference"]
@@ -102,9 +102,9 @@ def _read_json(file: Path, fields: Fields, remedy: str) -> Any:
     """The JSON in `file`, which must hold `fields`; ValueError naming the file and
     `remedy` where it cannot be read or holds something else."""
     try:
-        data = json.loads(file.read_text())
-    except (OSError, ValueError) as exc:
-        raise ValueError(f"{file} is unreadable ({exc}): {remedy}") from None
+        data = read_json(file)
+    except ValueError as exc:
+        raise ValueError(f"{exc}: {remedy}") from None
     problem = _mismatch(data, fields)
     if problem:
         raise ValueError(f"{file} is not what this run wrote there ({problem}): {remedy}")

@@ -157,7 +157,8 @@ def encoder(path: str | os.PathLike, fourcc: str, fps: float, size: tuple[int, i
 
     OpenCV's writer reports no failure: on a full disk FFmpeg drops the frames (and the
     file's index) and the file stays short, so it is read back: its frame count and its
-    last frame. Errors name `name` (default: `path`), an OSError for a file that is short.
+    last frame. Errors name `name` (default: `path`); a file that is short is an OSError
+    whose ``filename`` is `name`.
     """
     path = Path(path)
     name = path if name is None else Path(name)
@@ -208,11 +209,12 @@ def _check_written(path: Path, written: int, name: Path) -> None:
     if complete:
         return
     readable = _decodable_frames(path)
+    # the filename, so that a caller can tell where the write failed: str() puts it last
     if shutil.disk_usage(path.parent).free < _FULL_BYTES:
-        raise OSError(errno.ENOSPC, f"cannot write video '{name}': no space left on device "
-                      f"({readable} of {written} frames written)")
-    raise OSError(errno.EIO, f"cannot write video '{name}': the file holds {readable} of "
-                  f"{written} frames written")
+        raise OSError(errno.ENOSPC, "cannot write video: no space left on device "
+                      f"({readable} of {written} frames written)", str(name))
+    raise OSError(errno.EIO, f"cannot write video: the file holds {readable} of {written} "
+                  "frames written", str(name))
 
 
 def _decodable_frames(path: Path) -> int:

@@ -101,6 +101,24 @@ def test_swapped_videos_are_refused_naming_the_file(dataset):
     assert ds[1].labels.num_rows == ds[1].length  # the labels are still served
 
 
+def test_a_video_is_hashed_once_until_it_changes(dataset, monkeypatch):
+    """iter_frames checks the video's SHA-256 once per Episode, not on every pass; a
+    file changed since (swapped) is checked again."""
+    hashed = []
+    sha256 = layout.sha256
+    monkeypatch.setattr(layout, "sha256", lambda path: hashed.append(path) or sha256(path))
+    ds = data.open(dataset)
+    ep = ds[0]
+    ep.check_video()
+    for _ in range(3):
+        assert len(ep.frames()) == ep.length
+    assert hashed == [ep.video_path]
+    _swap(ds[0].video_path, ds[1].video_path)
+    with pytest.raises(ValueError) as exc:
+        ep.frames()
+    _one_line(exc, str(ep.video_path), "episode 0")
+
+
 def test_missing_video_is_one_line_naming_it(dataset):
     ep = data.open(dataset)[0]
     ep.video_path.unlink()
@@ -112,11 +130,19 @@ def test_missing_video_is_one_line_naming_it(dataset):
 def _bad_info(info: dict) -> list[str]:
     fps_text = {**info, "fps": "30"}
     no_features = {k: v for k, v in info.items() if k != "features"}
+    no_camera = {k: v for k, v in info["features"].items() if k != layout.VIDEO_KEY}
+    camera = info["features"][layout.VIDEO_KEY]
+    cameras = [{**info["features"], layout.VIDEO_KEY: c} for c in (
+        [16, 24, 3], {k: v for k, v in camera.items() if k != "shape"},
+        {**camera, "shape": [16, 24]}, {**camera, "shape": [16, 0, 3]},
+        {**camera, "shape": [16, 24.5, 3]}, {**camera, "shape": [True, 24, 3]})]
     return ["[]", '{"fps": 30}', "{bad", "", json.dumps(fps_text), json.dumps(no_features),
-            json.dumps({**info, "total_frames": True}), json.dumps({**info, "fps": 0})]
+            json.dumps({**info, "total_frames": True}), json.dumps({**info, "fps": 0}),
+            json.dumps({**info, "features": no_camera}),
+            *(json.dumps({**info, "features": f}) for f in cameras)]
 
 
-@pytest.mark.parametrize("case", range(8))
+@pytest.mark.parametrize("case", range(15))
 def test_info_json_of_the_wrong_shape_is_one_line_naming_it(dataset, case, capsys):
     from lgmd_sim.cli import main
 

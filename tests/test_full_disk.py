@@ -98,8 +98,8 @@ def test_record_on_a_full_disk_fails_in_one_line_and_leaves_no_video(full_disk, 
     disk = tmp_path / "disk"
     (run,) = full_disk(disk, [*LGMD_SIM, "record", "PassBy", str(disk / "r.avi"),
                               "--resolution", "small", "--no-progress"], free_kb=60)
-    _one_line(run, f"cannot write video '{disk / 'r.avi'}'", "no space left on device",
-              "of 181 frames")
+    _one_line(run, "cannot write video: no space left on device", "of 181 frames",
+              f"'{disk / 'r.avi'}'")
     assert run.files == set()
 
 
@@ -155,6 +155,17 @@ def test_dataset_with_a_full_temporary_folder_stores_no_broken_episode(full_disk
     assert run.files == set()  # the episode's temporary folder went too
 
 
+def test_dataset_named_like_the_temporary_folder_blames_the_full_one(full_disk, tmp_path):
+    """A short relative DIR ("ep") is part of the episode's temporary folder's name
+    (lgmd-sim-episode-...): the full device is still told by the path of what failed."""
+    disk = tmp_path / "disk"
+    (run,) = full_disk(disk, ["env", "-C", str(tmp_path), *LGMD_SIM, "dataset", "generate",
+                              "--out", "ep", *SMALL_DATASET], free_kb=30,
+                       env={**os.environ, "TMPDIR": str(disk)})
+    _one_line(run, f"no space left on the device of {disk}", "kept in ep")
+    assert run.files == set()
+
+
 @pytest.mark.parametrize("free_kb", [8, 40])  # full among the records; at the figures
 def test_bench_on_a_full_disk_keeps_its_records_and_resumes(full_disk, tmp_path, free_kb):
     disk = tmp_path / "disk"
@@ -196,7 +207,9 @@ def test_a_video_missing_frames_is_refused_and_not_left(tmp_path, suffix):
                           timeout=60)
     assert proc.returncode == 1
     last = proc.stderr.strip().splitlines()[-1]
-    assert f"cannot write video '{target}'" in last and "of 40 frames" in last, proc.stderr
+    # the OSError's filename: the file that could not be written, at the end of the line
+    assert last.startswith("OSError: [Errno") and "cannot write video: " in last, proc.stderr
+    assert last.endswith(f"of 40 frames written: '{target}'"), proc.stderr
     assert "WARN" not in proc.stderr  # OpenCV's per-frame warnings are ours to report
     assert list(tmp_path.iterdir()) == []
 

@@ -7,6 +7,7 @@ from __future__ import annotations
 import errno
 import json
 import os
+import shutil
 from pathlib import Path
 
 import numpy as np
@@ -113,8 +114,13 @@ def test_export_writes_lerobots_layout(dataset, exported):
         assert row[f"videos/{layout.VIDEO_KEY}/sha256"] == layout.sha256(video)
     assert not list(exported.rglob("*.avi")) and not (exported / layout.CONFIG).exists()
     card = (exported / "README.md").read_text()
-    assert card.startswith("---\n") and "data_files: data/*/*.parquet" in card
+    # the labels' glob is the source's (layout.DATA_PATH's), and matches every data file
+    assert card.startswith("---\n") and f"data_files: {layout.DATA_GLOB}\n" in card
+    assert len(list(exported.glob(layout.DATA_GLOB))) == 4
     assert not list(exported.parent.glob(".*partial*"))  # no temporary left beside it
+    umask = os.umask(0)
+    os.umask(umask)
+    assert exported.stat().st_mode & 0o777 == 0o777 & ~umask  # not mkdtemp's 0o700
 
 
 def test_export_tasks_are_indexed_by_their_text(exported):
@@ -216,9 +222,12 @@ def test_a_failed_export_leaves_nothing(dataset, tmp_path, monkeypatch):
     assert list(tmp_path.iterdir()) == []  # neither DEST nor its temporary folder
 
 
-def test_an_export_killed_outright_leaves_a_folder_the_next_one_removes(dataset, tmp_path):
+@pytest.mark.parametrize("name", ["out", "out.lerobot"])  # a dot: DEST has a suffix
+def test_an_export_killed_outright_leaves_a_folder_the_next_one_removes(dataset, tmp_path,
+                                                                         name):
     """A SIGKILLed export cannot remove its hidden temporary folder; the next export to
-    the same DEST removes it (its process is gone), and leaves a running one's alone."""
+    the same DEST removes it (its process is gone), and leaves a running one's alone, and
+    another DEST's."""
     import subprocess
 
     from lgmd_sim.data.export import ExportConfig, export
@@ -226,12 +235,65 @@ def test_an_export_killed_outright_leaves_a_folder_the_next_one_removes(dataset,
     pytest.importorskip("av")
     dead = subprocess.Popen(["true"])
     dead.wait()
-    stale = tmp_path / f".out.{dead.pid}-x1.partial"
-    live = tmp_path / f".out.{os.getpid()}-x2.partial"
-    for folder in (stale, live):
+    stale = tmp_path / f".{name}.{dead.pid}-x1.partial"
+    live = tmp_path / f".{name}.{os.getpid()}-x2.partial"
+    other = tmp_path / f".{name}.x.{dead.pid}-x3.partial"  # DEST {name}.x's
+    for folder in (stale, live, other):
         (folder / "data").mkdir(parents=True)
-    export(ExportConfig(dataset, tmp_path / "out"))
-    assert not stale.exists() and live.is_dir() and (tmp_path / "out").is_dir()
+    export(ExportConfig(dataset, tmp_path / name))
+    assert not stale.exists() and live.is_dir() and other.is_dir()
+    assert (tmp_path / name / layout.INFO).is_file()
+
+
+def test_an_export_refuses_a_dest_made_meanwhile(dataset, tmp_path, monkeypatch):
+    """DEST made (empty, which a rename would silently replace) while the export ran is
+    left as it is, and the export's folder removed."""
+    from lgmd_sim.data import export as export_mod
+
+    pytest.importorskip("av")
+    dest = tmp_path / "out"
+    real = export_mod._write
+
+    def write_then_race(root, *args):
+        frames = real(root, *args)
+        dest.mkdir()
+        return frames
+
+    monkeypatch.setattr(export_mod, "_write", write_then_race)
+    with pytest.raises(OSError, match=rf"cannot export to {dest}: File exists"):
+        export_mod.export(export_mod.ExportConfig(dataset, dest))
+    assert list(tmp_path.iterdir()) == [dest] and list(dest.iterdir()) == []
+
+
+def test_export_refuses_an_info_json_without_the_camera_in_one_line(dataset, tmp_path):
+    from lgmd_sim.data.export import ExportConfig, export
+
+    pytest.importorskip("av")
+    source = Path(shutil.copytree(dataset, tmp_path / "source"))
+    info = json.loads((source / layout.INFO).read_text())
+    del info["features"][layout.VIDEO_KEY]
+    (source / layout.INFO).write_text(json.dumps(info))
+    with pytest.raises(ValueError) as exc:
+        export(ExportConfig(source, tmp_path / "out"))
+    assert str(source / layout.INFO) in str(exc.value) and layout.VIDEO_KEY in str(exc.value)
+    assert "\n" not in str(exc.value) and not (tmp_path / "out").exists()
+
+
+def test_a_dataset_made_before_the_index_column_resumes_and_gets_it(dataset, tmp_path):
+    """Rerunning the command of a dataset made before the ``index`` column (data files
+    without it, no meta/stats.json, info.json without its feature) adds it."""
+    old = Path(shutil.copytree(dataset, tmp_path / "old"))
+    for path in (old / "data").rglob("*.parquet"):
+        table = pq.read_table(path)
+        pq.write_table(table.drop_columns(["index"]), path, compression="zstd")
+    (old / layout.STATS).unlink()
+    info = json.loads((old / layout.INFO).read_text())
+    del info["features"]["index"]
+    (old / layout.INFO).write_text(json.dumps(info))
+    summary = generate(CONFIG, old, workers=1, progress=False)
+    assert (summary.made, summary.kept) == (0, 4)
+    for rel in (layout.STATS, layout.INFO, layout.data_path(0), layout.data_path(3)):
+        assert (old / rel).read_bytes() == (dataset / rel).read_bytes(), rel
 
 
 def test_cli_export(dataset, tmp_path, capsys):

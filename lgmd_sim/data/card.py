@@ -5,7 +5,6 @@ Both depend only on the dataset's files, so they are as reproducible as the epis
 
 from __future__ import annotations
 
-import re
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -29,7 +28,7 @@ configs:
 - config_name: default
   data_files:
   - split: train
-    path: {re.sub(r"{[^}]*}", "*", layout.DATA_PATH)}
+    path: {layout.DATA_GLOB}
 ---
 """
 

@@ -17,8 +17,6 @@ from __future__ import annotations
 import errno
 import json
 import os
-import shutil
-import tempfile
 import time
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
@@ -30,7 +28,7 @@ import numpy as np
 
 from lgmd_sim.data import layout
 from lgmd_sim.data.stats import feature_stats, image_stats
-from lgmd_sim.fileio import canonical_json, remove_stale_partials
+from lgmd_sim.fileio import atomic_folder, canonical_json
 
 __all__ = ["CODECS", "FORMATS", "Codec", "ExportConfig", "ExportSummary", "export"]
 
@@ -125,22 +123,14 @@ def export(config: ExportConfig) -> ExportSummary:
         raise ValueError(f"{config.source}: frames of {h}x{w}: {config.codec} in {_PIX_FMT} "
                          "needs an even height and width")
     dest = config.dest
-    dest.parent.mkdir(parents=True, exist_ok=True)
-    remove_stale_partials(dest)  # an export killed outright left its folder
-    tmp = Path(tempfile.mkdtemp(prefix=f".{dest.name}.{os.getpid()}-", suffix=".partial",
-                                dir=dest.parent))
     try:
-        frames = _write(tmp, ds, config, (h, w))
-        if dest.exists():  # made since the configuration was checked
-            raise ValueError(f"{dest} exists: export into a new folder")
-        os.rename(tmp, dest)
+        with atomic_folder(dest) as tmp:
+            frames = _write(tmp, ds, config, (h, w))
     except OSError as exc:
         if exc.errno in (errno.ENOSPC, errno.EDQUOT):
             raise OSError(f"no space left on the device of {dest}: nothing was exported"
                           ) from None
         raise OSError(f"cannot export to {dest}: {exc.strerror or exc}") from None
-    finally:
-        shutil.rmtree(tmp, ignore_errors=True)
     return ExportSummary(dest, len(ds), frames, time.monotonic() - start, config.codec)
 
 
@@ -154,7 +144,7 @@ def _write(root: Path, ds: Any, config: ExportConfig, size: tuple[int, int]) -> 
     histogram = np.zeros((3, 256), np.int64)
     rows, tables, start = [], [], 0
     for ep in ds:
-        labels = _with_index(ep.labels.replace_schema_metadata(None), start)
+        labels = layout.with_index(ep.labels.replace_schema_metadata(None), start)
         data = root / layout.data_path(ep.index)
         chunk, file = divmod(ep.index, layout.CHUNK_SIZE)
         video = root / video_path.format(video_key=layout.VIDEO_KEY, chunk_index=chunk,
@@ -189,17 +179,6 @@ def _write(root: Path, ds: Any, config: ExportConfig, size: tuple[int, int]) -> 
     # order, which must be the data files' column order, so not sorted.
     (root / layout.INFO).write_text(json.dumps(info, indent=4, allow_nan=False) + "\n")
     return start
-
-
-def _with_index(labels, start: int):  # -> pyarrow.Table
-    """`labels` with the ``index`` column from `start` (added after ``timestamp`` where a
-    dataset made before it has none)."""
-    import pyarrow as pa
-
-    index = pa.array(np.arange(start, start + labels.num_rows), pa.int64())
-    if "index" in labels.column_names:
-        return labels.set_column(labels.schema.get_field_index("index"), "index", index)
-    return labels.add_column(labels.schema.get_field_index("timestamp") + 1, "index", index)
 
 
 def _encode(path: Path, frames: Iterable[np.ndarray], fps: float, size: tuple[int, int],
@@ -280,7 +259,7 @@ def _card(config: ExportConfig, episodes: int, frames: int) -> str:
     return f"""---
 configs:
 - config_name: default
-  data_files: data/*/*.parquet
+  data_files: {layout.DATA_GLOB}
 tags:
 - LeRobot
 - lgmd-sim

@@ -23,16 +23,16 @@ each run (the command, wall time, workers) go to ``meta/run.json`` alone.
 
 from __future__ import annotations
 
-import contextlib
 import dataclasses
 import errno
 import hashlib
 import io
 import json
 import math
+import os
 import tempfile
 import time
-from collections.abc import Callable, Iterator, Mapping
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -232,6 +232,7 @@ def make_episode(spec: EpisodeSpec) -> EpisodeResult:
     from lgmd_sim.controllers import rollout
     from lgmd_sim.envs.catalogue import scenario
     from lgmd_sim.frames import to_grey
+    from lgmd_sim.video import encoder
 
     fmt = layout.VIDEO_FORMATS[spec.video]
     variants = {v: noise.parse(v.replace("+", ",")) for v in spec.noise}
@@ -247,7 +248,9 @@ def make_episode(spec: EpisodeSpec) -> EpisodeResult:
         params = env.unwrapped.params
         with tempfile.TemporaryDirectory(prefix="lgmd-sim-episode-") as tmp:
             video = Path(tmp) / f"episode{fmt.suffix}"
-            with _encoder(video, fmt, params.fps, params.size) as write:
+            # not video_writer: its codec follows the suffix (FFV1 for .avi), and its
+            # atomic rename is not needed in a job's private temporary folder
+            with encoder(video, fmt.fourcc, params.fps, params.size) as write:
                 for step in rollout(env, controller, seed=spec.seed):
                     rgb = step.obs["frame"]
                     if rgb.shape[-1] == 1:  # a grey scenario (frame="grey")
@@ -276,21 +279,6 @@ def make_episode(spec: EpisodeSpec) -> EpisodeResult:
                        for m, model in built.get(None, {}).items()},
             "noise": list(spec.noise)})
     return EpisodeResult(video_bytes, _parquet_bytes(columns, spec, meta), meta)
-
-
-@contextlib.contextmanager
-def _encoder(path: Path, fmt: layout.VideoFormat, fps: float, size: tuple[int, int]
-             ) -> Iterator[Callable[[np.ndarray], None]]:
-    """Yield a function appending RGB frames to the video `path` in format `fmt`; the file
-    is checked to hold them all (`lgmd_sim.video.encoder`).
-
-    Not `lgmd_sim.video.video_writer`: its codec follows the suffix (FFV1 for .avi), and
-    its atomic rename is not needed in a job's private temporary folder.
-    """
-    from lgmd_sim.video import encoder
-
-    with encoder(path, fmt.fourcc, fps, size) as write:
-        yield write
 
 
 def _append_labels(columns: dict[str, list], spec: EpisodeSpec, step: Any, fps: float,
@@ -409,15 +397,25 @@ def _finish_episodes(out: Path, specs: list[EpisodeSpec]) -> None:
     tables, start = [], 0
     for spec in specs:
         path = out / layout.data_path(spec.index)
-        table = pq.read_table(path)
-        index = pa.array(np.arange(start, start + table.num_rows), pa.int64())
-        if not table["index"].equals(pa.chunked_array([index])):
-            table = table.set_column(table.schema.get_field_index("index"), "index", index)
+        read = pq.read_table(path)
+        table = layout.with_index(read, start)  # a dataset made before it has no index
+        if not table.equals(read):
             write_files({path: lambda tmp, t=table: pq.write_table(t, tmp, compression="zstd")})
         tables.append(table)
         start += table.num_rows
     stats = feature_stats(pa.concat_tables(tables))
     write_text_atomic(out / layout.STATS, canonical_json(stats))
+
+
+def _full_folder(out: Path, exc: OSError) -> Path:
+    """The folder whose device is full: the temporary folder, where an episode's video is
+    encoded before it is stored, if `exc` names a file in it, else the dataset's."""
+    if exc.filename is not None:
+        failed = Path(os.fsdecode(exc.filename)).resolve()
+        temp = Path(tempfile.gettempdir()).resolve()
+        if failed.is_relative_to(temp) and not failed.is_relative_to(out.resolve()):
+            return temp
+    return out
 
 
 def generate(config: GenerateConfig, out: str | Path, *, workers: int | None = None,
@@ -483,8 +481,7 @@ def generate(config: GenerateConfig, out: str | Path, *, workers: int | None = N
         return summary
     except OSError as exc:
         if exc.errno in (errno.ENOSPC, errno.EDQUOT):
-            # an episode's video is encoded in the temporary folder before it is stored
-            full = out if str(out) in str(exc) else Path(tempfile.gettempdir())
+            full = _full_folder(out, exc)
             raise OSError(f"no space left on the device of {full}: "
                           f"{len(metas)} complete episodes are kept in {out}; free space and "
                           "run the same command again to resume") from None

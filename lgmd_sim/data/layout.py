@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import hashlib
 import os
+import re
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -33,6 +34,8 @@ CHUNK_SIZE = 1000
 #: The camera stream's feature name, as LeRobot names camera streams.
 VIDEO_KEY = "observation.images.camera"
 DATA_PATH = "data/chunk-{chunk_index:03d}/file-{file_index:03d}.parquet"
+#: Every data file: the glob of `DATA_PATH` (the dataset cards' ``data_files``).
+DATA_GLOB = re.sub(r"{[^}]*}", "*", DATA_PATH)
 VIDEO_PATH = "videos/{video_key}/chunk-{chunk_index:03d}/file-{file_index:03d}{suffix}"
 INFO = "meta/info.json"
 CONFIG = "meta/config.json"
@@ -201,6 +204,19 @@ def label_schema(models: Sequence[str], variants: Sequence[str]):  # -> pyarrow.
     import pyarrow as pa
 
     return pa.schema([pa.field(c.name, arrow_type(c.type)) for c in columns(models, variants)])
+
+
+def with_index(labels, start: int):  # -> pyarrow.Table
+    """An episode's `labels` (a pyarrow Table) with its ``index`` column, from `start`
+    (its first frame's index in the whole dataset); added after ``timestamp``, where
+    `COLUMNS` has it, to the labels of a dataset made before it."""
+    import numpy as np
+    import pyarrow as pa
+
+    index = pa.array(np.arange(start, start + labels.num_rows), pa.int64())
+    if "index" in labels.column_names:
+        return labels.set_column(labels.schema.get_field_index("index"), "index", index)
+    return labels.add_column(labels.schema.get_field_index("timestamp") + 1, "index", index)
 
 
 def arrow_type(kind: str):  # -> pyarrow.DataType

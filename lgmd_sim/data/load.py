@@ -24,6 +24,7 @@ from typing import Any
 import numpy as np
 
 from lgmd_sim.data import layout
+from lgmd_sim.fileio import json_kind, read_json
 
 __all__ = ["Clip", "Dataset", "Episode", "detect_inputs", "episodes", "open_dataset",
            "read_meta_table"]
@@ -56,6 +57,7 @@ class Episode:
         self.index: int = meta["episode_index"]
         self.video_path = root / layout.video_path(self.index, video)
         self.data_path = root / layout.data_path(self.index)
+        self._video_checked: tuple[int, int, int] | None = None  # the file's, when checked
 
     def __repr__(self) -> str:
         m = self.meta
@@ -120,11 +122,18 @@ class Episode:
                              f"has {self.length} frames")
         return table if columns is None else table.select(list(columns))
 
-    def _check_video(self) -> None:
-        """Refuse a video that is not this episode's. Nothing in a video names its episode
-        and episodes of one length are common, so its SHA-256 is compared with the episode
-        table's: a few percent of the cost of decoding it."""
+    def check_video(self) -> None:
+        """Refuse (ValueError naming the file) a video that is not this episode's.
+
+        Nothing in a video names its episode and episodes of one length are common, so its
+        SHA-256 is compared with the episode table's: a few percent of the cost of decoding
+        it, paid once while the file stays as it was (its size, modification time and
+        inode), not on every pass over the frames.
+        """
         try:
+            st = self.video_path.stat()
+            if (st.st_size, st.st_mtime_ns, st.st_ino) == self._video_checked:
+                return
             digest = layout.sha256(self.video_path)
         except OSError as exc:
             raise ValueError(f"{self.video_path}: cannot read episode {self.index}'s video: "
@@ -133,6 +142,7 @@ class Episode:
             raise ValueError(f"{self.video_path}: not episode {self.index}'s video (its SHA-256 "
                              f"differs from the episode table's; lgmd-sim dataset verify "
                              f"{self.root} checks every file)")
+        self._video_checked = (st.st_size, st.st_mtime_ns, st.st_ino)
 
     def iter_frames(self, noise: str | None = None) -> Iterator[np.ndarray]:
         """The frames, (H, W, 3) uint8 RGB, in order; with `noise` (one of the dataset's
@@ -142,7 +152,7 @@ class Episode:
         from lgmd_sim.video import VideoReader
 
         noises = noise_mod.parse(noise.replace("+", ",")) if noise else []
-        self._check_video()
+        self.check_video()
         for i, rgb in enumerate(VideoReader(self.video_path)):
             yield noise_mod.apply(rgb, noises, self.seed, i) if noises else rgb
 
@@ -274,8 +284,8 @@ def open_dataset(path: str | os.PathLike) -> Dataset:
                 if (root / layout.CONFIG).is_file() else "not an lgmd-sim dataset")
         raise ValueError(f"cannot open dataset {root}: no {layout.INFO}: {what}")
     try:
-        info = _check_info(root / layout.INFO, _read_json(root / layout.INFO))
-        config = _check_config(root / layout.CONFIG, _read_json(root / layout.CONFIG))
+        info = _check_info(root / layout.INFO, read_json(root / layout.INFO))
+        config = _check_config(root / layout.CONFIG, read_json(root / layout.CONFIG))
         episodes = read_meta_table(root / layout.EPISODES, layout.EPISODE_COLUMNS)
     except ValueError as exc:
         raise ValueError(f"cannot open dataset {root}: {exc}") from None
@@ -300,23 +310,10 @@ def read_meta_table(path: Path, columns: Sequence[tuple[str, str]]):  # -> pyarr
     return table
 
 
-def _read_json(path: Path) -> Any:
-    try:
-        return json.loads(path.read_text())
-    except OSError as exc:
-        raise ValueError(f"{path}: cannot read it: {exc.strerror or exc}") from None
-    except ValueError as exc:  # not JSON, or not text
-        raise ValueError(f"{path}: not JSON ({exc})") from None
-
-
-_JSON_KINDS = {dict: "an object", list: "an array", str: "a string", bool: "a boolean",
-               int: "an integer", float: "a number", type(None): "null"}
-
-
 def _check_info(path: Path, info: Any) -> dict[str, Any]:
     """info.json, with the keys the readers rely on, of their JSON types."""
     if not isinstance(info, dict):
-        raise ValueError(f"{path}: holds {_JSON_KINDS[type(info)]}, not an object")
+        raise ValueError(f"{path}: holds {json_kind(type(info))}, not an object")
     for key, kind in layout.INFO_KEYS.items():
         if key not in info:
             raise ValueError(f"{path}: no {key!r} key")
@@ -324,12 +321,20 @@ def _check_info(path: Path, info: Any) -> dict[str, Any]:
         # JSON has one number type: an integral fps reads back as an int
         wanted = (int, float) if kind is float else kind
         if not isinstance(value, wanted) or isinstance(value, bool):
-            raise ValueError(f"{path}: {key!r} is {_JSON_KINDS[type(value)]}, not "
-                             f"{_JSON_KINDS[kind]}")
+            raise ValueError(f"{path}: {key!r} is {json_kind(type(value))}, not "
+                             f"{json_kind(kind)}")
         if isinstance(value, int | float) and (value < 0 or not math.isfinite(value)):
             raise ValueError(f"{path}: {key!r} is {value}, not a number >= 0")
     if info["fps"] <= 0:
         raise ValueError(f"{path}: 'fps' is {info['fps']}, not a positive number")
+    camera = info["features"].get(layout.VIDEO_KEY)
+    if not isinstance(camera, dict):
+        raise ValueError(f"{path}: 'features' has no {layout.VIDEO_KEY!r} object")
+    shape = camera.get("shape")
+    if not (isinstance(shape, list) and len(shape) == 3 and all(
+            isinstance(n, int) and not isinstance(n, bool) and n > 0 for n in shape)):
+        raise ValueError(f"{path}: the shape of {layout.VIDEO_KEY!r} is {json.dumps(shape)}, "
+                         "not [height, width, channels] (3 positive integers)")
     return info
 
 
@@ -337,7 +342,7 @@ def _check_config(path: Path, config: Any) -> dict[str, Any]:
     """config.json, with what the loader reads of it: the video format, the noise
     variants (verify reads the rest)."""
     if not isinstance(config, dict):
-        raise ValueError(f"{path}: holds {_JSON_KINDS[type(config)]}, not an object")
+        raise ValueError(f"{path}: holds {json_kind(type(config))}, not an object")
     if config.get("video") not in layout.VIDEO_FORMATS:
         raise ValueError(f"{path}: 'video' is {json.dumps(config.get('video'))}, not one of "
                          f"{', '.join(layout.VIDEO_FORMATS)}")
@@ -370,7 +375,7 @@ def detect_inputs(videos: Sequence[str]) -> list[tuple[str, str, int | None]]:
         if found is None:
             out.append((video, video, None))
         for ep in found or ():
-            ep._check_video()  # detect reads the file itself
+            ep.check_video()  # detect reads the file itself
             out.append((os.path.join(ep.root, f"episode_{ep.index:06d}"), str(ep.video_path),
                         ep.collision_frame))
     return out
