@@ -7,6 +7,11 @@ or Ray tasks. `run_jobs` hands each result to ``on_result`` in this process as s
 its job finishes, so the caller stores it at once (atomically) and an interrupted run
 keeps every finished job; calling it again with the rest resumes.
 
+The workers end with the run, whatever ends it: an error, SIGTERM or Ctrl-C here stop
+them within seconds (SIGTERM, which lets a job remove its temporaries, then SIGKILL), and
+they stop by themselves when this process ends, even killed outright (on Linux at once,
+elsewhere after their job).
+
 >>> from lgmd_sim.parallel import Job, run_jobs
 >>> jobs = [Job(f"seed{s}", my_episode, {"seed": s}) for s in range(50)]
 >>> run_jobs(jobs, lambda job, result: store(job.key, result), workers=2)
@@ -16,20 +21,34 @@ from __future__ import annotations
 
 import multiprocessing
 import os
+import signal
 import sys
+import threading
 import time
+import traceback
+from collections import deque
 from collections.abc import Callable, Mapping, Sequence
-from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
-from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass, field
+from multiprocessing.connection import Connection, wait
+from multiprocessing.context import BaseContext
+from multiprocessing.process import BaseProcess
 from typing import Any
 
-__all__ = ["Job", "WorkerDied", "default_workers", "run_jobs"]
+__all__ = ["Job", "WorkerDied", "default_workers", "run_jobs", "stop_again_when_swallowed"]
+
+#: Seconds the workers have to stop (their jobs' temporaries removed) before SIGKILL.
+_GRACE = 3
+_PR_SET_PDEATHSIG = 1  # <linux/prctl.h>
+#: The signals that stop a run.
+_STOPPING = {signal.SIGINT, signal.SIGTERM}
 
 
 @dataclass(frozen=True)
 class Job:
-    """One unit of work: ``fn(**kwargs)``, named `key` (unique within a run)."""
+    """One unit of work: ``fn(**kwargs)``, named `key` (unique within a run).
+
+    On a pool it runs in a daemonic process, which cannot start processes of its own with
+    `multiprocessing` (subprocesses are fine)."""
 
     key: str
     fn: Callable[..., Any]
@@ -132,40 +151,167 @@ def run_jobs(jobs: Sequence[Job], on_result: Callable[[Job, Any], None], *,
         bar.close()
 
 
+class _RemoteTraceback(Exception):
+    """Where in its worker a job raised: the cause of the exception raised here."""
+
+
+def _worker(conn: Connection, parent: int) -> None:
+    """A worker process: runs each job that comes on `conn` and sends its result back,
+    until the parent (process `parent`) closes its end, or ends."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C reaches the whole group: the
+    signal.signal(signal.SIGTERM, _stop_worker)  # parent alone decides, and stops us
+    stop_again_when_swallowed({SystemExit: signal.SIGTERM})
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, _STOPPING)
+    if sys.platform.startswith("linux"):
+        import ctypes
+
+        # Stopped as soon as the parent ends, even killed outright; elsewhere a worker
+        # ends after its job, when it finds the parent's end of the pipe closed.
+        ctypes.CDLL(None).prctl(_PR_SET_PDEATHSIG, signal.SIGTERM)
+        if os.getppid() != parent:  # it ended before that
+            return
+    try:
+        _serve(conn)
+    finally:  # nothing left to unwind: a SIGTERM while the interpreter ends just ends it
+        signal.signal(signal.SIGTERM, signal.SIG_DFL)
+
+
+def _serve(conn: Connection) -> None:
+    while True:
+        try:
+            fn, kwargs = conn.recv()
+        except EOFError:
+            return
+        try:
+            reply = (True, _call(fn, kwargs))
+        except Exception as exc:  # raised in the parent, with this traceback as its cause
+            reply = (False, exc, traceback.format_exc())
+        try:
+            conn.send(reply)
+        except OSError:  # the parent is gone
+            return
+        except Exception as exc:  # a result or exception that cannot be pickled
+            conn.send((False, RuntimeError(f"a {type(reply[1]).__name__} cannot be sent "
+                                           f"back from its worker: {exc}"),
+                       traceback.format_exc()))
+
+
+def _stop_worker(signum: int, frame: object) -> None:
+    # The job unwinds (its `finally`s and `with`s remove its temporaries) within the
+    # grace: then SIGALRM's default action ends the process.
+    if not signal.getitimer(signal.ITIMER_REAL)[0]:
+        signal.alarm(_GRACE)
+    raise SystemExit(128 + signum)
+
+
+def stop_again_when_swallowed(stops: Mapping[type[BaseException], int]
+                              ) -> Callable[[Any], None]:
+    """Make sure a signal that stops this process does: `stops` are the exceptions its
+    handlers raise, each with its signal. Raised where Python cannot pass it on (a C
+    callback, as numba's compiler makes, a ``__del__``, a weakref callback), one would be
+    printed and swallowed, and the process go on: instead the signal comes again a moment
+    later, quietly. Installs a `sys.unraisablehook`; returns the one it replaces."""
+    previous = sys.unraisablehook
+
+    def hook(unraisable: Any) -> None:
+        for stop, signum in stops.items():
+            if issubclass(unraisable.exc_type, stop):
+                again = threading.Timer(0.01, os.kill, (os.getpid(), signum))
+                again.daemon = True
+                again.start()
+                return
+        previous(unraisable)
+
+    sys.unraisablehook = hook
+    return previous
+
+
+@dataclass
+class _Worker:
+    """A worker process, our end of its pipe, and the jobs sent to it (the first is
+    running)."""
+
+    process: BaseProcess
+    conn: Connection
+    jobs: deque[Job] = field(default_factory=deque)
+
+    def send(self, job: Job) -> None:
+        try:
+            self.conn.send((job.fn, job.kwargs))
+        except OSError:  # its end of the pipe is closed: it died between two jobs
+            raise WorkerDied(f"a worker process died (killed, or out of memory) before "
+                             f"running {job.key}") from None
+        self.jobs.append(job)
+
+    def receive(self) -> Any:
+        """The result of the running job (raising its exception)."""
+        # Only the worker holds the other end: an end of file (or a reset, where it had a
+        # job unread) is its death.
+        try:
+            ok, value, *trace = self.conn.recv()
+        except (EOFError, OSError):
+            raise WorkerDied(f"a worker process died (killed, or out of memory) while "
+                             f"running {self.jobs[0].key}") from None
+        if not ok:
+            raise value from _RemoteTraceback(trace[0])
+        return value
+
+
+def _start_worker(context: BaseContext, pool: list[_Worker]) -> None:
+    ours, theirs = context.Pipe()
+    process = context.Process(target=_worker, args=(theirs, os.getpid()), daemon=True,
+                              name=f"lgmd-sim worker {len(pool) + 1}")
+    # The worker starts with these blocked, until its handlers are in place (a Ctrl-C
+    # while it starts would print its traceback); in this thread they wait until the
+    # worker is in `pool`, whose workers _stop ends.
+    mask = signal.pthread_sigmask(signal.SIG_BLOCK, _STOPPING)
+    try:
+        process.start()
+        pool.append(_Worker(process, ours))
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, mask)
+    theirs.close()  # its end is the worker's alone, so that its death is an end of file
+
+
 def _run_on_pool(jobs: Sequence[Job], on_result: Callable[[Job, Any], None], workers: int
                  ) -> None:
     # Fresh interpreters (spawn): a fork would copy this process's threads and GL state.
-    pool = ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn"))
-    pending: dict[Future, Job] = {}
-    queue = list(reversed(jobs))
+    # One pipe per worker and no threads here: a signal ends the run at once, and a
+    # worker dying part-way through sending a result is an end of file, never a hang.
+    context = multiprocessing.get_context("spawn")
+    pool: list[_Worker] = []
+    queue = deque(jobs)
     try:
-        while queue or pending:
-            while queue and len(pending) < 2 * workers:  # a few queued ahead, not all
-                job = queue.pop()
-                pending[pool.submit(_call, job.fn, job.kwargs)] = job
-            done, _ = wait(pending, return_when=FIRST_COMPLETED)
-            for future in sorted(done, key=lambda f: pending[f].key):
-                if isinstance(future.exception(), BrokenProcessPool):
-                    lost = ", ".join(sorted(j.key for f, j in pending.items() if f.done()))
-                    raise WorkerDied(f"a worker process died (killed, or out of memory) "
-                                     f"while running one of: {lost}") from future.exception()
-                job = pending.pop(future)
-                on_result(job, future.result())
+        for _ in range(workers):
+            _start_worker(context, pool)
+        while queue or any(worker.jobs for worker in pool):
+            while queue:  # to the least busy: a job running on each, one queued behind
+                worker = min(pool, key=lambda w: len(w.jobs))
+                if len(worker.jobs) == 2:
+                    break
+                worker.send(queue.popleft())
+            ready = wait([worker.conn for worker in pool if worker.jobs])
+            for worker in sorted((w for w in pool if w.conn in ready),
+                                 key=lambda w: w.jobs[0].key):
+                result = worker.receive()
+                on_result(worker.jobs.popleft(), result)
     finally:
-        for future in pending:
-            future.cancel()
-        _shutdown(pool)
+        _stop(pool)
 
 
-def _shutdown(pool: ProcessPoolExecutor) -> None:
-    """Stop the workers now, also those busy with a job (after an error or Ctrl-C)."""
-    processes = list((pool._processes or {}).values())  # no public way to stop a busy one
-    pool.shutdown(wait=False, cancel_futures=True)
-    for process in processes:
-        if process.is_alive():
-            process.terminate()
-    for process in processes:
-        process.join(5)
+def _stop(pool: Sequence[_Worker]) -> None:
+    """End the workers, also those busy with a job (after an error, SIGTERM or Ctrl-C):
+    SIGTERM, then SIGKILL for any still there after the grace."""
+    for worker in pool:
+        worker.conn.close()  # an idle worker ends at that
+        if worker.jobs:
+            worker.process.terminate()
+    deadline = time.monotonic() + _GRACE + 1
+    for worker in pool:
+        worker.process.join(max(0.0, deadline - time.monotonic()))
+        if worker.process.exitcode is None:
+            worker.process.kill()
+            worker.process.join(1)
 
 
 def _run_on_ray(jobs: Sequence[Job], on_result: Callable[[Job, Any], None], address: str

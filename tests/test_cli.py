@@ -111,3 +111,22 @@ def test_record_writes_a_lossless_clip_with_its_collision_frame(tmp_path, capsys
     collision = int(printed.split("collision at frame ")[1].split()[0])
     assert collision == len(frames) - 1  # the episode ends at the collision
     assert f"lgmd-sim detect {out} --collision-frame {collision}" in printed
+
+
+@pytest.mark.parametrize(("error", "shown"), [
+    (OSError(28, "cannot write out/r.avi: No space left on device"),
+     "cannot write out/r.avi: No space left on device"),
+    (FileNotFoundError(2, "No such file or directory", "clip.mp4"),
+     "clip.mp4: No such file or directory"),
+    (OSError("cannot export to D: File exists"), "cannot export to D: File exists"),
+])
+def test_an_os_error_is_one_line_with_its_file_and_reason_and_no_errno(
+        monkeypatch, capsys, error, shown):
+    from lgmd_sim.cli import models as models_command
+
+    def fail(args):
+        raise error
+
+    monkeypatch.setattr(models_command, "run", fail)
+    assert cli.main(["models"]) == 2
+    assert capsys.readouterr().err == f"lgmd-sim models: error: {shown}\n"

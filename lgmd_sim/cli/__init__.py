@@ -20,6 +20,7 @@ from importlib import import_module
 
 from lgmd_sim import __version__
 from lgmd_sim.extras import MissingExtra
+from lgmd_sim.parallel import WorkerDied, stop_again_when_swallowed
 
 #: The subcommands, in the order `--help` lists them.
 COMMANDS = ("demo", "detect", "record", "models", "envs", "bench", "calibrate", "speed", "dataset",
@@ -48,18 +49,34 @@ def _terminate(signum: int, frame: object) -> None:
     raise Terminated
 
 
+def _message(exc: BaseException) -> str:
+    """An error as a user reads it: an OSError's file and reason, without "[Errno N]"."""
+    if isinstance(exc, OSError) and exc.strerror:
+        if exc.filename is not None and str(exc.filename) not in exc.strerror:
+            return f"{exc.filename}: {exc.strerror}"
+        return exc.strerror
+    return str(exc)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
     args = build_parser().parse_args(argv)
     args.command_line = shlex.join(["lgmd-sim", *argv])  # what the run records say was run
     previous = signal.signal(signal.SIGTERM, _terminate)
+    previous_hook = stop_again_when_swallowed({Terminated: signal.SIGTERM,
+                                               KeyboardInterrupt: signal.SIGINT})
     try:
         return int(import_module(f"lgmd_sim.cli.{args.command}").run(args) or 0)
     except BrokenPipeError:  # output piped into e.g. `head`, which stopped reading
         return 0
     except (ValueError, OSError, MissingExtra) as exc:  # a user's input: say what, briefly
-        print(f"lgmd-sim {args.command}: error: {exc}", file=sys.stderr)
+        print(f"lgmd-sim {args.command}: error: {_message(exc)}", file=sys.stderr)
         return 2
+    except WorkerDied as exc:  # killed, or out of memory: the finished jobs are kept
+        resume = ("; the finished ones are kept: run the same command with --resume to "
+                  "complete it" if hasattr(args, "resume") else "")
+        print(f"lgmd-sim {args.command}: error: {exc}{resume}", file=sys.stderr)
+        return 1
     except KeyboardInterrupt:
         print(f"lgmd-sim {args.command}: interrupted", file=sys.stderr)
         return 128 + signal.SIGINT
@@ -68,3 +85,4 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 128 + signal.SIGTERM
     finally:
         signal.signal(signal.SIGTERM, previous)
+        sys.unraisablehook = previous_hook
