@@ -25,8 +25,8 @@ from pathlib import Path
 from typing import Any
 
 __all__ = ["atomic_folder", "atomic_folder_outputs", "atomic_output", "atomic_outputs",
-           "canonical_json", "csv_text", "json_kind", "read_json", "write_files",
-           "write_text_atomic"]
+           "canonical_json", "csv_text", "json_kind", "read_json", "scratch_folder",
+           "write_files", "write_text_atomic"]
 
 _PARTIAL = re.compile(r"\.(?P<pid>\d+)-[^.]+\.partial")
 
@@ -64,6 +64,20 @@ def _remove_dead(parent: Path, prefix: str, suffix: str = "") -> None:
 def remove_stale_partials(target: Path) -> None:
     """Remove temporaries of the file `target` left by processes that no longer run."""
     _remove_dead(target.parent, f".{target.name}", target.suffix)
+
+
+@contextlib.contextmanager
+def scratch_folder(name: str) -> Iterator[Path]:
+    """A private temporary folder in the system's temporary folder, removed afterwards;
+    those a process killed outright left (``.NAME.PID-XXXX.partial``) go first."""
+    parent = Path(tempfile.gettempdir())
+    _remove_dead(parent, f".{name}")
+    folder = Path(tempfile.mkdtemp(prefix=f".{name}.{os.getpid()}-", suffix=".partial",
+                                   dir=parent))
+    try:
+        yield folder
+    finally:
+        shutil.rmtree(folder, ignore_errors=True)
 
 
 def _named(exc: OSError, target: Path, verb: str = "write") -> OSError:

@@ -260,3 +260,23 @@ def test_demo_summary_says_whose_threshold_each_line_is(tmp_path, monkeypatch):
     for name in ("feedback/paper", "lgmd1/published"):
         colour = to_rgb(lgmd_sim.plots.model_style(name)["color"])
         assert (np.abs(row - colour).max(axis=1) < 0.1).mean() > 0.2, name
+
+
+def test_a_scratch_folder_a_killed_process_left_goes_with_the_next_one(tmp_path, monkeypatch):
+    """An episode's video is encoded in a scratch folder that a SIGKILLed run cannot
+    remove: the next run removes it (its process is gone), not a running one's."""
+    import tempfile
+
+    from lgmd_sim.fileio import scratch_folder
+
+    monkeypatch.setattr(tempfile, "tempdir", str(tmp_path))
+    dead = subprocess.Popen(["true"])
+    dead.wait()
+    stale = tmp_path / f".lgmd-sim-episode.{dead.pid}-ab.partial"
+    live = tmp_path / f".lgmd-sim-episode.{os.getpid()}-cd.partial"
+    for folder in (stale, live):
+        (folder / "episode.avi").parent.mkdir()
+        (folder / "episode.avi").write_bytes(b"x")
+    with scratch_folder("lgmd-sim-episode") as scratch:
+        assert scratch.parent == tmp_path and scratch.is_dir()
+    assert not stale.exists() and live.is_dir() and not scratch.exists()

@@ -42,7 +42,13 @@ import numpy as np
 from lgmd_sim import options
 from lgmd_sim.data import layout
 from lgmd_sim.data.manifest import write_manifest
-from lgmd_sim.fileio import canonical_json, remove_stale_partials, write_files, write_text_atomic
+from lgmd_sim.fileio import (
+    canonical_json,
+    remove_stale_partials,
+    scratch_folder,
+    write_files,
+    write_text_atomic,
+)
 from lgmd_sim.parallel import Job, default_workers, run_jobs
 from lgmd_sim.runs import RunFolder
 
@@ -246,8 +252,8 @@ def make_episode(spec: EpisodeSpec) -> EpisodeResult:
     nan3 = np.full(3, np.nan, np.float32)
     try:
         params = env.unwrapped.params
-        with tempfile.TemporaryDirectory(prefix="lgmd-sim-episode-") as tmp:
-            video = Path(tmp) / f"episode{fmt.suffix}"
+        with scratch_folder("lgmd-sim-episode") as tmp:
+            video = tmp / f"episode{fmt.suffix}"
             # not video_writer: its codec follows the suffix (FFV1 for .avi), and its
             # atomic rename is not needed in a job's private temporary folder
             with encoder(video, fmt.fourcc, params.fps, params.size) as write:
