@@ -98,8 +98,8 @@ def test_record_on_a_full_disk_fails_in_one_line_and_leaves_no_video(full_disk, 
     disk = tmp_path / "disk"
     (run,) = full_disk(disk, [*LGMD_SIM, "record", "PassBy", str(disk / "r.avi"),
                               "--resolution", "small", "--no-progress"], free_kb=60)
-    _one_line(run, "cannot write video: no space left on device", "of 181 frames",
-              f"'{disk / 'r.avi'}'")
+    _one_line(run, f"{disk / 'r.avi'}: cannot write video: no space left on device",
+              "of 181 frames")
     assert run.files == set()
 
 
