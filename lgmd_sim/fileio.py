@@ -25,7 +25,7 @@ from pathlib import Path
 from typing import Any
 
 __all__ = ["atomic_folder", "atomic_folder_outputs", "atomic_output", "atomic_outputs",
-           "canonical_json", "csv_text", "json_kind", "read_json", "scratch_folder",
+           "canonical_json", "csv_text", "error_text", "json_kind", "read_json", "scratch_folder",
            "write_files", "write_text_atomic"]
 
 _PARTIAL = re.compile(r"\.(?P<pid>\d+)-[^.]+\.partial")
@@ -173,6 +173,11 @@ def atomic_folder_outputs(folder: str | os.PathLike, names: Sequence[str]) -> It
     try:
         yield staging
         _commit([(staging / name, folder / name) for name in names])
+    except OSError as exc:  # name the output as the user knows it, not its temporary
+        def final(text: object) -> str:
+            return str(text).replace(str(staging), str(folder))
+        raise type(exc)(exc.errno, final(exc.strerror or exc),
+                        *(() if exc.filename is None else (final(exc.filename),))) from exc
     finally:
         shutil.rmtree(staging, ignore_errors=True)
 
@@ -241,6 +246,15 @@ _JSON_KINDS = {dict: "an object", list: "an array", str: "a string", bool: "a bo
 def json_kind(kind: type) -> str:
     """A JSON type's name in a message: "an object" (dict), "a string" (str)..."""
     return _JSON_KINDS[kind]
+
+
+def error_text(exc: BaseException) -> str:
+    """An error as a user reads it: an OSError's file and reason, without "[Errno N]"."""
+    if isinstance(exc, OSError) and exc.strerror:
+        if exc.filename is not None and str(exc.filename) not in exc.strerror:
+            return f"{exc.filename}: {exc.strerror}"
+        return exc.strerror
+    return str(exc)
 
 
 def canonical_json(value: Any) -> str:

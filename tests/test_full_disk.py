@@ -83,6 +83,8 @@ def _one_line(run: Run, *named: str) -> None:
     assert run.rc == 2, run.err
     assert run.err.count("\n") == 1 and "error:" in run.err and "Traceback" not in run.err, \
         run.err
+    # the output as the user named it: no errno, no temporary name
+    assert "[Errno" not in run.err and ".partial" not in run.err, run.err
     for text in named:
         assert text in run.err, run.err
 

@@ -20,6 +20,7 @@ from importlib import import_module
 
 from lgmd_sim import __version__
 from lgmd_sim.extras import MissingExtra
+from lgmd_sim.fileio import error_text
 from lgmd_sim.parallel import WorkerDied, stop_again_when_swallowed
 
 #: The subcommands, in the order `--help` lists them.
@@ -49,15 +50,6 @@ def _terminate(signum: int, frame: object) -> None:
     raise Terminated
 
 
-def _message(exc: BaseException) -> str:
-    """An error as a user reads it: an OSError's file and reason, without "[Errno N]"."""
-    if isinstance(exc, OSError) and exc.strerror:
-        if exc.filename is not None and str(exc.filename) not in exc.strerror:
-            return f"{exc.filename}: {exc.strerror}"
-        return exc.strerror
-    return str(exc)
-
-
 def main(argv: Sequence[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
     args = build_parser().parse_args(argv)
@@ -70,7 +62,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     except BrokenPipeError:  # output piped into e.g. `head`, which stopped reading
         return 0
     except (ValueError, OSError, MissingExtra) as exc:  # a user's input: say what, briefly
-        print(f"lgmd-sim {args.command}: error: {_message(exc)}", file=sys.stderr)
+        print(f"lgmd-sim {args.command}: error: {error_text(exc)}", file=sys.stderr)
         return 2
     except WorkerDied as exc:  # killed, or out of memory: the finished jobs are kept
         resume = ("; the finished ones are kept: run the same command with --resume to "

@@ -13,6 +13,7 @@ from lgmd_sim import options
 from lgmd_sim.detect.clip import check_collision_frame, detect
 from lgmd_sim.detect.outputs import check_out_folder, output_names, write_outputs
 from lgmd_sim.detect.specs import front_end_params, with_preset
+from lgmd_sim.fileio import error_text
 from lgmd_sim.video import VideoReader
 
 __all__ = ["DetectConfig", "Video", "run"]
@@ -103,7 +104,7 @@ def run(config: DetectConfig) -> int:
                        noise=noises, noise_seed=config.noise_seed, window_s=config.window)
             paths = write_outputs(d, out, stem) if out is not None else {}
         except (ValueError, OSError) as exc:
-            print(f"lgmd-sim detect: error: {exc}", file=sys.stderr)
+            print(f"lgmd-sim detect: error: {error_text(exc)}", file=sys.stderr)
             failed += 1
             continue
         if config.json_lines:
