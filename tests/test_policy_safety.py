@@ -81,6 +81,7 @@ def test_a_bad_policy_leaves_no_run_folder(good, tmp_path, capsys, corrupt):
     assert _eval(bad, out) == 2
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and str(bad / "policy.") in err, err
+    assert "allow_pickle" not in err  # NumPy's advice to unpickle is not passed on
     assert not (out / "run.json").exists()
 
 

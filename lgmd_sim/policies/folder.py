@@ -187,8 +187,12 @@ def _weights(file: Path) -> dict[str, np.ndarray]:
         with npz:
             return {k: npz[k] for k in npz.files}
     except (OSError, ValueError, EOFError, zipfile.BadZipFile, zlib.error) as exc:
+        # NumPy takes anything that is not an array file for a pickle, and its message
+        # suggests loading it unpickled: the one thing not to do here
+        reason = ("not an array file, and never unpickled" if "allow_pickle" in str(exc)
+                  else str(exc))
         raise ValueError(f"{file} is not a policy's weights, arrays as lgmd-sim train "
-                         f"writes them ({exc})") from None
+                         f"writes them ({reason})") from None
 
 
 def save(folder: str | os.PathLike, model: Any, config: PolicyConfig,
