@@ -33,6 +33,8 @@ _DASHES = ["-", (0, (5, 1.5)), (0, (6, 1.5, 1.5, 1.5))]
 #: same place: lines or points that coincide nest (the last drawn, narrowest, on top).
 _LW, _LW_STEP = 1.6, 1.5
 _MS, _MS_STEP = 7.0, 3.5
+#: How far apart neighbouring cells' points stand at a jitter level (share of the span).
+_DODGE = 0.012
 #: Margin of the trajectory panels around the paths, obstacles and goal (m).
 _PAD = 0.4
 
@@ -122,13 +124,17 @@ def _rates_vs_jitter(path: Path, rows: Sequence[dict[str, Any]], scenarios: list
         for r in sorted(rows, key=lambda r: (list(styles).index(r["cell"]), r["jitter"])):
             if r["scenario"] == sc:
                 lines[r["cell"]].append(r)
+        # each cell a little to the side of its jitter level, so that error bars of equal
+        # rates stand side by side
+        dodge = {cell: (k - (len(lines) - 1) / 2) * _DODGE * span
+                 for k, cell in enumerate(lines)}
         for ax, rate, ci in ((ax_col, "collision_rate", "collision_ci"),
                              (ax_suc, "success_rate", "success_ci")):
-            curves = [np.array([[r["jitter"] / span, r[rate]] for r in rs])
-                      for rs in lines.values()]
+            curves = [np.array([[(r["jitter"] + dodge[cell]) / span, r[rate]] for r in rs])
+                      for cell, rs in lines.items()]
             covers = [int(c.max()) for c in _covers(curves, 0.02)]
             for (cell, rs), widen in zip(lines.items(), covers, strict=True):
-                jit = np.array([r["jitter"] for r in rs])
+                jit = np.array([r["jitter"] for r in rs]) + dodge[cell]
                 y = np.array([r[rate] for r in rs])
                 err = np.abs(np.array([r[ci] for r in rs]).T - y)
                 marker = _point(styles[cell], widen)
