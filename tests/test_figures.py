@@ -186,3 +186,16 @@ def test_trajectory_axes_span_the_data_not_the_terrain(drawn):
         (x0, x1), (y0, y1) = ax.get_xlim(), ax.get_ylim()
         assert -1.0 <= x0 <= 0 and 6.0 <= x1 <= 7.0, (x0, x1)
         assert -3.0 <= y0 <= -2.0 and 1.5 <= y1 <= 2.5, (y0, y1)
+
+
+def test_error_bars_of_equal_rates_stand_side_by_side(drawn):
+    """At each jitter level every cell's point (and its error bar) has an x of its own,
+    close to the level: equal rates with equal intervals cannot hide each other."""
+    ax = drawn["collisions_vs_jitter.png"].axes[0]
+    xs = [x for line in ax.get_lines() if line.get_marker() not in ("", "None", None)
+          for x in line.get_xdata()]
+    levels = sorted(set(JITTERS))
+    span = max(1.0, max(levels) - min(levels))
+    for level in levels:
+        near = [x for x in xs if abs(x - level) < 0.1 * span]
+        assert len(near) >= len(CELLS) and len(set(np.round(near, 6))) == len(CELLS), near
