@@ -23,7 +23,7 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-from lgmd_sim.fileio import write_text_atomic
+from lgmd_sim.fileio import read_json, write_text_atomic
 
 __all__ = ["CALIBRATED", "DATA_DIR_VARIABLE", "PACKAGE", "check_presets_file", "data_presets",
            "merge_presets", "preset_files", "user_data_dir", "user_presets_file"]
@@ -82,12 +82,7 @@ def _read(path: Path) -> dict[str, Any]:
 
 @functools.cache
 def _load(path: str, _mtime_ns: int, _size: int) -> dict[str, Any]:
-    try:
-        data = json.loads(Path(path).read_text())
-    except OSError as exc:
-        raise OSError(exc.errno, f"cannot read presets file {path}: {exc.strerror}") from exc
-    except (UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise ValueError(f"presets file {path}: not valid JSON ({exc})") from exc
+    data = read_json(path)  # one line naming the file where it is unreadable or not JSON
     presets = data.get("presets") if isinstance(data, dict) else None
     if not isinstance(presets, dict) or not all(
             isinstance(v, dict) for v in presets.values()):
