@@ -15,6 +15,7 @@ import numpy as np
 from lgmd_sim import models
 from lgmd_sim.controllers.base import Controller
 from lgmd_sim.controllers.straight import DESIGN, StraightParams
+from lgmd_sim.models.sectors import Sectors, below_one
 from lgmd_sim.params import in_range, one_of, param, positive
 
 __all__ = [
@@ -62,6 +63,7 @@ class Avoider(Controller):
         self._until = -math.inf  # end of the current manoeuvre (s)
         self._turn = 0.0
         self.alarm = False
+        self.manoeuvring = False
 
     def act(self, obs: Mapping[str, np.ndarray], info: Mapping[str, Any]) -> np.ndarray:
         p, now = self.params, float(info["time"])
@@ -70,7 +72,8 @@ class Avoider(Controller):
         if side is not None and now >= self._until + p.refractory:
             self._until = now + p.avoid_time
             self._turn = -p.avoid_turn if side > 0 else p.avoid_turn  # away from the threat
-        if now < self._until:  # braking and turning away
+        self.manoeuvring = now < self._until
+        if self.manoeuvring:  # braking and turning away
             return np.array([p.avoid_speed, self._turn], np.float32)
         if now < self._until + p.pass_time:  # driving on, past the obstacle
             return np.array([p.cruise, 0.0], np.float32)
@@ -119,14 +122,27 @@ class ReactiveParams(AvoidParams):
     model_params: Mapping[str, Any] = field(
         default_factory=dict, metadata={"source": DESIGN, "check": None,
                                         "doc": "parameter overrides of the model"})
+    side: str = param("halves", "design: one LGMD, as the published models are",
+                      check=one_of("halves", "eyes"),
+                      doc="how the threat's side is told: 'halves', one LGMD over the whole "
+                          "view and its S layer's left and right halves; 'eyes', two LGMDs "
+                          "over overlapping left and right parts of the view, alarming when "
+                          "either does, turning away from the more excited")
+    eye_overlap: float = param(0.2, "Gary2017: the eyes see 0-60% and 40-100% of the width",
+                               check=below_one,
+                               doc="with side='eyes', the share of the view's width both "
+                                   "eyes see")
 
 
 class ReactiveAvoid(Avoider):
     """The manoeuvre triggered by an LGMD model's alarm (potential above its threshold),
-    turning away from the half of the view with more S-layer activity. Reads
-    ``obs["frame"]`` (every frame goes through the model), ``info["time"]``, and for a
-    model stabilized by the pose or the IMU (preset "...+pose", "...+imu") the camera's
-    rotation in ``info``."""
+    turning away from the threat's side: with ``side="halves"``, the half of the view
+    with more S-layer activity; with ``side="eyes"``, the more excited of two LGMDs over
+    overlapping left and right parts of the view (`lgmd_sim.models.sectors.Sectors`),
+    either of which alarms. ``potential`` is the last frame's membrane potential (of the
+    more excited eye). Reads ``obs["frame"]`` (every frame goes through the model),
+    ``info["time"]``, and for a model stabilized by the pose or the IMU (preset
+    "...+pose", "...+imu") the camera's rotation in ``info``."""
 
     Params = ReactiveParams
     params: ReactiveParams
@@ -134,7 +150,11 @@ class ReactiveAvoid(Avoider):
 
     def __init__(self, **params: Any) -> None:
         p = self.Params(**params)  # checked before the model is made from it
-        self.model = models.make(p.model, preset=p.preset, **dict(p.model_params))
+        if p.side == "eyes":
+            self.model = Sectors(p.model, preset=p.preset, columns=2, rows=1,
+                                 overlap=p.eye_overlap, **dict(p.model_params))
+        else:
+            self.model = models.make(p.model, preset=p.preset, **dict(p.model_params))
         super().__init__(**params)
 
     def reset(self) -> None:
@@ -144,10 +164,16 @@ class ReactiveAvoid(Avoider):
 
     def _trigger(self, obs: Mapping[str, np.ndarray], info: Mapping[str, Any]) -> float | None:
         # a pose- or IMU-stabilized model reads its rotation from info
-        out = self.model.step(obs["frame"], layers=True, rotation=self.model.rotation_from(info))
+        rotation = self.model.rotation_from(info)
+        if isinstance(self.model, Sectors):
+            out = self.model.step(obs["frame"], rotation=rotation)
+            left, right = (float(v) for v in out.potential)
+            self.potential = max(left, right)
+            return left - right if out.alarm.any() else None  # > 0: more on the left
+        out = self.model.step(obs["frame"], layers=True, rotation=rotation)
         self.potential = out.potential
         if not out.alarm:
             return None
-        s = out.layers["S"]
+        s = np.abs(out.layers["S"])  # signed in LGMD1 (E - w I): its activity either way
         half = s.shape[1] // 2
         return float(s[:, :half].mean() - s[:, -half:].mean())  # > 0: more on the left

@@ -27,6 +27,9 @@ class Controller(ABC):
     #: Whether the controller's detector (LGMD alarm, ground-truth trigger) fired on the
     #: last frame it acted on; False for controllers without one.
     alarm: bool = False
+    #: Whether the last action was an avoidance manoeuvre (braking and turning away from
+    #: a threat); False for controllers without one.
+    manoeuvring: bool = False
 
     def __init__(self, **params: Any) -> None:
         self.params = self.Params(**params)
