@@ -17,7 +17,7 @@ from lgmd_sim.cli import envs as cli_envs
 from lgmd_sim.envs import catalogue
 
 SCENARIOS = ["StationaryApproach", "HandheldApproach", "MutualApproach",
-             "RoughTerrainObstacles", "PassBy"]
+             "RoughTerrainObstacles", "PassBy", "ArenaRoam"]
 
 
 def make(name: str = "RoughTerrainObstacles", **overrides) -> gym.Env:

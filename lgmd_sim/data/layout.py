@@ -154,7 +154,8 @@ COLUMNS: list[Column] = [Column(*c) for c in (
     ("camera_angvel", "float64[3]", "rad/s", "camera angular velocity (camera frame: x "
      "right, y up, z backwards)"),
     ("camera_linvel", "float64[3]", "m/s", "camera linear velocity (camera frame)"),
-    ("threat_index", "int64", "", "the most threatening obstacle (-1: none)"),
+    ("threat_index", "int64", "", "the most threatening: static obstacles 0..n-1, then "
+     "the arena walls (front, back, left, right), then the mover (-1: none)"),
     ("threat_distance", "float64", "m", "its surface distance from the carrier"),
     ("threat_bearing", "float64", "rad", "its bearing from the camera heading (left +)"),
     ("threat_closing_speed", "float64", "m/s", "its closing speed (approaching +)"),

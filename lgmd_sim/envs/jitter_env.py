@@ -44,7 +44,8 @@ class JitterEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
       the previous camera frame, rad; zero on the reset frame) from its poses,
       ``pose_rotation``, and from its IMU, ``imu_rotation`` (the camera's angular velocity
       integrated over the frame's physics steps, with ``gyro_noise`` and ``gyro_bias``),
-      the most threatening obstacle's index, distance, bearing, closing
+      the most threatening obstacle's (or arena wall's; one touched in the frame first)
+      index, distance, bearing, closing
       speed and time to collision, collision flag and first collision frame, SSIM with
       the previous frame, goal distance and bearing, ``goal_reached`` and its alias
       ``is_success`` (the key stable-baselines3 logs as the success rate).

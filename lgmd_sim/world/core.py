@@ -67,6 +67,8 @@ class JitterWorld:
         self._renderer: OffscreenRenderer | None = None  # made on first use: GL per process
         self._ssim = SSIMStream(self.height, self.width)
         self._hit = self._collision_table()
+        self._owner_of = np.full(self.model.ngeom, -1)  # threat owner of each geom
+        self._owner_of[self.scene.threat_geoms] = self.scene.threat_owner
         self._fromto = np.zeros(6)
         self._vel = np.zeros(6)
         self._heights: np.ndarray | None = None
@@ -88,6 +90,10 @@ class JitterWorld:
                              for i in range(self.scene.n_threats)]
         self._threat_rbound = np.zeros(len(self.scene.threat_geoms))  # per episode
         self._has_mover = params.mover != "none"  # then the last threat owner
+        # Arena walls: their bounding spheres (half a wall long) rank nothing, so the exact
+        # distance of every wall is computed each frame.
+        self._walls = tuple(range(params.n_obstacles,
+                                  params.n_obstacles + len(self.scene.wall_geoms)))
         # The IMU: the camera's rotation over the last frame interval, from the poses and
         # integrated from the gyro (with its noise and bias, from their own generator).
         self._camera_quat = np.array([1.0, 0.0, 0.0, 0.0])
@@ -133,7 +139,7 @@ class JitterWorld:
         self._pose_rotation[:] = 0.0
         self._imu_rotation[:] = 0.0
         mujoco.mju_mat2Quat(self._camera_quat, d.cam_xmat[sc.camera])
-        self._observe(collided=self._touching())
+        self._observe(self._touching())
 
     def _settle(self) -> None:
         """Let the robot come to rest on the ground before the episode's first frame."""
@@ -159,7 +165,7 @@ class JitterWorld:
         elif self._held.moving:
             poses = self._held.advance(v, omega, n)
         self._apply_light(d.time + n * m.opt.timestep)
-        collided = False
+        touched: frozenset[int] = frozenset()
         # mj_step2 then mj_step1 (the split step): after the loop the state, kinematics,
         # contacts and sensors all belong to the same instant, so no extra mj_forward.
         if poses is not None:
@@ -173,8 +179,8 @@ class JitterWorld:
                 mocap_quat[:] = poses[1][k]
             mujoco.mj_step2(m, d)
             mujoco.mj_step1(m, d)
-            if d.ncon and not collided:
-                collided = self._touching()
+            if d.ncon and not touched:
+                touched = self._touching()
             # The velocity that moved the camera in this physics step (the integrator's
             # new one), in the camera's frame: integrated, it gives the rotation exactly.
             mujoco.mj_objectVelocity(m, d, mujoco.mjtObj.mjOBJ_CAMERA, sc.camera, vel, 1)
@@ -182,7 +188,7 @@ class JitterWorld:
         mujoco.mju_quat2Vel(self._imu_rotation, imu, 1.0)
         self._pose_rotation = self._camera_turn()
         self.frame_index += 1
-        self._observe(collided)
+        self._observe(touched)
 
     def _gyro_readings(self, n: int) -> np.ndarray:
         """The gyro's error at each of n physics steps: bias plus white noise (rad/s)."""
@@ -242,13 +248,15 @@ class JitterWorld:
         return np.clip(raw, -PROPRIO_RANGE, PROPRIO_RANGE).astype(np.float32)
 
     def top_view(self) -> dict[str, Any]:
-        """A map of this episode seen from above, for figures: each static obstacle's
-        footprint (a polygon of (x, y) corners, or a circle: centre and radius), the goal,
-        and the terrain heights with the extent (x0, x1, y0, y1) they cover (m)."""
+        """A map of this episode seen from above, for figures: the footprints (a polygon
+        of (x, y) corners, or a circle: centre and radius) of each static obstacle, then
+        of each arena wall (so that ``obstacles[threat_index]`` is the threat's, where it
+        is no mover), the goal, and the terrain heights with the extent (x0, x1, y0, y1)
+        they cover (m)."""
         m, d = self.model, self.data
         footprints: list[dict[str, Any]] = []
-        for _body, _kind, geoms in self.scene.obstacles:
-            g = geoms[0]
+        mains = [geoms[0] for _body, _kind, geoms in self.scene.obstacles]
+        for g in mains + self.scene.wall_geoms:
             centre, size = d.geom_xpos[g, :2], m.geom_size[g]
             if m.geom_type[g] == mujoco.mjtGeom.mjGEOM_BOX:
                 corners = np.array([[-1, -1], [1, -1], [1, 1], [-1, 1]]) * size[:2]
@@ -318,16 +326,16 @@ class JitterWorld:
         groups[sc.tile_geoms[:, 0]] = np.where(fine, 0, scene_mod.HIDDEN)
         groups[sc.tile_geoms[:, 1]] = np.where(visible & ~fine, 0, scene_mod.HIDDEN)
 
-    def _observe(self, collided: bool) -> None:
+    def _observe(self, touched: frozenset[int]) -> None:
         # Fresh arrays each frame (np.empty is free): callers may keep them as they are.
         self.rgb = self._render(self.scene.camera, None)
         self.grey = cv2.cvtColor(self.rgb, cv2.COLOR_RGB2GRAY)
         ssim = self._ssim.push(self.grey)
-        if collided and self.first_collision_frame < 0:
+        if touched and self.first_collision_frame < 0:
             self.first_collision_frame = self.frame_index
-        self.truth = self._ground_truth(collided, ssim)
+        self.truth = self._ground_truth(touched, ssim)
 
-    def _ground_truth(self, collided: bool, ssim: float) -> dict[str, Any]:
+    def _ground_truth(self, touched: frozenset[int], ssim: float) -> dict[str, Any]:
         m, d, sc = self.model, self.data, self.scene
         cam = sc.camera
         cam_pos = d.cam_xpos[cam].copy()
@@ -348,11 +356,11 @@ class JitterWorld:
             "camera_linvel": velocity[3:],
             "pose_rotation": self._pose_rotation.copy(),
             "imu_rotation": self._imu_rotation.copy(),
-            "collision": bool(collided),
+            "collision": bool(touched),
             "first_collision_frame": self.first_collision_frame,
             "ssim": ssim,
         }
-        truth.update(self._threat(cam_pos, cam_mat @ velocity[3:], forward, left))
+        truth.update(self._threat(cam_pos, cam_mat @ velocity[3:], forward, left, touched))
         if sc.goal_body >= 0:
             to_goal = d.xpos[sc.goal_body] - cam_pos
             truth["goal_distance"] = math.hypot(to_goal[0], to_goal[1])
@@ -360,12 +368,14 @@ class JitterWorld:
         return truth
 
     def _threat(self, cam_pos: np.ndarray, cam_vel: np.ndarray, forward: np.ndarray,
-                left: np.ndarray) -> dict[str, Any]:
-        """The most threatening obstacle: the soonest to collide, else the nearest.
+                left: np.ndarray, touched: frozenset[int]) -> dict[str, Any]:
+        """The most threatening obstacle or arena wall: one touched in this frame (in
+        `touched`), else the soonest to collide, else the nearest.
 
-        Bounding spheres rank the obstacles cheaply; the exact surface distance (MuJoCo's
-        geom distance from the carrier's main geom) is computed for the two candidates,
-        the soonest and the nearest, and decides between them.
+        Bounding spheres rank the obstacles and the mover cheaply; the exact surface
+        distance (MuJoCo's geom distance from the carrier's main geom) is computed for the
+        candidates, the soonest and the nearest of them, every arena wall and those
+        touched, and decides between them.
         """
         m, d, sc = self.model, self.data, self.scene
         n = sc.n_threats
@@ -376,7 +386,7 @@ class JitterWorld:
         if self._has_mover:
             mujoco.mj_objectVelocity(m, d, mujoco.mjtObj.mjOBJ_BODY, sc.mover_body, self._vel, 0)
             mover_vel = self._vel[3:].copy()
-        candidates: set[int] | tuple[int] = (0,)
+        candidates = {0, *self._walls, *touched}
         if n > 1:
             rel_vel = np.empty((n, 3))
             rel_vel[:] = -cam_vel
@@ -385,11 +395,12 @@ class JitterWorld:
             towards = d.geom_xpos[sc.threat_geoms] - cam_pos
             centre_dist = np.sqrt(np.einsum("ij,ij->i", towards, towards))
             rough = np.minimum.reduceat(centre_dist - self._threat_rbound, self._owner_start)
+            rough[list(self._walls)] = np.inf
             first = self._owner_start
             closing = -np.einsum("ij,ij->i", rel_vel, towards[first]) / centre_dist[first]
             ttc = np.maximum(rough, 0.0) / np.where(closing > 1e-6, closing, 1e-300)
-            candidates = {int(ttc.argmin()), int(rough.argmin())}
-        best: tuple[float, float, int, np.ndarray, float] | None = None
+            candidates = {int(ttc.argmin()), int(rough.argmin()), *self._walls, *touched}
+        best: tuple[tuple[bool, float, float], int, np.ndarray, float] | None = None
         for i in candidates:
             dist = math.inf
             for geom in self._owner_geoms[i]:
@@ -400,10 +411,14 @@ class JitterWorld:
             unit = point / max(math.sqrt(point @ point), 1e-9)
             rel = -cam_vel if (mover_vel is None or i < n - 1) else mover_vel - cam_vel
             speed = -float(rel @ unit)
-            key = (max(dist, 0.0) / speed if speed > 1e-6 else math.inf, dist)
-            if best is None or key < best[:2]:
-                best = (*key, i, unit, speed)
-        ttc_i, dist_i, i, unit, speed = best
+            ttc = max(dist, 0.0) / speed if speed > 1e-6 else math.inf
+            # One touched comes first: pressed against it at an angle, the carrier may
+            # close on it no more (its nearest point beside the camera) while it still
+            # closes on something far, an arena wall always.
+            key = (i not in touched, ttc, dist)
+            if best is None or key < best[0]:
+                best = (key, i, unit, speed)
+        (_apart, ttc_i, dist_i), i, unit, speed = best
         return {"threat_index": i, "threat_distance": float(dist_i),
                 "threat_bearing": _bearing(unit, forward, left),
                 "threat_closing_speed": speed, "threat_ttc": float(ttc_i)}
@@ -416,10 +431,14 @@ class JitterWorld:
             table[self.scene.threat_geoms, c] = True
         return table
 
-    def _touching(self) -> bool:
-        """Whether a contact joins the carrier and an obstacle now."""
+    def _touching(self) -> frozenset[int]:
+        """The threats (owner indices) that a contact joins to the carrier now."""
         g = self.data.contact.geom
-        return bool(self._hit[g[:, 0], g[:, 1]].any())
+        hit = self._hit[g[:, 0], g[:, 1]]
+        if not hit.any():
+            return frozenset()
+        # of each pair, the carrier's geom owns nothing (-1)
+        return frozenset(self._owner_of[g[hit]].max(axis=1).tolist())
 
 
 # --- helpers ------------------------------------------------------------------------------

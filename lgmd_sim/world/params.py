@@ -62,6 +62,11 @@ MAX_TILES = 400
 MAX_OBSTACLES, MAX_SCENERY = 200, 500
 #: Farthest distance (m) of anything placed by parameter: the goal, the obstacle field.
 MAX_DISTANCE = 1000.0
+#: The rough patch (and the arena walls around it) starts this far behind the start (m).
+ARENA_BACK = 2.0
+#: Least gap (m) between a static obstacle's footprint and the arena walls, and between
+#: the start and the walls: room for the robot (its footprint 0.34 m across) to pass and turn.
+WALL_GAP = 0.6
 CARRIERS = ("robot", "handheld", "tripod")
 OBSTACLE_KINDS = ("box", "cylinder", "wall", "balloon")
 MOVERS = ("none", "balloon", "ball", "swing", "vehicle")
@@ -166,6 +171,21 @@ class SceneParams(CheckedParams):
         doc="static obstacles lie at x in [x0, x1], |y| <= half-width (m)")
     obstacle_ahead: float = param(0.0, DESIGN, check=in_range(0.0, MAX_DISTANCE),
                                   doc="put the first obstacle this far straight ahead (0: no)")
+    obstacle_lane: float = param(
+        0.0, "design: obstacles beside the path, never in it, for clips whose truth is 'no "
+        "collision ahead'", check=in_range(0.0, MAX_DISTANCE),
+        doc="keep every static obstacle's footprint at least this far (m) to one side of "
+            "the line straight ahead of the start (y = 0); 0: anywhere in the field")
+    wall_yaw: tuple[float, float] | None = param(
+        None, "design: (-0.6, 0.6), walls mostly across the way ahead",
+        check=optional(tuple_of(in_range(-math.pi, math.pi), 2)),
+        doc="range of the seeded yaw of 'wall' obstacles (rad; 0: across the way, +-pi/2: "
+            "along it)")
+    arena_walls: bool = param(
+        False, "design: the walled arena LGMD robots roam in, closed so that the robot "
+        "keeps meeting obstacles", check=one_of(True, False),
+        doc="four walls (0.5 m high, 0.2 m thick) on the rough patch's edges (arena, from 2 m "
+            "behind the start), threats and collisions like obstacles")
     mover: str = param("none", DESIGN, check=one_of(*MOVERS),
                        doc=f"moving object: {', '.join(MOVERS)}")
     mover_distance: float = param(8.0, DESIGN, check=in_range(0.5, 200.0),
@@ -207,11 +227,39 @@ class SceneParams(CheckedParams):
         if not (x0 < x1 and half > 0):
             raise ValueError(f"parameter obstacle_field={self.obstacle_field!r}: "
                              "needs x0 < x1 and half-width > 0")
+        if self.wall_yaw is not None and self.wall_yaw[0] > self.wall_yaw[1]:
+            raise ValueError(f"parameter wall_yaw={self.wall_yaw!r}: low must be <= high")
+        if self.obstacle_lane >= half:
+            raise ValueError(f"parameter obstacle_lane={self.obstacle_lane!r}: must be less "
+                             f"than the obstacle_field half-width {half!r}")
+        if self.obstacle_lane > 0 and self.obstacle_ahead > 0:
+            raise ValueError(f"parameter obstacle_lane={self.obstacle_lane!r}: keeps obstacles "
+                             f"out of the path, where obstacle_ahead={self.obstacle_ahead!r} "
+                             "puts one; set one of them to 0")
         tiles = terrain.tile_grid(self.arena, self.terrain_cell)
         if self.resolved_roughness > 0 and tiles[0] * tiles[1] > MAX_TILES:
             raise ValueError(f"parameters arena={self.arena!r} / terrain_cell="
                              f"{self.terrain_cell!r}: {tiles[0] * tiles[1]} terrain tiles, more "
                              f"than {MAX_TILES}; use a coarser terrain_cell or a smaller arena")
+        if self.arena_walls:
+            self._check_inside_walls()
+
+    def _check_inside_walls(self) -> None:
+        """The start and the obstacle field must leave room inside the arena walls."""
+        ax0, ax1, _ay0, ay1 = self.arena_bounds
+        if ax1 <= WALL_GAP or ay1 <= WALL_GAP:
+            raise ValueError(f"parameter arena_walls=True: arena={self.arena!r} puts a wall "
+                             f"within {WALL_GAP} m of the start; lengthen or widen the arena")
+        x0, x1, half = self.obstacle_field
+        if (min(x1, ax1 - WALL_GAP) <= max(x0, ax0 + WALL_GAP)
+                or min(half, ay1 - WALL_GAP) <= self.obstacle_lane):
+            raise ValueError(f"parameter obstacle_field={self.obstacle_field!r}: no room inside "
+                             f"the arena walls (x in [{ax0:g}, {ax1:g}], |y| <= {ay1:g}, "
+                             f"less {WALL_GAP} m)")
+        if self.obstacle_ahead > 0 and not (ax0 + WALL_GAP < self.obstacle_ahead
+                                            < ax1 - WALL_GAP):
+            raise ValueError(f"parameter obstacle_ahead={self.obstacle_ahead!r}: must stand "
+                             f"inside the arena walls (x < {ax1 - WALL_GAP:g})")
 
     # -- derived -----------------------------------------------------------------------------
 
@@ -220,6 +268,23 @@ class SceneParams(CheckedParams):
         """Frame (height, width)."""
         res = self.resolution
         return RESOLUTIONS[res] if isinstance(res, str) else (int(res[0]), int(res[1]))
+
+    @property
+    def arena_bounds(self) -> tuple[float, float, float, float]:
+        """Extent (x0, x1, y0, y1) of the rough patch (m), where the arena walls stand:
+        `arena` from ARENA_BACK behind the start, rounded up to whole terrain tiles as the
+        terrain is; on flat ground `arena` as given."""
+        length, width = self.arena
+        if self.resolved_roughness > 0:
+            tiles_y, tiles_x = terrain.tile_grid(self.arena, self.terrain_cell)
+            tile = terrain.TILE_CELLS * self.terrain_cell
+            length, width = tiles_x * tile, tiles_y * tile
+        return -ARENA_BACK, length - ARENA_BACK, -width / 2, width / 2
+
+    @property
+    def resolved_wall_yaw(self) -> tuple[float, float]:
+        """Range (rad) of the seeded yaw of wall obstacles."""
+        return (-0.6, 0.6) if self.wall_yaw is None else self.wall_yaw
 
     @property
     def resolved_roughness(self) -> float:

@@ -19,11 +19,13 @@ from lgmd_sim.world import scene as scene_mod
 from lgmd_sim.world import terrain
 from lgmd_sim.world.carriers import HeldPath, Shake
 from lgmd_sim.world.gl import mujoco
-from lgmd_sim.world.params import SceneParams
+from lgmd_sim.world.params import WALL_GAP, SceneParams
 from lgmd_sim.world.scene import Scene
 
 #: Radius of the carrier's footprint (m) used to aim near misses: robot and camera rig.
 CARRIER_RADIUS = {"robot": 0.17, "handheld": 0.035, "tripod": 0.035}
+#: Places a static obstacle may try to stand clear of the others, the start and the goal.
+PLACE_TRIES = 100
 
 #: Terrain height (m) at world points (x, y) of the episode (`JitterWorld.ground_height`).
 GroundHeight = Callable[[np.ndarray | float, np.ndarray | float], np.ndarray]
@@ -96,35 +98,102 @@ def seed_scenery(rng: np.random.Generator, m: mujoco.MjModel, sc: Scene,
 def seed_obstacles(rng: np.random.Generator, m: mujoco.MjModel, sc: Scene, p: SceneParams,
                    ground: GroundHeight) -> None:
     """Seed the static obstacles' shapes and place them on the ground, apart from each
-    other, the start and the goal."""
-    x0, x1, half = p.obstacle_field
+    other, the start and the goal as far as PLACE_TRIES tries allow; inside the arena
+    walls and out of the obstacle lane always (ValueError where no try is)."""
     placed: list[tuple[float, float, float]] = []
-    goal = (p.goal_distance, 0.0) if p.goal_distance > 0 else None
     for i, (body, kind, geoms) in enumerate(sc.obstacles):
         radius = _shape_obstacle(rng, m, sc, p, kind, geoms)
-        ahead = i == 0 and p.obstacle_ahead > 0
-        if ahead:
+        if i == 0 and p.obstacle_ahead > 0:
             x, y = p.obstacle_ahead, 0.0
+            yaw = _obstacle_yaw(rng, p, kind, x, y)
         else:
-            for _ in range(100):
-                x, y = rng.uniform(x0, x1), rng.uniform(-half, half)
-                clear = math.hypot(x, y) > radius + 1.2 and all(
-                    math.hypot(x - a, y - b) > radius + r + 0.6 for a, b, r in placed)
-                if goal is not None:
-                    clear &= math.hypot(x - goal[0], y - goal[1]) > radius + p.goal_radius + 0.5
-                if clear:
-                    break
+            x, y, yaw = _place_obstacle(rng, m, p, i, kind, geoms, radius, placed)
         placed.append((x, y, radius))
-        if kind == "balloon":  # the pole to one side, seen from the start
-            yaw = math.atan2(y, x) + rng.choice([0.0, np.pi]) + rng.uniform(-0.4, 0.4)
-        elif kind == "wall":
-            yaw = rng.uniform(-0.6, 0.6)  # mostly across the way ahead
-        else:
-            yaw = rng.uniform(0, 2 * np.pi)
         # Sink obstacles a little so they meet sloped ground without gaps.
         m.body_pos[body] = [x, y, float(ground(x, y)) - 0.03]
         m.body_quat[body] = _yaw_quat(yaw)
         _refresh_bvh(m, body)
+
+
+def _place_obstacle(rng: np.random.Generator, m: mujoco.MjModel, p: SceneParams, index: int,
+                    kind: str, geoms: list[int], radius: float,
+                    placed: list[tuple[float, float, float]]) -> tuple[float, float, float]:
+    """Draw an obstacle's place (x, y) and yaw: the first try clear of the others (by
+    0.6 m between their footprint circles), the start (1.2 m) and the goal (0.5 m); else
+    the last one tried, or, inside walls or beside a lane, the least crowded one."""
+    x0, x1, half = p.obstacle_field
+    y0, y1 = -half, half
+    if p.arena_walls:  # tries only where the centre may stand (SceneParams checks there is room)
+        ax0, ax1, ay0, ay1 = p.arena_bounds
+        x0, x1 = max(x0, ax0 + WALL_GAP), min(x1, ax1 - WALL_GAP)
+        y0, y1 = max(y0, ay0 + WALL_GAP), min(y1, ay1 - WALL_GAP)
+    # The walls and the lane bound the whole footprint, which turns with the yaw: then
+    # each try draws its yaw. Otherwise the yaw is drawn once placed, as it always was,
+    # so that seeds give the worlds they gave before the walls and the lane.
+    bounded = p.arena_walls or p.obstacle_lane > 0
+    chosen: tuple[float, float, float | None] | None = None
+    most = -math.inf
+    for _ in range(PLACE_TRIES):
+        x, y = rng.uniform(x0, x1), rng.uniform(y0, y1)
+        yaw = _obstacle_yaw(rng, p, kind, x, y) if bounded else None
+        if yaw is not None and not _within_bounds(m, p, geoms, x, y, yaw):
+            continue
+        # the least of the gaps beyond those wanted: clear where positive
+        slack = min([math.hypot(x, y) - radius - 1.2]
+                    + [math.hypot(x - a, y - b) - radius - r - 0.6 for a, b, r in placed])
+        if p.goal_distance > 0:
+            slack = min(slack, math.hypot(x - p.goal_distance, y) - radius - p.goal_radius - 0.5)
+        if not bounded or slack > most:
+            chosen, most = (x, y, yaw), slack
+        if slack > 0:
+            break
+    if chosen is None:
+        where = " inside the arena walls" if p.arena_walls else ""
+        if p.obstacle_lane > 0:
+            where += f" {p.obstacle_lane:g} m off the path (obstacle_lane)"
+        raise ValueError(f"obstacle {index} ({kind}) found no place in obstacle_field="
+                         f"{p.obstacle_field!r}{where} in {PLACE_TRIES} tries; widen the "
+                         "field or narrow obstacle_lane")
+    x, y, yaw = chosen
+    return x, y, _obstacle_yaw(rng, p, kind, x, y) if yaw is None else yaw
+
+
+def _obstacle_yaw(rng: np.random.Generator, p: SceneParams, kind: str, x: float,
+                  y: float) -> float:
+    if kind == "balloon":  # the pole to one side, seen from the start
+        return math.atan2(y, x) + rng.choice([0.0, np.pi]) + rng.uniform(-0.4, 0.4)
+    if kind == "wall":
+        return rng.uniform(*p.resolved_wall_yaw)
+    return rng.uniform(0, 2 * np.pi)
+
+
+def _within_bounds(m: mujoco.MjModel, p: SceneParams, geoms: list[int], x: float, y: float,
+                   yaw: float) -> bool:
+    """Whether an obstacle at (x, y, yaw) keeps its whole footprint (every solid geom:
+    box corners, round geoms' radii) WALL_GAP inside the arena walls and out of the lane."""
+    c, s = math.cos(yaw), math.sin(yaw)
+    rot = np.array([[c, -s], [s, c]])
+    points = []
+    for g in geoms:
+        if not m.geom_contype[g]:
+            continue
+        centre = rot @ m.geom_pos[g, :2] + (x, y)
+        size = m.geom_size[g]
+        if m.geom_type[g] == mujoco.mjtGeom.mjGEOM_BOX:
+            corners = np.array([[-1, -1], [1, -1], [1, 1], [-1, 1]]) * size[:2]
+            points.append(corners @ rot.T + centre)
+        else:  # cylinders, spheres, ellipsoids: round in the ground plane
+            points.append(centre + np.array([[-1, -1], [1, 1]]) * size[0])
+    xy = np.concatenate(points)
+    (lo_x, lo_y), (hi_x, hi_y) = xy.min(0), xy.max(0)
+    lane = p.obstacle_lane
+    if lane > 0 and not (lo_y >= lane or hi_y <= -lane):
+        return False
+    if p.arena_walls:
+        ax0, ax1, ay0, ay1 = p.arena_bounds
+        return (lo_x >= ax0 + WALL_GAP and hi_x <= ax1 - WALL_GAP
+                and lo_y >= ay0 + WALL_GAP and hi_y <= ay1 - WALL_GAP)
+    return True
 
 
 def place_carrier(rng: np.random.Generator, m: mujoco.MjModel, d: mujoco.MjData, sc: Scene,

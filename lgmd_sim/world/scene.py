@@ -5,7 +5,8 @@ one compiled model serves every episode of an environment: `lgmd_sim.world.rando
 seeds each episode by writing positions, sizes, colours, materials, light and terrain
 heights into the model in place. The layout: the carrier starts at the origin heading
 along +x; the rough terrain patch (a heightfield) spans `arena` from 2 m behind the start
-and blends into a flat ground plane; the goal (if any) lies straight ahead.
+and blends into a flat ground plane; the arena walls (if any) stand around its edges; the
+goal (if any) lies straight ahead.
 """
 
 from __future__ import annotations
@@ -18,10 +19,8 @@ import numpy as np
 from lgmd_sim.resources import assets_dir
 from lgmd_sim.world import terrain
 from lgmd_sim.world.gl import mujoco
-from lgmd_sim.world.params import SceneParams
+from lgmd_sim.world.params import ARENA_BACK, SceneParams
 
-#: The rough patch starts this far behind the carrier's start (m).
-ARENA_BACK = 2.0
 #: Side of the flat ground plane (m): far beyond anything the camera resolves. It is drawn
 #: as 2 x 2 quads (the third plane size is the render grid spacing): a fine grid costs
 #: more than the rest of a frame on software GL.
@@ -45,6 +44,16 @@ TEXTURE_SIZE = 256
 PREFIX = "carrier/"
 #: Obstacle materials: index -1 (plain colour) and these textures.
 OBSTACLE_TEXTURES = ("checker", "stripes", "blotches")
+#: The arena walls, in the order of their geoms and threat indices (after the obstacles').
+WALLS = ("front", "back", "left", "right")
+#: Arena wall height and thickness (m): above the robot's camera (14 cm) by far, and
+#: 50 physics steps of travel at full speed thick.
+WALL_HEIGHT, WALL_THICKNESS = 0.5, 0.2
+#: The arena walls' checker: squares of this side (m), edges across and along to loom at
+#: every distance, in two tints (brick red, sand); their tops and backs are plain.
+WALL_CHECK = 0.25
+WALL_TINTS = ([0.8, 0.42, 0.3], [0.85, 0.75, 0.55])
+WALL_EDGE = [0.55, 0.3, 0.22, 1.0]
 
 
 @dataclass
@@ -84,6 +93,8 @@ class Scene:
     sun: int = -1
     # Static obstacles: body id, kind, and geom ids in the order documented in _add_obstacle.
     obstacles: list[tuple[int, str, list[int]]] = field(default_factory=list)
+    # The arena walls' geoms, in the order of WALLS (empty without arena_walls).
+    wall_geoms: list[int] = field(default_factory=list)
     # The moving object: its kind, body, geoms, joint qpos/dof address and a pivot body.
     mover_kind: str = "none"
     mover_body: int = -1
@@ -93,9 +104,10 @@ class Scene:
     mover_pivot: int = -1
     scenery: list[tuple[int, list[int]]] = field(default_factory=list)
     goal_body: int = -1
-    # Geoms a collision with the carrier counts for (static obstacles and the mover).
+    # Geoms a collision with the carrier counts for (static obstacles, walls, the mover).
     threat_geoms: np.ndarray = field(default_factory=lambda: np.zeros(0, int))
-    # threat_geoms[i] belongs to obstacle threat_owner[i] (movers are the last owner).
+    # threat_geoms[i] belongs to threat threat_owner[i]: the static obstacles in order,
+    # then the arena walls, then the mover (always the last owner).
     threat_owner: np.ndarray = field(default_factory=lambda: np.zeros(0, int))
     n_threats: int = 0
 
@@ -119,6 +131,8 @@ def build(params: SceneParams) -> Scene:
     _carrier(spec, params)
     for i in range(params.n_obstacles):
         _add_obstacle(spec, f"obstacle_{i}", params.obstacle_kinds[i % len(params.obstacle_kinds)])
+    if params.arena_walls:
+        _arena_walls(spec, params)
     if params.mover != "none":
         _add_mover(spec, params.mover)
     for i in range(params.scenery):
@@ -292,6 +306,44 @@ def _add_obstacle(spec: mujoco.MjSpec, name: str, kind: str) -> None:
               rgba=[0.9, 0.9, 0.9, 1])
 
 
+def _arena_walls(spec: mujoco.MjSpec, params: SceneParams) -> None:
+    """Four walls, their inner faces on the arena's edges; the front and back walls span
+    the side walls' ends, so that the corners are closed. Sunk as the obstacles are, into
+    ground that the terrain's taper has brought down to zero there.
+
+    Each wall is a plain box (the physics, the threat distances) with a checkered plane
+    just in front of its inner face: MuJoCo maps 2D textures across planes, not across a
+    box's upright faces, and many checkered panels would cost more than the whole frame."""
+    x0, x1, y0, y1 = params.arena_bounds
+    t, sink = WALL_THICKNESS, 0.03
+    half_z = (WALL_HEIGHT + sink) / 2
+    spec.add_texture(name="arena_wall", type=mujoco.mjtTexture.mjTEXTURE_2D,
+                     builtin=mujoco.mjtBuiltin.mjBUILTIN_CHECKER, width=64, height=64,
+                     rgb1=WALL_TINTS[0], rgb2=WALL_TINTS[1])
+    # uniform on a plane: texture tiles (2 x 2 squares) per 2 m (seen in its frames)
+    _material(spec, "arena_wall", "arena_wall", repeat=1 / WALL_CHECK, uniform=True)
+    # centre, half size along the wall, inward normal of each wall's inner face
+    faces = {"front": ((x1, 0.0), (y1 - y0) / 2 + t, (-1.0, 0.0)),
+             "back": ((x0, 0.0), (y1 - y0) / 2 + t, (1.0, 0.0)),
+             "left": (((x0 + x1) / 2, y1), (x1 - x0) / 2, (0.0, -1.0)),
+             "right": (((x0 + x1) / 2, y0), (x1 - x0) / 2, (0.0, 1.0))}
+    up = np.array([0.0, 0.0, 1.0])
+    for name in WALLS:
+        (cx, cy), half, (nx, ny) = faces[name]
+        normal = np.array([nx, ny, 0.0])
+        along = np.cross(up, normal)
+        centre = np.array([cx, cy, half_z - sink])
+        size = np.abs(along) * half + np.abs(normal) * t / 2 + up * half_z
+        spec.worldbody.add_geom(name=f"arena_wall_{name}", type=mujoco.mjtGeom.mjGEOM_BOX,
+                                pos=centre - normal * t / 2, size=size, rgba=WALL_EDGE,
+                                contype=BIT_WORLD, conaffinity=BIT_WORLD)
+        quat = np.empty(4)  # the plane's x along the wall, y up, z (its front) inwards
+        mujoco.mju_mat2Quat(quat, np.column_stack([along, up, normal]).ravel())
+        spec.worldbody.add_geom(type=mujoco.mjtGeom.mjGEOM_PLANE, pos=centre + normal * 0.005,
+                                quat=quat, size=[half, half_z, half], material="arena_wall",
+                                contype=0, conaffinity=0)
+
+
 def _add_mover(spec: mujoco.MjSpec, kind: str) -> None:
     """The moving object; geoms in order: balloon/ball/swing -> [sphere, string?];
     vehicle -> [body, cabin, 4 wheels]."""
@@ -422,6 +474,10 @@ def _index(model: mujoco.MjModel, params: SceneParams) -> Scene:
         solid = [g for g in geoms if model.geom_contype[g]]
         threats += solid
         owners += [i] * len(solid)
+    for k, name in enumerate(WALLS if params.arena_walls else ()):
+        scene.wall_geoms.append(_id(model, obj.mjOBJ_GEOM, f"arena_wall_{name}"))
+        threats.append(scene.wall_geoms[-1])
+        owners.append(params.n_obstacles + k)
     if params.mover != "none":
         scene.mover_kind = params.mover
         scene.mover_body = _id(model, obj.mjOBJ_BODY, "mover")
@@ -434,10 +490,10 @@ def _index(model: mujoco.MjModel, params: SceneParams) -> Scene:
             scene.mover_pivot = _id(model, obj.mjOBJ_BODY, "mover_pivot")
             solid += _body_geoms(model, scene.mover_pivot)
         threats += solid
-        owners += [params.n_obstacles] * len(solid)
+        owners += [params.n_obstacles + len(scene.wall_geoms)] * len(solid)
     scene.threat_geoms = np.array(threats, dtype=int)
     scene.threat_owner = np.array(owners, dtype=int)
-    scene.n_threats = params.n_obstacles + (params.mover != "none")
+    scene.n_threats = params.n_obstacles + len(scene.wall_geoms) + (params.mover != "none")
     for i in range(params.scenery):
         body = _id(model, obj.mjOBJ_BODY, f"scenery_{i}")
         scene.scenery.append((body, _body_geoms(model, body)))
