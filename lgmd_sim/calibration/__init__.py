@@ -2,7 +2,9 @@
 objective on clips it never saw (`lgmd-sim calibrate`: `CalibrateConfig` -> `calibrate`,
 in `lgmd_sim.calibration.run`).
 
-- `lgmd_sim.calibration.objective`: every clip a hit or a miss;
+- `lgmd_sim.calibration.objective`: every clip a hit or a miss (the walker's clips);
+- `lgmd_sim.calibration.robot`: the robot task's objective: an alarm in the manoeuvre's
+  window, silence beyond the horizon;
 - `lgmd_sim.calibration.clips`: the clips, recorded once;
 - `lgmd_sim.calibration.search`: each model's free parameters and one candidate's score.
 """

@@ -8,18 +8,20 @@ rotations...), so that front ends fed by the ground truth can replay it too.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+import math
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from lgmd_sim.calibration.objective import ClipLabel
+from lgmd_sim.calibration.objective import WALKER, ClipLabel
+from lgmd_sim.controllers import Straight
 from lgmd_sim.fileio import atomic_output
 
-__all__ = ["DEFAULT_GROUPS", "FRONT_ENDS", "ClipSpec", "clip_motions", "label", "load_clip",
-           "record_clip", "specs"]
+__all__ = ["DEFAULT_GROUPS", "FRONT_ENDS", "LOOKAHEAD", "ROBOT_GROUPS", "ClipSpec", "HoldLine",
+           "clip_motions", "label", "load_clip", "load_truth", "record_clip", "specs"]
 
 #: The front ends the calibration also tunes every detector with (see
 #: `lgmd_sim.models.stabilize`): the rotation fitted from the frames, or the IMU's.
@@ -34,6 +36,30 @@ DEFAULT_GROUPS: dict[str, list[tuple[str, tuple[float, ...]]]] = {
                    ("MutualApproach", (0.0,))],
     "near_miss": [("PassBy", (0.0, 1.0))],
 }
+#: The robot's clips (`lgmd_sim.calibration.robot`), by kind: driving at an obstacle, and
+#: driving where none is in its way, over ground as rough as the closed-loop benchmark's.
+ROBOT_GROUPS: dict[str, list[tuple[str, tuple[float, ...]]]] = {
+    "approach": [("RobotApproach", (0.0, 1.0, 2.0)), ("RobotWallAhead", (0.0, 1.0, 2.0))],
+    "clear": [("RobotOpenGround", (0.0, 1.0, 2.0)), ("RobotPassBy", (0.0, 1.0, 2.0))],
+}
+
+
+#: How far ahead on its line the robot's clips steer for (m).
+LOOKAHEAD = 2.0
+
+
+class HoldLine(Straight):
+    """`Straight` steering for a point `LOOKAHEAD` ahead on the line y = 0, the line the
+    robot's scenarios place their obstacles by: the rough ground turns the robot as it
+    settles at the start (up to about 30 degrees at jitter 2) and as it drives, so that
+    without it an approach would miss its obstacle and a pass-by meet one."""
+
+    def act(self, obs: Mapping[str, np.ndarray], info: Mapping[str, Any]) -> np.ndarray:
+        _x, y = info["carrier_pos"][:2]
+        w, qx, qy, qz = info["carrier_quat"]
+        yaw = math.atan2(2 * (w * qz + qx * qy), 1 - 2 * (qy * qy + qz * qz))
+        bearing = math.remainder(math.atan2(-y, LOOKAHEAD) - yaw, math.tau)
+        return super().act(obs, {**info, "goal_bearing": bearing})
 
 
 @dataclass(frozen=True)
@@ -50,17 +76,21 @@ class ClipSpec:
         return f"{self.scenario}-j{self.jitter:g}-s{self.seed}"
 
 
-def record_clip(spec: ClipSpec, folder: str, resolution: Any) -> dict[str, Any]:
-    """Record one clip into ``folder/<key>.npz`` (a job); return its label."""
+def record_clip(spec: ClipSpec, folder: str, resolution: Any, cruise: float | None = None
+                ) -> dict[str, Any]:
+    """Record one clip into ``folder/<key>.npz`` (a job); return its label. The carrier is
+    driven by `Straight` (the walker's clips), or with `cruise` by `HoldLine` at that
+    forward action (the robot's)."""
     import cv2
     import gymnasium as gym
 
-    from lgmd_sim.controllers import Straight, rollout
+    from lgmd_sim.controllers import rollout
     from lgmd_sim.envs.catalogue import scenario
 
     env = gym.make(scenario(spec.scenario).env_id, jitter=spec.jitter, resolution=resolution)
     try:
-        steps = list(rollout(env, Straight(), seed=spec.seed))
+        driver = Straight() if cruise is None else HoldLine(cruise=cruise)
+        steps = list(rollout(env, driver, seed=spec.seed))
         fps, fovy = float(env.unwrapped.params.fps), float(env.unwrapped.params.fovy)
     finally:
         env.close()
@@ -103,6 +133,12 @@ def load_clip(folder: str | Path, key: str, front: str | None = None
         return z["frames"], (z[f"motion_{front}"] if front else None)
 
 
+def load_truth(folder: str | Path, key: str, names: Sequence[str]) -> dict[str, np.ndarray]:
+    """Per-frame ground truth of a recorded clip (``info`` names), each (T, ...)."""
+    with np.load(Path(folder) / f"{key}.npz") as z:
+        return {name: z[f"truth_{name}"] for name in names}
+
+
 def specs(groups: dict[str, list[tuple[str, tuple[float, ...]]]], seeds: Sequence[int]
           ) -> list[ClipSpec]:
     """Every clip of a set."""
@@ -111,4 +147,5 @@ def specs(groups: dict[str, list[tuple[str, tuple[float, ...]]]], seeds: Sequenc
 
 
 def label(record: dict[str, Any]) -> ClipLabel:
-    return ClipLabel(record["kind"], record["frames"], record["collision_frame"])
+    """A walker clip's label, from its record."""
+    return WALKER.label(record, {})

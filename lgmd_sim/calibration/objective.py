@@ -16,13 +16,20 @@ is a miss on a collision clip: the mean SI rewarded exactly that silence (docs/m
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from abc import ABC, abstractmethod
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
-__all__ = ["KINDS", "LATE", "ClipLabel", "first_crossings", "hits", "objective"]
+from lgmd_sim.runs import Fields
 
+__all__ = ["KINDS", "LATE", "THRESHOLDS", "WALKER", "ClipLabel", "Objective", "first_crossings",
+           "hits", "kind_rates", "objective", "pack_hits", "unpack_hits"]
+
+#: The thresholds every candidate is scored at (potentials lie in [0.5, 1)).
+THRESHOLDS = np.round(np.arange(0.52, 0.995, 0.005), 4)
 KINDS = ("jitter", "stationary", "near_miss")
 #: A jitter clip's first alarm must fall in this last fraction of its approach.
 LATE = 0.15
@@ -68,8 +75,93 @@ def hits(labels: Sequence[ClipLabel], potentials: Sequence[np.ndarray],
     return out
 
 
+def kind_rates(kinds: np.ndarray, hit: np.ndarray, names: Sequence[str]
+               ) -> dict[str, np.ndarray]:
+    """Each kind's hit rate at each threshold (columns of `hit`), of the kinds present."""
+    return {k: hit[kinds == k].mean(axis=0) for k in names if (kinds == k).any()}
+
+
 def objective(labels: Sequence[ClipLabel], hit: np.ndarray) -> tuple[np.ndarray, dict]:
     """The objective at each threshold (columns of `hit`), and each kind's hit rate."""
-    kinds = np.array([label.kind for label in labels])
-    rates = {k: hit[kinds == k].mean(axis=0) for k in KINDS if (kinds == k).any()}
+    rates = kind_rates(np.array([label.kind for label in labels]), hit, KINDS)
     return np.mean(list(rates.values()), axis=0), rates
+
+
+def pack_hits(hit: np.ndarray) -> list:
+    """(clips, thresholds) booleans as a candidate's record keeps them: bits, a row a clip."""
+    return np.packbits(hit, axis=1).tolist()
+
+
+def unpack_hits(bits: list, clips: int) -> np.ndarray:
+    """The (clips, `THRESHOLDS`) booleans of `pack_hits`."""
+    return np.unpackbits(np.array(bits, np.uint8), axis=1,
+                         count=len(THRESHOLDS))[:clips].astype(bool)
+
+
+@dataclass(frozen=True)
+class Objective(ABC):
+    """A calibration task's declared objective, as the search and the choice use it: a
+    label per clip from its record and ground truth, one candidate's scores on a set of
+    clips at every threshold (JSON, from one run), and the objective those give.
+
+    Attributes:
+        text: the objective as declared (saved with the presets it chose).
+        parts: what the objective averages, each with its summary column's heading.
+        titles: the figure's panel title of the objective and of each part.
+        fields: what a set's scores hold (`lgmd_sim.runs.Fields`), checked on resuming.
+        truth: the per-frame ground truth (``info`` names) its labels read.
+    """
+
+    text: str
+    parts: Mapping[str, str]
+    titles: Mapping[str, str]
+    fields: Fields
+    truth: tuple[str, ...] = ()
+
+    @abstractmethod
+    def identity(self) -> dict[str, Any]:
+        """What identifies the objective in a run's configuration (its constants)."""
+
+    @abstractmethod
+    def label(self, record: Mapping[str, Any], truth: Mapping[str, np.ndarray]) -> Any:
+        """What the objective needs to know of a clip: its record and its `truth`."""
+
+    @abstractmethod
+    def scores(self, labels: Sequence[Any], potentials: Sequence[np.ndarray],
+               thresholds: np.ndarray) -> Any:
+        """One candidate's scores on a set of clips at every threshold (JSON-ready)."""
+
+    @abstractmethod
+    def value(self, kinds: np.ndarray, scores: Any, at: slice
+              ) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+        """The objective and each part at the thresholds `at` of `THRESHOLDS`, from
+        `scores` of clips of these kinds."""
+
+
+class _Walker(Objective):
+    def identity(self) -> dict[str, Any]:
+        return {"late": LATE}
+
+    def label(self, record: Mapping[str, Any], truth: Mapping[str, np.ndarray]) -> ClipLabel:
+        return ClipLabel(record["kind"], record["frames"], record["collision_frame"])
+
+    def scores(self, labels: Sequence[ClipLabel], potentials: Sequence[np.ndarray],
+               thresholds: np.ndarray) -> list:
+        return pack_hits(hits(labels, potentials, thresholds))
+
+    def value(self, kinds: np.ndarray, scores: list, at: slice
+              ) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+        rates = kind_rates(kinds, unpack_hits(scores, len(kinds))[:, at], KINDS)
+        return np.mean(list(rates.values()), axis=0), rates
+
+
+#: The walker task's objective (this module's; the robot's: `lgmd_sim.calibration.robot`).
+WALKER = _Walker(
+    text=__doc__.strip(),
+    parts={"jitter": "jitter hits", "stationary": "stationary hits",
+           "near_miss": "near misses rejected"},
+    titles={"objective": "objective\n(mean of the three kinds)",
+            "jitter": "jitter clips:\nfirst alarm late and before the collision",
+            "stationary": "stationary clips:\nan alarm before the collision",
+            "near_miss": "near misses:\nno alarm"},
+    fields=[list])

@@ -1,23 +1,28 @@
 """`lgmd-sim calibrate`: the same search for every model, judged on clips it never saw.
 
-1. Record the clips (`lgmd_sim.calibration.clips`): a search set and a held-out set with
-   disjoint seeds, into ``DIR/clips``.
+A task (`TASKS`) is the clips and the objective they are judged by: "walker" (a hand-held,
+mutual or steady camera; `lgmd_sim.calibration.objective`) or "robot" (the robot driving
+at obstacles and past them; `lgmd_sim.calibration.robot`).
+
+1. Record the task's clips (`lgmd_sim.calibration.clips`): a search set and a held-out set
+   with disjoint seeds, into ``DIR/clips``.
 2. Evaluate every candidate of every detector (`lgmd_sim.calibration.search`): the same
    number of candidates each, one job each, records in ``DIR/records`` (resumable).
 3. Per detector, choose the candidate and threshold with the best objective on the search
-   set (`lgmd_sim.calibration.objective`); report it on the held-out set beside.
+   set; report it on the held-out set beside.
 4. Write ``DIR/summary.md``, ``DIR/calibration.png`` and ``DIR/calibrated.json``: the
    presets with the command, seeds, objective and figure that produced them. With
    ``save_presets`` also merge them into the user's presets file (or ``presets_file``:
    `lgmd_sim.models.presets`), which makes them the models' ``calibrated`` presets (and
    ``calibrated-open-loop`` for the feedback model's open-loop control, gain 0, tuned by
-   the same search) on top of the shipped ones; the other presets there stay.
+   the same search; the robot task's: ``robot``, ``robot-open-loop``) on top of the
+   shipped ones; the other presets there stay.
 """
 
 from __future__ import annotations
 
 import json
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -25,19 +30,40 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from lgmd_sim import options
+from lgmd_sim.bench.closed_loop import ClosedLoopConfig
 from lgmd_sim.calibration import clips as clip_mod
-from lgmd_sim.calibration import objective as obj
+from lgmd_sim.calibration.objective import WALKER, Objective
+from lgmd_sim.calibration.robot import ROBOT
 from lgmd_sim.calibration.search import SPACES, THRESHOLDS, candidates, evaluate
 from lgmd_sim.fileio import write_files, write_text_atomic
 from lgmd_sim.models import presets
 from lgmd_sim.parallel import Job, run_jobs
-from lgmd_sim.runs import NULL, RunFolder, RunResult
+from lgmd_sim.runs import NULL, Fields, RunFolder, RunResult
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
-__all__ = ["CalibrateConfig", "calibrate", "calibration_figure", "choose", "preset_name",
-           "summary_markdown"]
+__all__ = ["TASKS", "CalibrateConfig", "Task", "calibrate", "calibration_figure", "choose",
+           "preset_name", "summary_markdown"]
+
+
+@dataclass(frozen=True)
+class Task:
+    """What a calibration is about: its clips, the objective that judges them, and the
+    name its presets start with."""
+
+    objective: Objective
+    groups: Mapping[str, list[tuple[str, tuple[float, ...]]]]  # as clips.DEFAULT_GROUPS
+    prefix: str
+    cruise: float | None = None  # the forward action the clips are driven at (None: Straight's)
+
+
+#: The calibration tasks: the walker's clips (today's calibrated presets), and the robot's,
+#: driven at the closed-loop benchmark's cruise.
+TASKS: dict[str, Task] = {
+    "walker": Task(WALKER, clip_mod.DEFAULT_GROUPS, "calibrated"),
+    "robot": Task(ROBOT, clip_mod.ROBOT_GROUPS, "robot", ClosedLoopConfig.cruise),
+}
 
 
 @dataclass(frozen=True)
@@ -46,6 +72,7 @@ class CalibrateConfig:
     ValueError naming it).
 
     Attributes:
+        task: a key of `TASKS`: the clips and the objective ("walker" or "robot").
         detectors: keys of `lgmd_sim.calibration.search.SPACES` (a model, the feedback
             LGMD's open-loop control "feedback-open-loop", each also with a front end:
             "lgmd1+image"); None: every one.
@@ -62,6 +89,7 @@ class CalibrateConfig:
             one inside the installed package.
     """
 
+    task: str = "walker"
     detectors: tuple[str, ...] | None = None
     budget: int = 32
     seeds: int = 8
@@ -73,6 +101,8 @@ class CalibrateConfig:
     presets_file: str | Path | None = None
 
     def __post_init__(self) -> None:
+        if self.task not in TASKS:
+            raise ValueError(f"--task {self.task!r}: must be one of {', '.join(TASKS)}")
         object.__setattr__(self, "detectors", tuple(
             SPACES if self.detectors is None else options.names(
                 self.detectors, list(SPACES), "detector(s)")))
@@ -107,42 +137,45 @@ class CalibrateConfig:
         return list(range(self.heldout_seed, self.heldout_seed + self.seeds))
 
     def as_json(self) -> dict[str, Any]:
-        """The configuration as the run folder records it (what identifies the run)."""
-        return {"calibration": 1, "detectors": list(self.detectors), "budget": self.budget,
-                "search_seeds": [self.first_seed, self.seeds],
+        """The configuration as the run folder records it (what identifies the run); a
+        walker run's as before there were tasks, so that its folder still resumes."""
+        task = TASKS[self.task]
+        named = {} if self.task == "walker" else {"task": self.task, "cruise": task.cruise}
+        return {"calibration": 1, **named, "detectors": list(self.detectors),
+                "budget": self.budget, "search_seeds": [self.first_seed, self.seeds],
                 "heldout_seeds": [self.heldout_seed, self.seeds],
-                "resolution": self.resolution,
-                "groups": clip_mod.DEFAULT_GROUPS, "late": obj.LATE, "seed": self.seed}
+                "resolution": self.resolution, "groups": task.groups,
+                **task.objective.identity(), "seed": self.seed}
 
 
-#: What the search reads of a clip's record and of a candidate's: one holding less is
-#: refused on resuming.
+#: What the search reads of a clip's record and of a candidate's (its scores as the task's
+#: objective keeps them): one holding less is refused on resuming.
 CLIP_FIELDS = {"key": str, "kind": str, "frames": int, "collision_frame": (int, NULL)}
-CANDIDATE_FIELDS = {"detector": str, "index": int, "params": dict,
-                    "sets": {"search": [list], "heldout": [list]}}
 
 
-def preset_name(detector: str) -> tuple[str, str]:
-    """The (model, preset) a calibrated detector becomes: "calibrated", the feedback
-    LGMD's control "calibrated-open-loop", with a front end "calibrated-image" ..."""
+def _candidate_fields(objective: Objective) -> Fields:
+    return {"detector": str, "index": int, "params": dict,
+            "sets": {"search": objective.fields, "heldout": objective.fields}}
+
+
+def preset_name(detector: str, task: str = "walker") -> tuple[str, str]:
+    """The (model, preset) a calibrated detector becomes: the task's prefix ("calibrated",
+    "robot"), for the feedback LGMD's control "calibrated-open-loop", with a front end
+    "calibrated-image", "robot-open-loop-imu" ..."""
     model, _preset, _sample, front = SPACES[detector]
-    name = "calibrated-open-loop" if detector.startswith("feedback-open-loop") else "calibrated"
+    name = TASKS[task].prefix + ("-open-loop" if detector.startswith("feedback-open-loop")
+                                 else "")
     return model, name + (f"-{front}" if front else "")
 
 
-def _unpack(bits: list, clips: int) -> np.ndarray:
-    return np.unpackbits(np.array(bits, np.uint8), axis=1, count=len(THRESHOLDS))[:clips]
-
-
-def choose(records: Sequence[dict[str, Any]], clip_sets: dict[str, list[dict]]
-           ) -> dict[str, Any]:
+def choose(records: Sequence[dict[str, Any]], clip_sets: dict[str, list[dict]],
+           objective: Objective = WALKER) -> dict[str, Any]:
     """The best candidate and threshold of one detector on the search set, and how it
     does on both sets."""
-    labels = {s: [clip_mod.label(r) for r in recs] for s, recs in clip_sets.items()}
+    kinds = {s: np.array([r["kind"] for r in recs]) for s, recs in clip_sets.items()}
     best = None
     for rec in records:
-        hit = _unpack(rec["sets"]["search"], len(labels["search"])).astype(bool)
-        score, _ = obj.objective(labels["search"], hit)
+        score, _ = objective.value(kinds["search"], rec["sets"]["search"], slice(None))
         i = int(np.argmax(score))  # the lowest threshold among equals
         if best is None or score[i] > best[0]:
             best = (float(score[i]), rec, i)
@@ -150,36 +183,35 @@ def choose(records: Sequence[dict[str, Any]], clip_sets: dict[str, list[dict]]
     result = {"detector": rec["detector"], "candidate": rec["index"],
               "params": rec["params"], "threshold": float(THRESHOLDS[i])}
     for set_name in clip_sets:
-        hit = _unpack(rec["sets"][set_name], len(labels[set_name])).astype(bool)
-        score, rates = obj.objective(labels[set_name], hit[:, i:i + 1])
+        score, rates = objective.value(kinds[set_name], rec["sets"][set_name],
+                                       slice(i, i + 1))
         result[set_name] = {"objective": float(score[0]),
                             **{k: float(v[0]) for k, v in rates.items()}}
     return result
 
 
-def summary_markdown(chosen: Sequence[dict[str, Any]]) -> str:
-    """The chosen candidates, search and held-out, as a Markdown table."""
-    lines = ["| detector | threshold | objective search / held-out | jitter hits | "
-             "stationary hits | near misses rejected |", "|---|---:|---:|---:|---:|---:|"]
+def summary_markdown(chosen: Sequence[dict[str, Any]], objective: Objective = WALKER) -> str:
+    """The chosen candidates, search and held-out, as a Markdown table: the objective and
+    each of its parts."""
+    lines = ["| detector | threshold | objective search / held-out | "
+             + " | ".join(objective.parts.values()) + " |",
+             "|---|---:|---:|" + "---:|" * len(objective.parts)]
     for c in chosen:
         s, h = c["search"], c["heldout"]
-        cells = [f"{s[k]:.2f} / {h[k]:.2f}" for k in ("jitter", "stationary", "near_miss")]
+        cells = [f"{s[k]:.2f} / {h[k]:.2f}" for k in objective.parts]
         lines.append(f"| {c['detector']} | {c['threshold']:.3f} | "
                      f"{s['objective']:.3f} / {h['objective']:.3f} | {' | '.join(cells)} |")
     return "\n".join(lines) + "\n"
 
 
-TITLES = {"objective": "objective\n(mean of the three kinds)",
-          "jitter": "jitter clips:\nfirst alarm late and before the collision",
-          "stationary": "stationary clips:\nan alarm before the collision",
-          "near_miss": "near misses:\nno alarm"}
 #: Inches: what each detector's pair of bars takes in a panel, and the least a panel is
 #: wide, so that its title and the legend fit with a single detector.
 _PER_DETECTOR, _MIN_PANEL = 0.6, 3.4
 
 
-def calibration_figure(chosen: Sequence[dict[str, Any]]) -> Figure:
-    """calibration.png: per kind of clip and for the objective, each chosen detector's
+def calibration_figure(chosen: Sequence[dict[str, Any]], objective: Objective = WALKER
+                       ) -> Figure:
+    """calibration.png: for the objective and each of its parts, each chosen detector's
     score on the search and the held-out seeds."""
     from matplotlib.patches import Patch
 
@@ -191,7 +223,7 @@ def calibration_figure(chosen: Sequence[dict[str, Any]]) -> Figure:
     x = np.arange(len(names))
     colours = [model_style(n.split("-")[0])["color"] for n in names]
     bar = {"edgecolor": "black", "lw": 0.5}
-    for ax, what in zip(axes, ("objective", *obj.KINDS), strict=True):
+    for ax, what in zip(axes, ("objective", *objective.parts), strict=True):
         for k, (set_name, alpha) in enumerate((("search", 1.0), ("heldout", 0.45))):
             bars = ax.bar(x + (k - 0.5) * 0.38, [c[set_name][what] for c in chosen], 0.38,
                           color=colours, alpha=alpha, **bar)
@@ -200,7 +232,7 @@ def calibration_figure(chosen: Sequence[dict[str, Any]]) -> Figure:
                     b.set_hatch("//")
         ax.set_xticks(x, names, rotation=45, ha="right", fontsize="small")
         ax.set_xlim(-0.7, len(names) - 0.3)  # a lone detector's bars keep their width
-        ax.set_title(TITLES[what], fontsize="medium")
+        ax.set_title(objective.titles[what], fontsize="medium")
         ax.set_ylim(0, 1.02)
         ax.grid(axis="y", alpha=0.3)
     # the key in grey: the bars' colours are the detectors', named below each pair
@@ -221,15 +253,18 @@ def calibrate(config: CalibrateConfig, out: str | Path, *, resume: bool = False,
     """Run (or resume) the calibration of `config` in folder `out` (the arguments as
     `lgmd_sim.bench.closed_loop.run`'s); return one row per detector: the chosen
     candidate and threshold, with its scores on the search and held-out sets."""
+    task = TASKS[config.task]
+    objective = task.objective
     folder = RunFolder(out, config.as_json(), command, resume=resume)
     clip_dir = folder.path / "clips"
     clip_dir.mkdir(exist_ok=True)
-    sets = {"search": clip_mod.specs(clip_mod.DEFAULT_GROUPS, config.search_seeds),
-            "heldout": clip_mod.specs(clip_mod.DEFAULT_GROUPS, config.heldout_seeds)}
+    sets = {"search": clip_mod.specs(task.groups, config.search_seeds),
+            "heldout": clip_mod.specs(task.groups, config.heldout_seeds)}
     all_specs = [s for specs in sets.values() for s in specs]
     done = folder.done()
     jobs = [Job(f"clip-{s.key}", clip_mod.record_clip,
-                {"spec": s, "folder": str(clip_dir), "resolution": config.resolution})
+                {"spec": s, "folder": str(clip_dir), "resolution": config.resolution,
+                 "cruise": task.cruise})
             for s in all_specs if f"clip-{s.key}" not in done]
     common = {"workers": workers, "ray_address": ray_address, "progress": progress}
     run_jobs(jobs, lambda job, rec: folder.store(job.key, {**rec, "key": job.key[5:]}),
@@ -238,19 +273,19 @@ def calibrate(config: CalibrateConfig, out: str | Path, *, resume: bool = False,
                  for name, specs in sets.items()}
     cands = [c for d in config.detectors for c in candidates(d, config.budget, config.seed)]
     jobs = [Job(c.key, evaluate, {"candidate": c, "folder": str(clip_dir),
-                                  "clip_sets": clip_sets})
+                                  "clip_sets": clip_sets, "objective": objective})
             for c in cands if c.key not in done]
     run_jobs(jobs, lambda job, rec: folder.store(job.key, rec), desc="candidates",
              unit="candidate", **common)
     chosen = [choose(folder.records([c.key for c in cands if c.detector == d],
-                                  CANDIDATE_FIELDS), clip_sets)
+                                    _candidate_fields(objective)), clip_sets, objective)
               for d in config.detectors]
-    write_text_atomic(folder.path / "summary.md", summary_markdown(chosen))
-    fig = calibration_figure(chosen)
+    write_text_atomic(folder.path / "summary.md", summary_markdown(chosen, objective))
+    fig = calibration_figure(chosen, objective)
     write_files({folder.path / "calibration.png":
                  lambda tmp: fig.savefig(tmp, format="png", dpi=110)})
     calibration = {
-        "command": command, "objective": obj.__doc__.strip(),
+        "command": command, "objective": objective.text,
         "search_seeds": [config.first_seed, config.seeds],
         "heldout_seeds": [config.heldout_seed, config.seeds],
         "resolution": folder.config["resolution"], "budget": config.budget,
@@ -258,7 +293,7 @@ def calibrate(config: CalibrateConfig, out: str | Path, *, resume: bool = False,
         "presets": {preset_name(c["detector"])[0]: {} for c in chosen},
     }
     for c in chosen:
-        model, name = preset_name(c["detector"])
+        model, name = preset_name(c["detector"], config.task)
         _model, base, _sample, front = SPACES[c["detector"]]
         params = {**c["params"], "threshold": c["threshold"],
                   **({"stabilize": front} if front else {})}

@@ -2,7 +2,8 @@
 budget for every model, and the evaluation of one candidate on the recorded clips.
 
 The alarm threshold is free for every model, and costs nothing to search: one run of a
-candidate gives its potentials, and every threshold of `THRESHOLDS` is scored from them.
+candidate gives its potentials, and every threshold of `THRESHOLDS` is scored from them by
+the task's objective (`lgmd_sim.calibration.objective.Objective`).
 """
 
 from __future__ import annotations
@@ -14,13 +15,10 @@ from typing import Any
 
 import numpy as np
 
-from lgmd_sim.calibration.clips import FRONT_ENDS, label, load_clip
-from lgmd_sim.calibration.objective import hits
+from lgmd_sim.calibration.clips import FRONT_ENDS, load_clip, load_truth
+from lgmd_sim.calibration.objective import THRESHOLDS, WALKER, Objective
 
 __all__ = ["SPACES", "THRESHOLDS", "Candidate", "candidates", "evaluate"]
-
-#: The thresholds every candidate is scored at (potentials lie in [0.5, 1)).
-THRESHOLDS = np.round(np.arange(0.52, 0.995, 0.005), 4)
 
 
 def _log_uniform(lo: float, hi: float) -> Callable[[np.random.Generator], float]:
@@ -94,10 +92,10 @@ def candidates(detector: str, budget: int, seed: int) -> list[Candidate]:
         Candidate(detector, i, {**fixed, **sample(rng)}) for i in range(1, budget)]
 
 
-def evaluate(candidate: Candidate, folder: str, clip_sets: Mapping[str, Sequence[dict]]
-             ) -> dict[str, Any]:
-    """Run a candidate over every clip; per set, each clip's hits at every threshold (a
-    job, packed as bits: one row per clip)."""
+def evaluate(candidate: Candidate, folder: str, clip_sets: Mapping[str, Sequence[dict]],
+             objective: Objective = WALKER) -> dict[str, Any]:
+    """Run a candidate over every clip; per set, its scores by `objective` at every
+    threshold (a job)."""
     from lgmd_sim import models
     from lgmd_sim.models.warp import Motion
 
@@ -118,7 +116,8 @@ def evaluate(candidate: Candidate, folder: str, clip_sets: Mapping[str, Sequence
                 np.stack([hs[i] for (_, hs), i in zip(clips, at, strict=True)]))
             frames = np.stack([f[i] for (f, _), i in zip(clips, at, strict=True)])
             potentials[:, t] = model.step(frames, motion=motion).potential
-        hit = hits([label(r) for r in records],
-                   [p[:n] for p, n in zip(potentials, lengths, strict=True)], THRESHOLDS)
-        out["sets"][set_name] = np.packbits(hit, axis=1).tolist()
+        labels = [objective.label(r, load_truth(folder, r["key"], objective.truth))
+                  for r in records]
+        out["sets"][set_name] = objective.scores(
+            labels, [p[:n] for p, n in zip(potentials, lengths, strict=True)], THRESHOLDS)
     return out

@@ -21,15 +21,27 @@ def add(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "calibrate", help="tune every model by the same search on recorded clips; validate "
         "on held-out seeds; write calibrated presets",
-        description="Record clips (jitter approaches, stationary approaches, near misses) "
-        "with search seeds and held-out seeds; evaluate BUDGET candidate settings of every "
-        "detector (the feedback LGMD, its open-loop control, each baseline) on the search "
+        description="Record the task's clips (walker: jitter approaches, stationary "
+        "approaches, near misses; robot: the robot driving at obstacles and where none is "
+        "in its way) with search seeds and held-out seeds; evaluate BUDGET candidate "
+        "settings of every detector (the feedback LGMD, its open-loop control, each "
+        "baseline) on the search "
         "clips; choose each detector's best setting and threshold by the declared objective "
         "(docs/results.md) and report it on the held-out clips. Writes DIR/summary.md, "
         "DIR/calibration.png and DIR/calibrated.json (the presets, with the command, seeds "
         "and objective); --save-presets merges them into your presets file, which makes "
-        "them the models' `calibrated` presets on top of the shipped ones.",
+        "them the models' `calibrated` presets (robot task: `robot`) on top of the shipped "
+        "ones.",
     )
+    p.add_argument("--task", default="walker",
+                   help="walker (default): the clips of a hand-held, mutual or steady "
+                   "camera and near misses, a hit when the first alarm comes in the last "
+                   "15%% of an approach; presets calibrated, calibrated-image ... robot: "
+                   "the robot driving straight over rough ground (jitter 0, 1, 2) at "
+                   "obstacles and where none is in its way, a hit when the first alarm "
+                   "comes in the avoidance manoeuvre's window and silence while no obstacle "
+                   "is within 2 s (lgmd_sim.calibration.robot); presets robot, robot-imu, "
+                   "robot-image ...")
     p.add_argument("--detectors", default="all",
                    help="comma-separated among feedback, feedback-open-loop, lgmd1, lgmd2, "
                    "f_on, f_off, each also with a front end (+image: the rotation fitted "
@@ -69,14 +81,15 @@ def config_from_args(args: argparse.Namespace) -> Any:
     from lgmd_sim.calibration.run import CalibrateConfig
 
     return CalibrateConfig(
-        detectors=tuple(options.comma_list(args.detectors)), budget=args.budget,
+        task=args.task, detectors=tuple(options.comma_list(args.detectors)), budget=args.budget,
         seeds=args.seeds, first_seed=args.first_seed, heldout_seed=args.heldout_seed,
         seed=args.seed, resolution=args.resolution, save_presets=args.save_presets,
         presets_file=args.presets_file)
 
 
 def run(args: argparse.Namespace) -> int:
-    from lgmd_sim.calibration.run import calibrate, summary_markdown
+    from lgmd_sim.calibration.run import TASKS, calibrate, summary_markdown
 
-    result = calibrate(config_from_args(args), args.out, **run_folder_kwargs(args))
-    return print_result(summary_markdown(result.rows), result)
+    config = config_from_args(args)
+    result = calibrate(config, args.out, **run_folder_kwargs(args))
+    return print_result(summary_markdown(result.rows, TASKS[config.task].objective), result)

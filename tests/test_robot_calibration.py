@@ -1,0 +1,201 @@
+"""`lgmd-sim calibrate --task robot`: the robot objective on hand-made traces, the robot's
+preset names beside the walker's, and a tiny robot calibration end to end."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+import shutil
+
+import numpy as np
+import pytest
+
+from lgmd_sim import cli, models, options
+from lgmd_sim.calibration import clips, robot, run
+from lgmd_sim.calibration.objective import THRESHOLDS
+from lgmd_sim.models import presets
+
+#: Frames 0..100 of a straight approach: time to collision (100 - t) / 30 s, so that the
+#: window [0.5, 1.5] s is frames 55..85 and the clear frames (beyond 2 s) are 0..39.
+T = np.arange(101)
+TTC = (100 - T) / 30.0
+#: Frames 60..64: the threat is behind (beyond 90 degrees): not window frames.
+BEARING = np.where((T >= 60) & (T <= 64), 2.0, 0.0)
+#: The potential ramps up by 0.004 a frame: it first exceeds a threshold th at frame
+#: floor((th - 0.5) / 0.004) + 1.
+RAMP = 0.5 + 0.004 * T
+
+
+@pytest.fixture(autouse=True)
+def _window(monkeypatch):
+    """The placeholder window these traces are made for, whatever the lead sets."""
+    monkeypatch.setattr(robot, "TTC_LO", 0.5)
+    monkeypatch.setattr(robot, "TTC_HI", 1.5)
+
+
+def _approach() -> robot.FrameLabel:
+    return robot.frame_label("approach", TTC, BEARING)
+
+
+def _clear() -> robot.FrameLabel:
+    return robot.frame_label("clear", np.full(101, math.inf), np.zeros(101))
+
+
+def test_window_frames_are_ahead_within_the_ttc_window_and_clear_ones_beyond_the_horizon():
+    label = _approach()
+    assert robot.HORIZON == 2.0 and robot.AHEAD == 90.0  # the benchmark's and the Oracle's
+    assert T[label.window].tolist() == [*range(55, 60), *range(65, 86)]
+    assert T[label.clear].tolist() == list(range(40))
+    assert not (label.window & label.clear).any()
+    assert _clear().clear.all() and not _clear().window.any()
+
+
+def test_a_threat_passing_beside_a_clear_clip_makes_no_window_frames():
+    # an obstacle beside the path closes in (its TTC in the window) and is passed: the
+    # per-clip part wants silence there, and so does the per-frame part
+    passing = robot.frame_label("clear", np.full(10, 1.0), np.zeros(10))
+    assert not passing.window.any() and not passing.clear.any()
+
+
+def test_an_approach_is_a_hit_only_when_its_first_alarm_falls_in_the_window():
+    at = np.array([0.602, 0.73, 0.745, 0.85, 0.95])  # first alarm: 26, 58, 62, 88, never
+    hit = robot.hits([_approach()], [RAMP], at)
+    assert hit.tolist() == [[False, True, False, False, False]]  # too early, hit, behind,
+    # too late, never
+
+
+def test_a_clear_clip_is_a_hit_only_when_it_never_alarms():
+    assert robot.hits([_clear()], [RAMP], np.array([0.85, 0.95])).tolist() == [[False, True]]
+
+
+def test_frame_balanced_accuracy_by_hand():
+    at = np.array([0.602, 0.73, 0.95])
+    alarmed, silent = robot.frame_counts([_approach(), _clear()], [RAMP, RAMP], at)
+    # window frames (26): those past the first crossing; clear frames (40 + 101): those
+    # up to it, in the approach (frames 0..39) and in the clear clip (frames 0..100)
+    assert alarmed.tolist() == [26, 23, 0]
+    assert silent.tolist() == [26 + 26, 40 + 58, 40 + 101]
+
+
+def test_the_objective_is_the_mean_of_its_three_parts_from_one_run():
+    labels = [_approach(), _clear()]
+    potentials = [RAMP, np.full(101, 0.5)]  # the clear clip never alarms
+    scores = json.loads(json.dumps(robot.ROBOT.scores(labels, potentials, THRESHOLDS)))
+    i = int(np.flatnonzero(np.isclose(THRESHOLDS, 0.73))[0])
+    score, parts = robot.ROBOT.value(np.array(["approach", "clear"]), scores, slice(i, i + 1))
+    frames = (23 / 26 + (40 + 101) / 141) / 2
+    assert {k: float(v[0]) for k, v in parts.items()} == pytest.approx(
+        {"approach": 1.0, "clear": 1.0, "frames": frames})
+    assert score.tolist() == pytest.approx([(2 + frames) / 3])
+    full, _ = robot.ROBOT.value(np.array(["approach", "clear"]), scores, slice(None))
+    assert full.shape == THRESHOLDS.shape and full[i] == pytest.approx(score[0])
+
+
+def test_the_robot_presets_are_named_apart_from_the_walker_ones():
+    assert run.preset_name("lgmd1", "robot") == ("lgmd1", "robot")
+    assert run.preset_name("lgmd1+imu", "robot") == ("lgmd1", "robot-imu")
+    assert run.preset_name("f_on+image", "robot") == ("f_on", "robot-image")
+    assert run.preset_name("feedback-open-loop", "robot") == ("feedback", "robot-open-loop")
+    assert run.preset_name("feedback-open-loop+image", "robot") == (
+        "feedback", "robot-open-loop-image")
+    assert run.preset_name("lgmd1+image") == ("lgmd1", "calibrated-image")  # the walker's
+
+
+def _calibration(task: str, names: list[str], **params) -> dict:
+    score = {"objective": 1.0}
+    return {"command": f"lgmd-sim calibrate --task {task}", "objective": task,
+            "search_seeds": [0, 1], "heldout_seeds": [100, 1], "resolution": "small",
+            "budget": 1, "figure": "calibration.png",
+            "presets": {"lgmd1": {n: {"from": "published", "params": dict(params),
+                                      "search": score, "heldout": score} for n in names}}}
+
+
+def test_robot_presets_merge_beside_the_walker_ones(tmp_path, monkeypatch):
+    monkeypatch.setenv("LGMD_SIM_DATA_DIR", str(tmp_path / "user"))
+    shipped = tmp_path / "shipped.json"
+    shutil.copyfile(presets.CALIBRATED, shipped)
+    monkeypatch.setattr(presets, "CALIBRATED", shipped)
+    target = presets.user_presets_file()
+    presets.merge_presets(target, _calibration("walker", ["calibrated"], c_sig=2.0))
+    presets.merge_presets(target, _calibration(
+        "robot", ["robot", "robot-imu", "robot-image"], c_sig=5.0, threshold=0.8))
+    saved = json.loads(target.read_text())["presets"]["lgmd1"]
+    assert list(saved) == ["calibrated", "robot", "robot-imu", "robot-image"]
+    assert saved["calibrated"]["calibration"]["command"].endswith("walker")
+    assert saved["robot-imu"]["calibration"]["command"].endswith("robot")
+    assert models.make("lgmd1", preset="calibrated").params.c_sig == 2.0
+    assert models.make("lgmd1", preset="robot").params.threshold == 0.8
+    assert options.detectors("lgmd1", "robot,robot-imu,robot-image") == (
+        ("lgmd1", "robot"), ("lgmd1", "robot-imu"), ("lgmd1", "robot-image"))
+
+
+def test_a_bad_task_is_refused_by_the_config_and_the_command(tmp_path, capsys):
+    with pytest.raises(ValueError, match="task 'rover'"):
+        run.CalibrateConfig(task="rover")
+    assert cli.main(["calibrate", "--task", "rover", "--out", str(tmp_path / "c")]) == 2
+    err = capsys.readouterr().err
+    assert "rover" in err and len(err.strip().splitlines()) == 1
+    assert not (tmp_path / "c").exists()
+
+
+def test_a_walker_run_is_identified_as_before():
+    walker = run.CalibrateConfig().as_json()
+    assert "task" not in walker and walker["late"] == 0.15  # old run folders still resume
+    mine = run.CalibrateConfig(task="robot").as_json()
+    assert mine["task"] == "robot" and mine["groups"] == clips.ROBOT_GROUPS
+    assert mine["window"] == [robot.TTC_LO, robot.TTC_HI]
+
+
+def test_a_tiny_robot_calibration_end_to_end(tmp_path, monkeypatch):
+    # one approach and one clear scenario at one jitter level keep it quick
+    small = {"approach": [("RobotApproach", (1.0,))], "clear": [("RobotOpenGround", (1.0,))]}
+    monkeypatch.setitem(run.TASKS, "robot", dataclasses.replace(run.TASKS["robot"],
+                                                                groups=small))
+    out = tmp_path / "cal"
+    result = run.calibrate(run.CalibrateConfig(
+        task="robot", detectors=("lgmd1", "lgmd1+imu"), budget=2, seeds=1,
+        resolution="small"), out, workers=1, progress=False)
+    data = json.loads((out / "calibrated.json").read_text())
+    assert set(data["presets"]["lgmd1"]) == {"robot", "robot-imu"}
+    entry = data["presets"]["lgmd1"]["robot-imu"]
+    assert entry["params"]["stabilize"] == "imu"
+    assert set(entry["heldout"]) == {"objective", "approach", "clear", "frames"}
+    assert data["objective"] == robot.__doc__.strip()
+    summary = (out / "summary.md").read_text()
+    assert "approach clips hit" in summary and "frame balanced accuracy" in summary
+    assert (out / "calibration.png").stat().st_size > 10_000
+    # the robot drives at the closed-loop benchmark's cruise: about 0.6 m/s towards 4 m
+    record = json.loads((out / "records" / "clip-RobotApproach-j1-s0.json").read_text())
+    assert 150 < record["collision_frame"] < 250
+    # the chosen threshold scores on the held-out clips what the objective says there
+    heldout = [json.loads(p.read_text()) for p in sorted((out / "records").glob("clip-*-s100*"))]
+    labels = [robot.ROBOT.label(r, clips.load_truth(out / "clips", r["key"], robot.TRUTH))
+              for r in heldout]
+    model = models.make("lgmd1", preset="published", **result.rows[0]["params"])
+    potentials = []
+    for r in heldout:
+        frames, _ = clips.load_clip(out / "clips", r["key"])
+        model.reset()
+        potentials.append(np.array([model.step(f).potential for f in frames]))
+    i = int(np.flatnonzero(np.isclose(THRESHOLDS, result.rows[0]["threshold"]))[0])
+    scores = robot.ROBOT.scores(labels, potentials, THRESHOLDS)
+    score, _ = robot.ROBOT.value(np.array([r["kind"] for r in heldout]), scores,
+                                 slice(i, i + 1))
+    assert score[0] == pytest.approx(result.rows[0]["heldout"]["objective"])
+
+
+@pytest.mark.parametrize("names", [["lgmd1"], ["feedback", "feedback-open-loop+imu", "lgmd1",
+                                               "lgmd1+image", "f_on+imu"]])
+def test_calibration_png_names_the_robot_parts_and_lays_out(names):
+    score = {"objective": 0.6, "approach": 0.5, "clear": 1.0, "frames": 0.3}
+    fig = run.calibration_figure([{"detector": n, "search": score, "heldout": score}
+                                  for n in names], robot.ROBOT)
+    renderer = fig.canvas.get_renderer()
+    fig.draw(renderer)
+    assert [ax.get_title() for ax in fig.axes] == list(robot.ROBOT.titles.values())
+    titles = [ax.title.get_window_extent(renderer) for ax in fig.axes]
+    for box in [*titles, fig.legends[0].get_window_extent(renderer)]:  # nothing clipped
+        assert fig.bbox.x0 <= box.x0 and box.x1 <= fig.bbox.x1 and box.y1 <= fig.bbox.y1
+    for i, a in enumerate(titles):
+        assert not any(a.overlaps(b) for b in titles[i + 1:])
