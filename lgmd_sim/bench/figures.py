@@ -13,11 +13,33 @@ from lgmd_sim import metrics
 from lgmd_sim.fileio import write_files
 from lgmd_sim.plots import figure, model_style
 
-__all__ = ["CLOSED_LOOP", "closed_loop", "closed_loop_figures", "open_loop"]
+__all__ = ["ARENA_VS_JITTER", "CLOSED_LOOP", "closed_loop", "closed_loop_figures",
+           "encounters_figure", "open_loop"]
 
-#: The closed-loop benchmark's figures.
+#: The closed-loop benchmark's figures of every task.
 CLOSED_LOOP = ("collisions_vs_jitter.png", "false_alarms_vs_collisions.png",
                "trajectories.png")
+#: And of roam tasks (no goal): the avoidance rate, distance and false alarms against
+#: jitter; and per scenario and jitter level a map of the example episodes' encounters
+#: (`encounters_figure`).
+ARENA_VS_JITTER = "arena_vs_jitter.png"
+#: The panels of collisions_vs_jitter.png of a goal task and of a roam task (no success
+#: without a goal: the share of encounters avoided instead), and of arena_vs_jitter.png:
+#: (value, its interval, what it is, why a panel may have none).
+_GOAL_PANELS = (("collision_rate", "collision_ci", "collision rate", ""),
+                ("success_rate", "success_ci", "success rate", ""))
+_AVOIDED_PANEL = ("avoidance_rate", "avoidance_ci", "encounters avoided",
+                  "no cell met an obstacle")
+_ROAM_PANELS = (_GOAL_PANELS[0], _AVOIDED_PANEL)
+_ARENA_PANELS = (_AVOIDED_PANEL,
+                 ("distance_vs_oracle", None, "distance travelled / the Oracle's",
+                  "no Oracle cell ran"),
+                 ("false_alarms_per_min", None, "false alarms per minute", ""))
+#: An encounter's mark on the maps: avoided, and not (a collision).
+_AVOIDED = {"marker": "o", "ms": 10, "mfc": "none", "mec": "#1b9e1b", "mew": 2.2,
+            "ls": "none", "zorder": 5}
+_FAILED = {"marker": "X", "ms": 11, "color": "#e0101a", "mec": "white", "mew": 0.8,
+           "ls": "none", "zorder": 5}
 _CONTROLLER_STYLES = {
     "oracle": {"color": "black", "ls": "-", "marker": "s"},
     "straight": {"color": "0.6", "ls": (0, (1, 1)), "marker": "D"},
@@ -95,31 +117,66 @@ def _save(fig, path: Path) -> None:
     write_files({path: lambda tmp: fig.savefig(tmp, format="png", dpi=110)})
 
 
-def closed_loop_figures(top_views: bool) -> tuple[str, ...]:
-    """The names of the figures `closed_loop` writes: the trajectories only when records
-    carry top views."""
-    return CLOSED_LOOP if top_views else CLOSED_LOOP[:2]
+def _is_goal(row: dict[str, Any]) -> bool:
+    return row.get("task", "goal") == "goal"
+
+
+def encounters_figure(scenario: str, jitter: float) -> str:
+    """The name of the encounter map of a roam scenario at a jitter level."""
+    return f"encounters_{scenario}_j{jitter:g}.png"
+
+
+def closed_loop_figures(rows: Sequence[dict[str, Any]], examples: Sequence[dict[str, Any]]
+                        ) -> tuple[str, ...]:
+    """The names of the figures `closed_loop` writes from these rows and examples:
+    `CLOSED_LOOP` (the trajectories only with top views), and where there are roam tasks
+    `ARENA_VS_JITTER` and an encounter map per roam scenario and jitter level with a top
+    view."""
+    roam = {r["scenario"] for r in rows if not _is_goal(r)}
+    names = list(CLOSED_LOOP if examples else CLOSED_LOOP[:2])
+    if roam:
+        names.append(ARENA_VS_JITTER)
+        names += sorted({encounters_figure(e["scenario"], e["jitter"]) for e in examples
+                         if e["scenario"] in roam})
+    return tuple(names)
 
 
 def closed_loop(folder: Path, rows: Sequence[dict[str, Any]],
                 examples: Sequence[dict[str, Any]]) -> None:
     """The closed-loop figures (`closed_loop_figures`) from the summary rows and the
     records that carry a top view (one seed per cell, each with its row's "cell" label);
-    each cell has one style in every figure."""
+    each cell has one style in every figure. A roam task (no goal, so no success) shows
+    the share of encounters avoided where a goal task shows its success rate, and has
+    figures of its own: the arena's rates and where each encounter happened."""
     scenarios = sorted({r["scenario"] for r in rows})
+    roam = sorted({r["scenario"] for r in rows if not _is_goal(r)})
     styles = _styles(rows)
-    _rates_vs_jitter(folder / CLOSED_LOOP[0], rows, scenarios, styles)
+    _vs_jitter(folder / CLOSED_LOOP[0], rows, styles,
+               {sc: _ROAM_PANELS if sc in roam else _GOAL_PANELS for sc in scenarios})
     _false_alarms_vs_collisions(folder / CLOSED_LOOP[1], rows, scenarios, styles)
     if examples:
         _trajectories(folder / CLOSED_LOOP[2], examples, scenarios, styles)
+    if roam:
+        _vs_jitter(folder / ARENA_VS_JITTER, [r for r in rows if r["scenario"] in roam],
+                   styles, dict.fromkeys(roam, _ARENA_PANELS))
+        for sc in roam:
+            for j in sorted({e["jitter"] for e in examples if e["scenario"] == sc}):
+                _encounter_map(folder / encounters_figure(sc, j),
+                               [e for e in examples
+                                if (e["scenario"], e["jitter"]) == (sc, j)], styles)
 
 
-def _rates_vs_jitter(path: Path, rows: Sequence[dict[str, Any]], scenarios: list[str],
-                     styles: dict[str, dict[str, Any]]) -> None:
-    fig = figure(figsize=(11, 3.6 * len(scenarios)))
-    axes = fig.subplots(len(scenarios), 2, squeeze=False)
+def _vs_jitter(path: Path, rows: Sequence[dict[str, Any]], styles: dict[str, dict[str, Any]],
+               panels: dict[str, Sequence[tuple[str, str | None, str, str]]]) -> None:
+    """A row of panels per scenario (the keys of `panels`, each as many), one per (value,
+    interval, name, why it may be missing) of its panels: each cell's value against the
+    jitter level, with its 95% Wilson interval where it has one. A panel spans 0 to 1
+    (rates, ratios up to 1) or to its largest value."""
+    columns = len(next(iter(panels.values())))
+    fig = figure(figsize=(5.5 * columns, 3.6 * len(panels)))
+    axes = fig.subplots(len(panels), columns, squeeze=False)
     span = max(1.0, np.ptp([r["jitter"] for r in rows]))
-    for (ax_col, ax_suc), sc in zip(axes, scenarios, strict=True):
+    for ax_row, (sc, own) in zip(axes, panels.items(), strict=True):
         lines: dict[str, list[dict[str, Any]]] = defaultdict(list)
         for r in sorted(rows, key=lambda r: (list(styles).index(r["cell"]), r["jitter"])):
             if r["scenario"] == sc:
@@ -128,24 +185,31 @@ def _rates_vs_jitter(path: Path, rows: Sequence[dict[str, Any]], scenarios: list
         # rates stand side by side
         dodge = {cell: (k - (len(lines) - 1) / 2) * _DODGE * span
                  for k, cell in enumerate(lines)}
-        for ax, rate, ci in ((ax_col, "collision_rate", "collision_ci"),
-                             (ax_suc, "success_rate", "success_ci")):
-            curves = [np.array([[(r["jitter"] + dodge[cell]) / span, r[rate]] for r in rs])
-                      for cell, rs in lines.items()]
+        for ax, (value, ci, what, missing) in zip(ax_row, own, strict=True):
+            # a cell without the value (no encounter, no Oracle to compare with) is left out
+            shown = {cell: kept for cell, rs in lines.items()
+                     if (kept := [r for r in rs if r[value] is not None])}
+            top = max([1.0, *(r[value] for rs in shown.values() for r in rs)])
+            curves = [np.array([[(r["jitter"] + dodge[cell]) / span, r[value] / top]
+                                for r in rs]) for cell, rs in shown.items()]
             covers = [int(c.max()) for c in _covers(curves, 0.02)]
-            for (cell, rs), widen in zip(lines.items(), covers, strict=True):
+            for (cell, rs), widen in zip(shown.items(), covers, strict=True):
                 jit = np.array([r["jitter"] for r in rs]) + dodge[cell]
-                y = np.array([r[rate] for r in rs])
-                err = np.abs(np.array([r[ci] for r in rs]).T - y)
+                y = np.array([r[value] for r in rs])
+                err = np.abs(np.array([r[ci] for r in rs]).T - y) if ci else None
                 marker = _point(styles[cell], widen)
                 ax.errorbar(jit, y, yerr=err, capsize=3, elinewidth=1.0, marker=marker["marker"],
                             ms=marker["ms"], mec="black", mew=0.6,
                             **_line(styles[cell], widen))
-        for ax, what in ((ax_col, "collision rate"), (ax_suc, "success rate")):
-            ax.set_ylim(-0.05, 1.05)
+            if not shown:
+                ax.text(0.5, 0.5, missing, ha="center", va="center", transform=ax.transAxes,
+                        color="0.4")
+            ax.set_ylim(-0.05 * top, 1.05 * top)
+            ax.set_xticks(sorted({r["jitter"] for r in rows}))  # the levels, not the dodges
             ax.set_xlabel("jitter level")
             ax.set_ylabel(what)
-            ax.set_title(f"{sc}: {what} (95% Wilson CI)", fontsize="medium")
+            ax.set_title(f"{sc}: {what}" + (" (95% Wilson CI)" if ci else ""),
+                         fontsize="medium")
             ax.grid(alpha=0.3)
     _legend(fig, styles, "equal results nest:\nthe first listed widest", lines=True)
     _save(fig, path)
@@ -157,7 +221,7 @@ def _false_alarms_vs_collisions(path: Path, rows: Sequence[dict[str, Any]],
     """One panel per scenario and jitter level: each cell's false alarms per minute and
     collision rate; equal points nest (the first listed largest)."""
     jitters = sorted({r["jitter"] for r in rows})
-    fig = figure(figsize=(3.6 * len(jitters) + 2.8, 3.3 * len(scenarios)))
+    fig = figure(figsize=(max(3.6 * len(jitters), 4.6) + 3.2, 3.3 * len(scenarios)))
     axes = fig.subplots(len(scenarios), len(jitters), squeeze=False, sharex=True,
                         sharey=True)
     span = max(1.0, max(r["false_alarms_per_min"] for r in rows))
@@ -177,12 +241,29 @@ def _false_alarms_vs_collisions(path: Path, rows: Sequence[dict[str, Any]],
         axes[i, 0].set_ylabel("collision rate")
     axes[0, 0].set_ylim(-0.08, 1.08)
     axes[0, 0].set_xlim(-0.06 * span, 1.06 * span)
-    fig.suptitle("The cost of avoiding (lower left is better)", fontsize="medium")
+    # from the left: centred on the figure, a narrow one's title ran under the legend
+    fig.suptitle("The cost of avoiding (lower left is better)", fontsize="medium", x=0.02,
+                 ha="left")
     _legend(fig, styles, "equal points nest:\nthe first listed largest", lines=False)
     _save(fig, path)
 
 
-def _bounds(group: Sequence[dict[str, Any]]) -> np.ndarray:
+def draw_world(ax, view: dict[str, Any]) -> None:
+    """An episode's world from above: terrain heights, obstacles (arena walls among
+    them)."""
+    from matplotlib.patches import Circle, Polygon
+
+    if "terrain" in view:
+        ax.imshow(np.array(view["terrain"]), origin="lower", extent=view["extent"],
+                  cmap="Greys", alpha=0.45, zorder=0)
+    for ob in view["obstacles"]:
+        patch = (Polygon(ob["polygon"]) if "polygon" in ob
+                 else Circle(ob["circle"][:2], ob["circle"][2]))
+        patch.set(facecolor="#8C564B", edgecolor="black", lw=0.6, zorder=1)
+        ax.add_patch(patch)
+
+
+def map_bounds(group: Sequence[dict[str, Any]]) -> np.ndarray:
     """(x0, y0), (x1, y1) around one panel's paths, obstacles and goal."""
     view = group[0]["top_view"]
     points = [np.array(r["top_view"]["path"]).reshape(-1, 2) for r in group]
@@ -202,8 +283,6 @@ def _trajectories(path: Path, examples: Sequence[dict[str, Any]], scenarios: lis
                   styles: dict[str, dict[str, Any]]) -> None:
     """Top views of one seed per jitter level: terrain, obstacles, each controller's path;
     the axes span what is drawn (one extent per scenario, shared by its panels)."""
-    from matplotlib.patches import Circle, Polygon
-
     panels = sorted({(r["scenario"], r["jitter"]) for r in examples})
     jitters = sorted({j for _, j in panels})
     order = list(styles)
@@ -211,7 +290,7 @@ def _trajectories(path: Path, examples: Sequence[dict[str, Any]], scenarios: lis
                         key=lambda r: order.index(r["cell"])) for p in panels}
     extents = {}
     for sc in scenarios:
-        boxes = [_bounds(g) for (s, _), g in groups.items() if s == sc]
+        boxes = [map_bounds(g) for (s, _), g in groups.items() if s == sc]
         if boxes:
             extents[sc] = np.array([np.min([b[0] for b in boxes], axis=0),
                                     np.max([b[1] for b in boxes], axis=0)])
@@ -228,27 +307,21 @@ def _trajectories(path: Path, examples: Sequence[dict[str, Any]], scenarios: lis
         ax = axes[rows_of.index(sc), jitters.index(j)]
         ax.axis("on")
         view = group[0]["top_view"]
-        if "terrain" in view:
-            ax.imshow(np.array(view["terrain"]), origin="lower", extent=view["extent"],
-                      cmap="Greys", alpha=0.45, zorder=0)
-        for ob in view["obstacles"]:
-            patch = (Polygon(ob["polygon"]) if "polygon" in ob
-                     else Circle(ob["circle"][:2], ob["circle"][2]))
-            patch.set(facecolor="#8C564B", edgecolor="black", lw=0.6, zorder=1)
-            ax.add_patch(patch)
+        draw_world(ax, view)
         paths = [np.array(r["top_view"]["path"]).reshape(-1, 2) for r in group]
-        ends = []  # each path's end: the cell's marker, with a black cross at a collision
         for r, xy, cover in zip(group, paths, _covers(paths, 0.05), strict=True):
             # wider only where later paths run over it: nested stripes there
             for level in range(cover.max(), -1, -1):
                 ax.plot(*np.where((cover >= level)[:, None], xy, np.nan).T,
                         **_line(styles[r["cell"]], level))
-            hit = r["top_view"]["collision_frame"]
-            ends.append(xy[hit if hit is not None else -1][None])
-        for r, end, cover in zip(group, ends, _covers(ends, 0.15), strict=True):
+        # each path's end: the cell's marker; a black cross at its first collision (the end
+        # where a collision ends the episode; a roam task's path goes on)
+        ends = [xy[-1][None] for xy in paths]
+        for r, xy, end, cover in zip(group, paths, ends, _covers(ends, 0.15), strict=True):
             ax.plot(*end[0], **_point(styles[r["cell"]], int(cover[0])))
-            if r["top_view"]["collision_frame"] is not None:
-                ax.plot(*end[0], marker="x", ms=6, mew=1.6, color="black", ls="none",
+            hit = r["top_view"]["collision_frame"]
+            if hit is not None:
+                ax.plot(*xy[hit], marker="x", ms=6, mew=1.6, color="black", ls="none",
                         zorder=4)
         if view["goal"]:
             ax.plot(*view["goal"], marker="*", ms=16, color="gold", mec="black", ls="none",
@@ -260,8 +333,55 @@ def _trajectories(path: Path, examples: Sequence[dict[str, Any]], scenarios: lis
         ax.set_title(f"{sc}, jitter {j:g}, seed {group[0]['seed']}", fontsize="small")
         ax.set_xlabel("x (m)")
         ax.set_ylabel("y (m)")
-    _legend(fig, styles, "marker: the path's end (x: a collision);\nequal paths nest as "
+    _legend(fig, styles, "marker: the path's end;\nx: its first collision;\nequal paths nest as "
             "stripes,\nthe first listed widest", lines=True)
+    _save(fig, path)
+
+
+def _encounter_map(path: Path, examples: Sequence[dict[str, Any]],
+                   styles: dict[str, dict[str, Any]]) -> None:
+    """A roam scenario at one jitter level from above, a panel per cell: the world, the
+    example episode's path from its start, and each encounter where it began, avoided or
+    not."""
+    from matplotlib import patheffects
+    from matplotlib.lines import Line2D
+
+    order = list(styles)
+    group = sorted(examples, key=lambda r: order.index(r["cell"]))
+    (x0, y0), (x1, y1) = map_bounds(group)
+    cols = min(3, len(group))
+    rows_n = -(-len(group) // cols)
+    width = 4.4  # inches per panel; its height follows the extent (equal axes)
+    height = float(np.clip(width * (y1 - y0) / (x1 - x0), 1.6, 6.0))
+    fig = figure(figsize=(width * cols + 0.4, (height + 0.7) * rows_n + 0.9))
+    axes = fig.subplots(rows_n, cols, squeeze=False).ravel()
+    halo = [patheffects.withStroke(linewidth=4, foreground="white")]
+    for ax, r in zip(axes, group, strict=False):
+        view = r["top_view"]
+        draw_world(ax, view)
+        xy = np.array(view["path"]).reshape(-1, 2)
+        ax.plot(*xy.T, **_line(styles[r["cell"]], 0))
+        ax.plot(*xy[0], **{**_point(styles[r["cell"]], 0), "ms": 6})
+        marks = view.get("encounters", [])
+        for x, y, avoided in marks:
+            ax.plot(x, y, **(_AVOIDED if avoided else _FAILED), path_effects=halo)
+        kept = sum(m[2] for m in marks)
+        ax.set_title(f"{r['cell']}: {kept} of {len(marks)} avoided", fontsize="small")
+        ax.set_xlim(x0, x1)
+        ax.set_ylim(y0, y1)
+        ax.set_aspect("equal")
+        ax.set_xlabel("x (m)")
+        ax.set_ylabel("y (m)")
+    for ax in axes[len(group):]:
+        ax.axis("off")
+    handles = [Line2D([], [], label="encounter avoided", **_AVOIDED),
+               Line2D([], [], label="encounter with a collision", **_FAILED),
+               Line2D([], [], label="start", marker="o", ms=6, color="0.5", mec="black",
+                      ls="none")]
+    fig.legend(handles=handles, loc="outside lower center", ncols=3, fontsize="small")
+    first = group[0]
+    fig.suptitle(f"{first['scenario']}, jitter {first['jitter']:g}, seed {first['seed']}: "
+                 "where each encounter began", fontsize="medium")
     _save(fig, path)
 
 

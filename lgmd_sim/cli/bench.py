@@ -37,15 +37,24 @@ def add(sub: argparse._SubParsersAction) -> None:
         description="Every cell (scenario x jitter level x controller x detector) runs the "
         "same episode seeds. Controllers: straight (no avoidance), oracle (the avoidance "
         "manoeuvre triggered by ground truth) and reactive (the manoeuvre triggered by an "
-        "LGMD model's alarm, one cell per detector). Writes DIR/episodes.csv (one row per "
+        "LGMD model's alarm, one cell per detector and side). Writes DIR/episodes.csv (one row per "
         "episode), DIR/summary.csv and summary.md (collision and success rates with 95% "
-        "Wilson intervals, false alarms per minute, lead times), figures and run.json.",
+        "Wilson intervals, false alarms per minute, lead times; for roam tasks without a "
+        "goal such as ArenaRoam, collisions per minute, the share of encounters avoided, "
+        "the distance against the Oracle's and the time spent manoeuvring), figures and "
+        "run.json.",
     )
     b.add_argument("--scenarios", default="RoughTerrainObstacles",
                    help="comma-separated scenario names (default RoughTerrainObstacles)")
     b.add_argument("--controllers", default="straight,oracle,reactive",
                    help="comma-separated controllers (default straight,oracle,reactive)")
     add_detector_options(b)
+    b.add_argument("--sides", default="halves",
+                   help="comma-separated ways the reactive controller chooses the side to "
+                   "turn away to, each a cell of its own: halves (one LGMD over the whole "
+                   "view, the side from its S layer's left and right halves; the default) "
+                   "or eyes (two LGMDs over overlapping left and right parts of the view, "
+                   "turning away from the more excited one)")
     add_closed_loop_options(b, jitter="0,1,2")
     b.add_argument("--resolution", type=resolution, default="rl",
                    help="frame size: rl (120x160, default), paper (270x480), small or HxW")
@@ -102,7 +111,7 @@ def closed_loop_config(args: argparse.Namespace) -> Any:
         controllers=tuple(options.comma_list(args.controllers)),
         detectors=options.detectors(args.models, args.presets), seeds=args.seeds,
         first_seed=args.first_seed, resolution=args.resolution, cruise=args.cruise,
-        horizon=args.horizon)
+        horizon=args.horizon, sides=tuple(options.comma_list(args.sides)))
 
 
 def open_loop_config(args: argparse.Namespace) -> Any:

@@ -122,7 +122,7 @@ def eval_markdown(folder: Path) -> str:
     best = {}
     for r in rows:
         if r["controller"] == "reactive":
-            score = (-float(r["collision_rate"]), float(r["success_rate"]))
+            score = (-float(r["collision_rate"]), float(r["success_rate"] or 0))
             if r["jitter"] not in best or score > best[r["jitter"]][0]:
                 best[r["jitter"]] = (score, _label(r))
     lines = ["| jitter | controller | episodes | collisions % [95% CI] | success % [95% CI] "
@@ -144,6 +144,8 @@ def _label(r: dict[str, Any]) -> str:
 
 
 def _pct(r: dict[str, str], what: str) -> str:
+    if not r[f"{what}_rate"]:  # no success rate of a task without a goal
+        return "-"
     rate, lo, hi = (float(r[f"{what}_rate"]), float(r[f"{what}_ci_low"]),
                     float(r[f"{what}_ci_high"]))
     return f"{100 * rate:.0f} [{100 * lo:.0f}, {100 * hi:.0f}]"

@@ -1,0 +1,418 @@
+"""The closed-loop benchmark's arena task: encounters and their outcome on scripted
+episodes, the roam summary (rates, Wilson interval, distance relative to the Oracle), the
+two ways of choosing the side as cells of their own, and a small run."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from lgmd_sim import metrics
+from lgmd_sim.bench import encounters
+from lgmd_sim.controllers.avoid import OracleParams
+
+FPS = 30.0
+
+
+def scripted(n: int, zone=(), contact=(), *, behind=()) -> list[dict]:
+    """An episode of `n` frames at 30 fps, the carrier 0.1 m further along x each frame: a
+    threat 0.5 s ahead on the `zone` frames, 0.5 s away behind the carrier on the `behind`
+    frames, none otherwise; in contact with it on the `contact` frames."""
+    infos = []
+    for i in range(n):
+        near = i in zone or i in behind
+        infos.append({"time": i / FPS, "carrier_pos": [0.1 * i, 0.0, 0.05],
+                      "threat_ttc": 0.5 if near else math.inf,
+                      "threat_distance": 0.4 if near else math.inf,
+                      "threat_bearing": 2.5 if i in behind else 0.1,
+                      "collision": i in contact})
+    return infos
+
+
+def frames(a: int, b: int) -> set[int]:
+    return set(range(a, b + 1))
+
+
+def test_an_encounter_without_a_collision_is_avoided():
+    found = encounters.encounters(scripted(60, frames(10, 20)))
+    assert len(found) == 1
+    e = found[0]
+    assert (e.start, e.end, e.avoided) == (10, 20, True)
+    assert (e.x, e.y) == pytest.approx((1.0, 0.0))  # where the carrier was at its onset
+
+
+def test_an_encounter_ending_in_a_collision_is_not_avoided():
+    infos = scripted(60, frames(10, 20), contact=frames(18, 25))
+    assert encounters.collision_onsets(infos) == [18]
+    (e,) = encounters.encounters(infos)
+    assert not e.avoided and e.start == 10
+
+
+def test_a_collision_just_after_the_zone_belongs_to_its_encounter():
+    gap_frames = int(encounters.MERGE_GAP * FPS)
+    infos = scripted(80, frames(10, 20), contact={20 + gap_frames - 2})
+    (e,) = encounters.encounters(infos)
+    assert not e.avoided
+
+
+def test_flicker_is_one_encounter_and_distant_runs_are_two():
+    flicker = frames(10, 14) | frames(17, 20)  # 0.1 s out of the zone
+    (e,) = encounters.encounters(scripted(60, flicker))
+    assert (e.start, e.end, e.avoided) == (10, 20, True)
+    apart = frames(10, 14) | frames(30, 35)  # 0.5 s apart
+    assert [(e.start, e.end) for e in encounters.encounters(scripted(60, apart))] == [
+        (10, 14), (30, 35)]
+
+
+def test_a_collision_outside_every_encounter_is_a_failed_encounter_of_its_own():
+    # hit by something behind the carrier: never in the zone ahead
+    infos = scripted(60, frames(5, 8), contact=frames(40, 42), behind=frames(35, 42))
+    found = encounters.encounters(infos)
+    assert [(e.start, e.avoided) for e in found] == [(5, True), (40, False)]
+    assert found[1].x == pytest.approx(4.0)
+
+
+def test_contact_that_breaks_for_a_frame_is_one_collision():
+    infos = scripted(60, frames(10, 30), contact=frames(18, 20) | frames(22, 25) | {50})
+    assert encounters.collision_onsets(infos) == [18, 50]
+    assert [e.avoided for e in encounters.encounters(infos)] == [False, False]
+
+
+def test_nothing_happening_is_no_encounter():
+    infos = scripted(60)
+    assert encounters.encounters(infos) == [] and encounters.collision_onsets(infos) == []
+
+
+def test_an_encounter_still_open_at_the_end_has_no_outcome_yet():
+    assert encounters.encounters(scripted(30, frames(20, 29))) == []
+    # ... unless it has collided already
+    (e,) = encounters.encounters(scripted(30, frames(20, 29), contact=frames(27, 29)))
+    assert not e.avoided
+
+
+def test_the_zone_is_the_oracles_trigger():
+    p = OracleParams()
+    base = {"threat_ttc": math.inf, "threat_distance": math.inf, "threat_bearing": 0.0}
+    assert encounters.in_zone({**base, "threat_ttc": 0.99 * p.horizon})
+    assert not encounters.in_zone({**base, "threat_ttc": 1.01 * p.horizon})
+    assert encounters.in_zone({**base, "threat_distance": 0.9 * p.clearance})
+    assert not encounters.in_zone({**base, "threat_ttc": 0.5 * p.horizon,
+                                   "threat_bearing": math.radians(p.ahead + 1)})
+    wider = OracleParams(horizon=3.0)  # another zone: the definition follows the params
+    assert encounters.in_zone({**base, "threat_ttc": 2.0}, wider)
+    assert not encounters.in_zone({**base, "threat_ttc": 2.0})
+    assert str(p.horizon) in encounters.LEGEND or f"{p.horizon:g}" in encounters.LEGEND
+
+
+# --- records and the summary --------------------------------------------------------------
+
+def record(controller: str, seed: int, *, scenario: str = "ArenaRoam", jitter: float = 0.0,
+           model: str | None = None, side: str | None = None, distance: float = 10.0,
+           found: int = 0, avoided: int = 0, collisions: int = 0, share: float = 0.0,
+           goal: bool = False) -> dict:
+    """An episode's record as `closed_loop.episode` writes it (one minute long)."""
+    r = {"scenario": scenario, "jitter": jitter, "controller": controller, "model": model,
+         "preset": "paper" if model else None, "tag": None, "side": side, "seed": seed,
+         "task": "goal" if goal else "roam", "frames": 1800, "time_s": 60.0,
+         "collided": collisions > 0, "goal_reached": False, "distance_m": distance,
+         "alarms": 3, "false_alarms": 1, "first_alarm_ttc_s": None, "lead_time_s": None,
+         "collisions": collisions, "collisions_per_min": float(collisions),
+         "encounters": found, "avoided": avoided, "manoeuvring_share": share}
+    if goal:
+        r["progress"] = 0.5
+    return r
+
+
+def roam_records() -> list[dict]:
+    return [record("oracle", 1000, distance=10.0, found=5, avoided=5, share=0.2),
+            record("oracle", 1001, distance=12.0, found=5, avoided=5, share=0.3),
+            record("reactive", 1000, model="feedback", distance=6.0, found=4, avoided=3,
+                   collisions=1, share=0.1),
+            record("reactive", 1001, model="feedback", distance=9.0, found=6, avoided=6,
+                   share=0.3),
+            record("straight", 1000, distance=4.0),
+            record("straight", 1001, distance=4.0)]
+
+
+def test_the_roam_summary_pools_encounters_and_compares_distance_with_the_oracle():
+    from lgmd_sim.bench import closed_loop
+
+    rows = {r["controller"]: r for r in closed_loop.summarise(roam_records())}
+    reactive = rows["reactive"]
+    assert reactive["task"] == "roam"
+    assert reactive["encounters"] == 10 and reactive["avoidance_rate"] == pytest.approx(0.9)
+    assert reactive["avoidance_ci"] == pytest.approx(metrics.wilson_interval(9, 10))
+    assert reactive["collisions_per_min"] == pytest.approx(0.5)  # 1 in 2 minutes
+    assert reactive["false_alarms_per_min"] == pytest.approx(1.0)
+    assert reactive["mean_distance_m"] == pytest.approx(7.5)
+    assert reactive["distance_vs_oracle"] == pytest.approx(7.5 / 11.0)
+    assert reactive["manoeuvring_share"] == pytest.approx(0.2)
+    assert rows["oracle"]["distance_vs_oracle"] == pytest.approx(1.0)
+    # no goal: no success rate to report, and no avoidance rate without an encounter
+    assert reactive["success_rate"] is None and reactive["success_ci"] is None
+    assert rows["straight"]["avoidance_rate"] is None and rows["straight"]["encounters"] == 0
+
+
+def test_without_an_oracle_cell_there_is_no_oracle_relative_distance():
+    from lgmd_sim.bench import closed_loop
+
+    rows = closed_loop.summarise([r for r in roam_records() if r["controller"] != "oracle"])
+    assert all(r["distance_vs_oracle"] is None for r in rows)
+
+
+def test_the_oracle_distance_is_the_same_jitter_levels():
+    from lgmd_sim.bench import closed_loop
+
+    records = [*roam_records(), record("oracle", 1000, jitter=1.0, distance=3.0, found=1,
+                                       avoided=1),
+               record("reactive", 1000, jitter=1.0, model="feedback", distance=1.5)]
+    rows = {(r["controller"], r["jitter"]): r for r in closed_loop.summarise(records)}
+    assert rows[("reactive", 1.0)]["distance_vs_oracle"] == pytest.approx(0.5)
+    assert rows[("reactive", 0.0)]["distance_vs_oracle"] == pytest.approx(7.5 / 11.0)
+
+
+def test_the_markdown_has_a_table_per_task_kind_each_with_its_legend(tmp_path):
+    from lgmd_sim.bench import closed_loop
+
+    goal = [record(c, s, scenario="RoughTerrainObstacles", goal=True, found=2, avoided=2)
+            for c in ("oracle", "straight") for s in (1000, 1001)]
+    text = closed_loop.summary_markdown(closed_loop.summarise([*goal, *roam_records()]))
+    blocks = [block.strip() for block in text.split("\n\n") if block.strip()]
+    assert len(blocks) == 4  # each table, then its legend of definitions
+    tables, legends = blocks[::2], blocks[1::2]
+    heads = [t.splitlines()[0] for t in tables]
+    assert all(len(legend.splitlines()) == 1 and legend.startswith("_") for legend in legends)
+    assert "success %" in heads[0] and "avoided %" not in heads[0]
+    assert "avoided %" in heads[1] and "success %" not in heads[1]
+    assert "distance vs Oracle" in heads[1] and "collisions / min" in heads[1]
+    assert "RoughTerrainObstacles" in tables[0] and "ArenaRoam" not in tables[0]
+    assert "ArenaRoam" in tables[1] and "RoughTerrainObstacles" not in tables[1]
+    assert "success" in legends[0] and encounters.LEGEND in legends[1]
+    # summary.csv: one row per cell, every column, empty where it does not apply
+    closed_loop.write_tables(tmp_path, [*goal, *roam_records()])
+    import csv
+
+    rows = list(csv.DictReader((tmp_path / "summary.csv").open()))
+    assert len(rows) == 5 and len({tuple(r) for r in rows}) == 1
+    roam = next(r for r in rows if r["scenario"] == "ArenaRoam" and r["controller"] == "oracle")
+    assert roam["success_rate"] == "" and float(roam["avoidance_rate"]) == 1.0
+    goal_row = next(r for r in rows if r["scenario"] == "RoughTerrainObstacles")
+    assert goal_row["success_rate"] != ""
+
+
+def test_older_records_without_the_arena_fields_still_summarise():
+    """A run folder from before the arena task resumes: its goal records lack the new
+    fields, and read as goal tasks."""
+    from lgmd_sim.bench import closed_loop
+    from lgmd_sim.runs import _mismatch
+
+    old = record("straight", 1000, scenario="RoughTerrainObstacles", goal=True)
+    for name in ("side", "task", "collisions", "collisions_per_min", "encounters", "avoided",
+                 "manoeuvring_share"):
+        del old[name]
+    assert _mismatch(old, closed_loop.RECORD_FIELDS) is None
+    (row,) = closed_loop.summarise([old])
+    assert row["task"] == "goal" and row["success_rate"] == 0.0
+    assert row["avoidance_rate"] is None
+
+
+# --- the two ways of choosing the side ----------------------------------------------------
+
+@pytest.fixture
+def sided(monkeypatch):
+    """ReactiveAvoid with a `side` parameter: its own, or a stand-in until it has one."""
+    from dataclasses import dataclass
+
+    from lgmd_sim.controllers import avoid
+    from lgmd_sim.params import one_of, param
+
+    if "side" not in avoid.ReactiveParams.names():
+        @dataclass(frozen=True)
+        class Sided(avoid.ReactiveParams):
+            side: str = param("halves", "test", check=one_of("halves", "eyes"))
+
+        monkeypatch.setattr(avoid, "ReactiveParams", Sided)
+        monkeypatch.setattr(avoid.ReactiveAvoid, "Params", Sided)
+
+
+def test_a_controller_with_a_side_gets_a_cell_per_detector_and_side(sided):
+    from lgmd_sim.bench.closed_loop import ClosedLoopConfig
+
+    config = ClosedLoopConfig(scenarios=("StationaryApproach",), jitter=(0.0,),
+                              detectors=(("feedback", "paper"), ("lgmd1", "published")),
+                              sides=("halves", "eyes"))
+    cells = config.cells()
+    assert [c.label for c in cells] == [
+        "straight", "oracle", "reactive: feedback/paper", "reactive: feedback/paper, eyes",
+        "reactive: lgmd1/published", "reactive: lgmd1/published, eyes"]
+    eyes = cells[3]
+    assert eyes.params == (("side", "eyes"),) and eyes.side == "eyes"
+    assert eyes.key(1000) == "StationaryApproach-j0-reactive-feedback-paper-eyes-s1000"
+    # the default side: the cells, keys and labels from before there were sides
+    halves = cells[2]
+    assert halves.params == () and halves.side is None
+    assert halves.key(1000) == "StationaryApproach-j0-reactive-feedback-paper-s1000"
+    assert config.as_json()["sides"] == ["halves", "eyes"]
+    assert "sides" not in ClosedLoopConfig().as_json()  # older run folders resume
+    assert ClosedLoopConfig().cells() == ClosedLoopConfig(sides=("halves",)).cells()
+
+
+def test_a_side_the_controller_lacks_is_one_line_naming_it(sided):
+    from lgmd_sim.bench.closed_loop import ClosedLoopConfig
+
+    for sides, message in ((("both",), "--sides 'both'"), ((), "--sides: no side given")):
+        with pytest.raises(ValueError) as exc:
+            ClosedLoopConfig(sides=sides)
+        assert message in str(exc.value) and "\n" not in str(exc.value)
+
+
+def test_the_command_takes_sides(sided):
+    from lgmd_sim import cli
+    from lgmd_sim.bench.closed_loop import ClosedLoopConfig
+    from lgmd_sim.cli import bench as cli_bench
+
+    args = cli.build_parser().parse_args(["bench", "closed-loop", "--sides", "halves,eyes"])
+    assert cli_bench.closed_loop_config(args).sides == ("halves", "eyes")
+    args = cli.build_parser().parse_args(["bench", "closed-loop"])
+    assert cli_bench.closed_loop_config(args) == ClosedLoopConfig()
+
+
+def test_the_summary_keeps_the_sides_apart():
+    from lgmd_sim.bench import closed_loop
+
+    records = [record("reactive", 1000, model="feedback", found=2, avoided=2),
+               record("reactive", 1000, model="feedback", side="eyes", found=2, avoided=1)]
+    rows = {r["cell"]: r for r in closed_loop.summarise(records)}
+    assert rows["reactive: feedback/paper"]["avoidance_rate"] == 1.0
+    assert rows["reactive: feedback/paper, eyes"]["avoidance_rate"] == 0.5
+    assert rows["reactive: feedback/paper, eyes"]["side"] == "eyes"
+
+
+# --- runs ---------------------------------------------------------------------------------
+
+def test_each_example_is_drawn_under_its_own_cells_label(tmp_path, monkeypatch):
+    """The top views reach the figures labelled with the cell that drove them (the records
+    come back in key order, the cells in plan order: oracle's path was drawn as straight's)."""
+    from lgmd_sim.bench import closed_loop, figures
+
+    drawn = {}
+    monkeypatch.setattr(figures, "closed_loop",
+                        lambda folder, rows, examples: drawn.update(examples=examples))
+    monkeypatch.setattr(figures, "closed_loop_figures", lambda rows, examples: ())
+    config = closed_loop.ClosedLoopConfig(
+        scenarios=("StationaryApproach",), jitter=(0.0,), controllers=("straight", "oracle"),
+        seeds=1, resolution="small")
+    closed_loop.run(config, tmp_path / "run", workers=1, progress=False)
+    assert sorted((e["cell"], e["controller"]) for e in drawn["examples"]) == [
+        ("oracle", "oracle"), ("straight", "straight")]
+
+
+def test_the_arena_run_counts_encounters_and_draws_where_they_happened(tmp_path):
+    """ArenaRoam, oracle and straight, one seed: the records carry the arena's figures,
+    the summary its table, and the figures are the roam task's (no success rate)."""
+    import csv
+    import json
+
+    from lgmd_sim.bench import closed_loop, figures
+
+    config = closed_loop.ClosedLoopConfig(
+        scenarios=("ArenaRoam",), jitter=(0.0,), controllers=("straight", "oracle"), seeds=1,
+        resolution="small")
+    result = closed_loop.run(config, tmp_path / "arena", workers=1, progress=False)
+    out = result.path
+    records = {r["controller"]: r for r in csv.DictReader((out / "episodes.csv").open())}
+    assert {r["task"] for r in records.values()} == {"roam"}
+    for r in records.values():
+        assert float(r["time_s"]) == pytest.approx(30.0, abs=0.1)  # collisions go on
+        assert int(r["avoided"]) <= int(r["encounters"])
+        assert 0 <= float(r["manoeuvring_share"]) <= 1
+    assert float(records["straight"]["manoeuvring_share"]) == 0  # it never manoeuvres
+    assert float(records["oracle"]["manoeuvring_share"]) > 0
+    assert int(records["straight"]["collisions"]) >= 1  # straight into a wall, at the latest
+    rows = {r["controller"]: r for r in result.rows}
+    assert rows["oracle"]["distance_vs_oracle"] == pytest.approx(1.0)
+    assert rows["straight"]["success_rate"] is None
+    oracle_record = json.loads((out / "records" / "ArenaRoam-j0-oracle-s1000.json").read_text())
+    marks = oracle_record["top_view"]["encounters"]
+    assert len(marks) == oracle_record["encounters"]
+    assert all(len(m) == 3 and isinstance(m[2], bool) for m in marks)
+    pngs = {p.name for p in out.glob("*.png")}
+    assert pngs == {*figures.CLOSED_LOOP, figures.ARENA_VS_JITTER, "encounters_ArenaRoam_j0.png"}
+    assert set(result.files) >= pngs
+    assert "avoided %" in (out / "summary.md").read_text()
+
+
+# --- figures ------------------------------------------------------------------------------
+
+def roam_example(controller: str, marks: list) -> dict:
+    view = {"obstacles": [{"polygon": [[2.6, -0.3], [3.2, -0.3], [3.2, 0.3], [2.6, 0.3]]},
+                          {"circle": [5.0, 1.0, 0.25]}],
+            "goal": None, "path": [[0.0, 0.0], [1.0, 0.0], [2.0, 0.5], [3.0, 1.0]],
+            "collision_frame": None, "encounters": marks}
+    return {"scenario": "ArenaRoam", "jitter": 0.0, "seed": 1000, "controller": controller,
+            "model": None, "preset": None, "tag": None, "cell": controller, "top_view": view}
+
+
+def test_roam_figures_mark_each_encounter_and_report_no_success(tmp_path, monkeypatch):
+    from matplotlib.colors import to_rgb
+
+    from lgmd_sim.bench import closed_loop, figures
+
+    goal = [record(c, 1000, scenario="RoughTerrainObstacles", goal=True, found=1, avoided=1)
+            for c in ("oracle", "straight")]
+    rows = closed_loop.summarise([*goal, *roam_records()])
+    examples = [roam_example("oracle", [[1.0, 0.0, True], [2.0, 0.5, True]]),
+                roam_example("straight", [[1.0, 0.0, True], [3.0, 1.0, False]])]
+    made = {}
+    monkeypatch.setattr(figures, "_save", lambda fig, path: (made.update({path.name: fig}),
+                                                             path.write_bytes(b"png")))
+    figures.closed_loop(tmp_path, rows, examples)
+    names = figures.closed_loop_figures(rows, examples)
+    assert set(made) == set(names) == {*figures.CLOSED_LOOP, figures.ARENA_VS_JITTER,
+                                       "encounters_ArenaRoam_j0.png"}
+    # a task without a goal has no success rate: the share of encounters avoided instead
+    titles = {name: [ax.get_title() for ax in fig.axes] for name, fig in made.items()}
+    goal_titles = [t for t in titles["collisions_vs_jitter.png"] if "Rough" in t]
+    roam_titles = [t for t in titles["collisions_vs_jitter.png"] if "ArenaRoam" in t]
+    assert any("success" in t for t in goal_titles)
+    assert len(roam_titles) == 2 and not any("success" in t for t in roam_titles)
+    assert any("avoided" in t for t in roam_titles)
+    assert not any("success" in t for t in titles[figures.ARENA_VS_JITTER])
+    assert any("avoided" in t for t in titles[figures.ARENA_VS_JITTER])
+    # each encounter where it happened: green circles avoided, red crosses not
+    panels = {ax.get_title().split(":")[0]: ax for ax in made["encounters_ArenaRoam_j0.png"].axes
+              if ax.get_title()}
+
+    def marks(ax, style: dict) -> list:
+        """Where the axes show single markers of `style`'s shape and colour."""
+        colour = to_rgb(style.get("mec") if style["marker"] == "o" else style["color"])
+        return sorted((float(ln.get_xdata()[0]), float(ln.get_ydata()[0]))
+                      for ln in ax.get_lines() if len(ln.get_xdata()) == 1
+                      and ln.get_marker() == style["marker"]
+                      and colour in (to_rgb(ln.get_markeredgecolor()), to_rgb(ln.get_color())))
+
+    avoided, failed = figures._AVOIDED, figures._FAILED
+    assert marks(panels["oracle"], avoided) == [(1.0, 0.0), (2.0, 0.5)]
+    assert marks(panels["oracle"], failed) == []
+    assert marks(panels["straight"], avoided) == [(1.0, 0.0)]
+    assert marks(panels["straight"], failed) == [(3.0, 1.0)]
+    assert "1 of 2 avoided" in panels["straight"].get_title()
+
+
+def test_a_path_that_goes_on_after_a_collision_ends_at_its_end(tmp_path, monkeypatch):
+    """Without termination on collision the path goes on: its end marker stands at its
+    end, the cross at its first collision."""
+    from lgmd_sim.bench import closed_loop, figures
+
+    rows = closed_loop.summarise([record("straight", 1000, found=1, collisions=1)])
+    example = roam_example("straight", [[1.0, 0.0, False]])
+    example["top_view"]["collision_frame"] = 1
+    made = {}
+    monkeypatch.setattr(figures, "_save", lambda fig, path: made.update({path.name: fig}))
+    figures.closed_loop(tmp_path, rows, [example])
+    (ax,) = [a for a in made["trajectories.png"].axes if a.get_lines()]
+    singles = {ln.get_marker(): (float(ln.get_xdata()[0]), float(ln.get_ydata()[0]))
+               for ln in ax.get_lines() if len(ln.get_xdata()) == 1}
+    assert singles["x"] == (1.0, 0.0)  # the collision
+    assert singles[figures._CONTROLLER_STYLES["straight"]["marker"]] == (3.0, 1.0)  # the end
