@@ -9,7 +9,11 @@ Writes
 - ``demo.mp4``: the camera view beside the first detector's S layer, and below them every
   detector's membrane potential so far, with its threshold and the collision frame;
 - ``demo.png``: a summary: frames at key moments, the membrane potentials against the
-  distance and time to collision of the obstacle, and the camera's shake.
+  distance and time to collision of the obstacle, and the camera's shake;
+
+and, closing the loop, an episode in which the robot avoids the obstacles by itself
+(`lgmd_sim.demo_avoid`: ``avoid.mp4``, ``avoid.png``). The files are written as a set: all
+of them, or none.
 """
 
 from __future__ import annotations
@@ -25,7 +29,7 @@ from matplotlib.colors import to_rgb
 
 from lgmd_sim import metrics, models
 from lgmd_sim.controllers import Straight, rollout
-from lgmd_sim.fileio import atomic_output, write_files
+from lgmd_sim.fileio import atomic_folder_outputs, atomic_output, write_files
 from lgmd_sim.plots import model_style
 from lgmd_sim.video import video_writer
 
@@ -272,27 +276,46 @@ def write_summary(ep: Episode, path: Path, title: str) -> None:
 
 def run(*, out: str | Path = "demo-out", seed: int = 2, jitter: float = 1.0,
         detectors: Sequence[str] = ("feedback/calibrated-image", "feedback/paper"),
-        resolution: str | Sequence[int] = "paper") -> int:
+        resolution: str | Sequence[int] = "paper", avoider: str | None = None,
+        avoid_seed: int = 0, avoid_resolution: str | Sequence[int] | None = None) -> int:
     """Drive one episode with `detectors` watching (the first one's S layer shown) at the
-    camera `resolution`; write the video, the summary and the still into `out`; print
-    where they are."""
+    camera `resolution`, and with `avoider` ("DETECTOR[,SIDE]", `demo_avoid.parse_avoider`;
+    None: not) one in which `ReactiveAvoid` avoids the obstacles (`lgmd_sim.demo_avoid`),
+    seeded `avoid_seed`, at `avoid_resolution` (None: the closed-loop benchmark's); write
+    the videos, the summaries and the still into `out`, all of them or (on an error) none;
+    print where they are."""
+    from lgmd_sim import demo_avoid
+
     detectors = list(detectors)
     if not detectors:
         raise ValueError("--models: give at least one detector")
     for d in detectors:
         models.parse_spec(d)  # an unknown model, preset or front end: before the episode
+    closed = None if avoider is None else demo_avoid.parse_avoider(avoider)
     out = Path(out)
     ep = drive(seed, jitter, detectors, resolution)
-    video, summary, still = out / "demo.mp4", out / "demo.png", out / "demo_frame.png"
-    write_video(ep, video, still)
-    write_summary(ep, summary, f"RoughTerrainObstacles, jitter {jitter:g}, seed {seed}")
+    avoid = (None if closed is None
+             else demo_avoid.drive(avoid_seed, jitter, *closed, resolution=avoid_resolution))
+    names = ["demo.mp4", "demo_frame.png", "demo.png"]
+    names += [] if avoid is None else ["avoid.mp4", "avoid.png"]
+    with atomic_folder_outputs(out, names) as staging:
+        write_video(ep, staging / names[0], staging / names[1])
+        write_summary(ep, staging / names[2],
+                      f"RoughTerrainObstacles, jitter {jitter:g}, seed {seed}")
+        if avoid is not None:
+            demo_avoid.write(avoid, staging / names[3], staging / names[4])
     hit = (f"collision at frame {ep.collision_frame}" if ep.collision_frame is not None
            else "no collision")
     print(f"{len(ep.frames)} frames, {hit}")
     for name in detectors:
         alarm = ep.first_alarm(name)
         print(f"  {name}: first alarm {'none' if alarm is None else f'at frame {alarm}'}")
-    print(f"video:   {video.resolve()}")
-    print(f"summary: {summary.resolve()}")
-    print(f"still:   {still.resolve()}")
+    if avoid is not None:
+        print(f"avoiding ({avoid.detector}, {avoid.side}, seed {avoid_seed}): "
+              f"{len(avoid.frames)} frames, {avoid.outcome}, {len(avoid.onsets)} alarm(s) "
+              f"at frame(s) {', '.join(map(str, avoid.onsets)) or 'none'}")
+    for label, name in [("video", "demo.mp4"), ("summary", "demo.png"),
+                        ("still", "demo_frame.png"), ("avoiding", "avoid.mp4"),
+                        ("from above", "avoid.png")][:len(names)]:
+        print(f"{label + ':':11} {(out / name).resolve()}")
     return 0

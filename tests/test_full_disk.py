@@ -105,11 +105,24 @@ def test_record_on_a_full_disk_fails_in_one_line_and_leaves_no_video(full_disk, 
     assert run.files == set()
 
 
+SMALL_DEMO = ["demo", "--resolution", "small", "--models", "feedback/paper",
+              "--avoid-resolution", "small", "--avoid-seed", "3"]
+
+
 def test_demo_on_a_full_disk_leaves_no_video_or_figure(full_disk, tmp_path):
     disk = tmp_path / "disk"
-    (run,) = full_disk(disk, [*LGMD_SIM, "demo", "--out", str(disk / "d"), "--resolution",
-                              "small", "--models", "feedback/paper"], free_kb=60)
+    (run,) = full_disk(disk, [*LGMD_SIM, *SMALL_DEMO, "--out", str(disk / "d")], free_kb=60)
     _one_line(run, str(disk / "d" / "demo.mp4"), "no space left on device")
+    assert run.files == set()
+
+
+def test_demo_whose_avoiding_video_does_not_fit_leaves_none_of_its_files(full_disk, tmp_path):
+    """The open-loop files (about 650 kB at 64 x 64) fit, the avoiding video (about 750
+    kB more) does not: the set is written whole or not at all."""
+    disk = tmp_path / "disk"
+    (run,) = full_disk(disk, [*LGMD_SIM, *SMALL_DEMO, "--out", str(disk / "d")],
+                       size_kb=2048, free_kb=900)
+    _one_line(run, str(disk / "d" / "avoid.mp4"), "no space left on device")
     assert run.files == set()
 
 

@@ -1,0 +1,104 @@
+"""`lgmd-sim demo`'s closed-loop episode: the robot avoiding obstacles with ReactiveAvoid,
+its alarms the controller's, drawn where they happened, the video and figure written
+with the demo's other files (all of them or none), and a bad avoider refused up front."""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+import pytest
+
+from lgmd_sim import cli, demo, demo_avoid
+
+#: At 64 x 64 this detector alarms (it is calibrated at 120 x 160) and the episode is short.
+SMALL = {"seed": 3, "jitter": 1.0, "detector": "lgmd1/calibrated-image", "resolution": "small"}
+DEMO = ["--resolution", "small", "--models", "feedback/paper", "--avoid-resolution", "small",
+        "--avoid-seed", "3"]
+
+
+@pytest.fixture(scope="module")
+def episode():
+    return demo_avoid.drive(**SMALL)
+
+
+def test_the_onsets_are_where_the_controllers_alarm_turns_on(episode):
+    n = len(episode.frames)
+    assert episode.path.shape == (n, 2) and episode.potential.shape == (n,)
+    assert np.isnan(episode.potential[-1]) and not episode.alarm[-1]  # it does not act
+    # the controller alarms where its model's potential is above the threshold
+    above = episode.potential[:-1] > episode.threshold
+    np.testing.assert_array_equal(episode.alarm[:-1], above)
+    assert len(episode.onsets) > 1
+    assert all(episode.alarm[episode.onsets]) and not any(episode.alarm[episode.onsets - 1])
+    # every manoeuvre starts on an alarm: the controller's own
+    starts = np.flatnonzero(episode.manoeuvring & ~np.r_[False, episode.manoeuvring[:-1]])
+    assert len(starts) and set(starts) <= set(episode.onsets)
+    assert episode.outcome == "collided" and episode.collision_frame == n - 1
+
+
+def test_the_figure_marks_the_controllers_onsets_on_the_path_and_in_time(episode):
+    fig = demo_avoid.figure(episode)
+    top, trace = fig.axes[:2]
+    marks = {ax: next(line for line in ax.get_lines() if line.get_label() == "alarm onset")
+             for ax in (top, trace)}
+    np.testing.assert_array_equal(np.c_[marks[top].get_data()], episode.path[episode.onsets])
+    np.testing.assert_allclose(marks[trace].get_xdata(), episode.onsets / episode.fps)
+    (hit,) = [line for line in top.get_lines() if line.get_label() == "collision"]
+    np.testing.assert_array_equal(hit.get_xydata()[0], episode.path[episode.collision_frame])
+    title = fig.get_suptitle()
+    assert f"seed {SMALL['seed']}" in title and "jitter 1" in title
+    assert f"collided, {len(episode.onsets)} alarms" in title
+
+
+def test_the_video_shows_every_frame_beside_the_map(episode, tmp_path):
+    demo_avoid.write(episode, tmp_path / "avoid.mp4", tmp_path / "avoid.png")
+    cap = cv2.VideoCapture(str(tmp_path / "avoid.mp4"))
+    assert int(cap.get(cv2.CAP_PROP_FRAME_COUNT)) == len(episode.frames)
+    ok, frame = cap.read()
+    cap.release()
+    h, w = episode.frames[0].shape[:2]
+    assert ok and frame.shape[0] == demo_avoid.VIDEO_SCALE * h
+    assert frame.shape[1] > demo_avoid.VIDEO_SCALE * w  # the map beside the camera view
+    assert cv2.imread(str(tmp_path / "avoid.png")) is not None
+
+
+def test_the_demo_writes_the_avoiding_episode_with_its_other_files(tmp_path, capsys):
+    out = tmp_path / "d"
+    assert cli.main(["demo", "--out", str(out), *DEMO]) == 0
+    assert sorted(p.name for p in out.iterdir()) == [
+        "avoid.mp4", "avoid.png", "demo.mp4", "demo.png", "demo_frame.png"]
+    printed = capsys.readouterr().out
+    assert "avoiding (lgmd1/calibrated-image, halves, seed 3)" in printed
+    assert str((out / "avoid.png").resolve()) in printed
+
+
+def test_no_avoid_skips_it(tmp_path):
+    out = tmp_path / "d"
+    assert cli.main(["demo", "--out", str(out), *DEMO, "--no-avoid"]) == 0
+    assert sorted(p.name for p in out.iterdir()) == ["demo.mp4", "demo.png", "demo_frame.png"]
+
+
+@pytest.mark.parametrize(("avoider", "named"), [
+    ("lgmd2/nope", "unknown preset 'nope'"),
+    ("lgmd1,sideways", "side='sideways' must be one of 'halves', 'eyes'"),
+])
+def test_an_unknown_avoider_is_one_line_before_any_episode(tmp_path, capsys, avoider, named):
+    assert cli.main(["demo", "--avoider", avoider, "--out", str(tmp_path / "d")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and f"--avoider '{avoider}'" in err and named in err, err
+    assert not (tmp_path / "d").exists()
+
+
+def test_a_failure_writing_the_avoiding_episode_leaves_no_file(tmp_path, monkeypatch):
+    out = tmp_path / "d"
+    written = demo_avoid.write
+
+    def fail(ep, video, summary):
+        written(ep, video, summary)
+        raise OSError(28, "No space left on device", str(summary))
+
+    monkeypatch.setattr(demo_avoid, "write", fail)
+    with pytest.raises(OSError, match="No space left"):
+        demo.run(out=out, detectors=["feedback/paper"], resolution="small",
+                 avoider="lgmd1/calibrated-image", avoid_seed=3, avoid_resolution="small")
+    assert [p for p in out.rglob("*") if p.is_file()] == []
