@@ -16,6 +16,8 @@ fewer), from the lowest such horizon to the highest.
 from __future__ import annotations
 
 import argparse
+import shlex
+import sys
 
 from lgmd_sim.bench.closed_loop import Cell, ClosedLoopConfig, run
 
@@ -40,20 +42,29 @@ def main() -> None:
     config = ClosedLoopConfig(scenarios=(args.scenario,), jitter=jitters, controllers=(),
                               seeds=args.seeds, first_seed=FIRST_SEED, extra=cells)
     result = run(config, args.out, resume=True, workers=args.workers, progress=False,
-                 command="python scripts/oracle_window.py " + args.out)
-    def horizon(row: dict) -> float:
-        return float(row["tag"].removeprefix("horizon "))
-
+                 command=shlex.join(["python", *sys.argv]))
     rows = sorted(result.rows, key=lambda r: (r["jitter"], horizon(r)))
     for row in rows:
         print(f"jitter {row['jitter']:g} {row['tag']:>12}: success {row['success_rate']:.2f} "
               f"collisions {row['collision_rate']:.2f} progress {row['mean_progress']:.2f}")
     for j in jitters:
-        good = [horizon(r) for r in rows if r["jitter"] == j
-                and r["success_rate"] >= SUCCESS and r["collision_rate"] <= COLLISIONS]
+        found = window([r for r in rows if r["jitter"] == j])
         print(f"jitter {j:g}: the Oracle meets the target when triggered at a time to "
-              f"collision of {min(good):g} to {max(good):g} s" if good else
+              f"collision of {found[0]:g} to {found[1]:g} s" if found else
               f"jitter {j:g}: the Oracle meets the target at no horizon tried")
+
+
+def horizon(row: dict) -> float:
+    """The trigger horizon of a summary row (its cell's tag)."""
+    return float(row["tag"].removeprefix("horizon "))
+
+
+def window(rows: list[dict]) -> tuple[float, float] | None:
+    """The lowest and highest horizon among one jitter level's rows (summary rows, or
+    summary.csv's) at which the Oracle meets the target; None: at none."""
+    good = [horizon(r) for r in rows if float(r["success_rate"]) >= SUCCESS
+            and float(r["collision_rate"]) <= COLLISIONS]
+    return (min(good), max(good)) if good else None
 
 
 if __name__ == "__main__":
