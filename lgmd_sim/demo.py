@@ -13,7 +13,7 @@ Writes
 
 and, closing the loop, an episode in which the robot avoids the obstacles by itself
 (`lgmd_sim.demo_avoid`: ``avoid.mp4``, ``avoid.png``). The files are written as a set: all
-of them, or none.
+of them, or none; without the closed loop, an earlier run's two are removed.
 """
 
 from __future__ import annotations
@@ -40,6 +40,8 @@ CRUISE, HEADING_GAIN = 0.6, 1.5
 TRACE_HEIGHT = 210
 #: Dash length (points) of the thresholds in the summary.
 DASH = 4.0
+#: The closed-loop episode's files (`lgmd_sim.demo_avoid`): the video, the figure.
+AVOID_FILES = ("avoid.mp4", "avoid.png")
 
 
 @dataclass
@@ -282,8 +284,9 @@ def run(*, out: str | Path = "demo-out", seed: int = 2, jitter: float = 1.0,
     camera `resolution`, and with `avoider` ("DETECTOR[,SIDE]", `demo_avoid.parse_avoider`;
     None: not) one in which `ReactiveAvoid` avoids the obstacles (`lgmd_sim.demo_avoid`),
     seeded `avoid_seed`, at `avoid_resolution` (None: the closed-loop benchmark's); write
-    the videos, the summaries and the still into `out`, all of them or (on an error) none;
-    print where they are."""
+    the videos, the summaries and the still into `out`, all of them or (on an error) none
+    (without `avoider`, an earlier run's avoiding episode there is removed); print where
+    they are."""
     from lgmd_sim import demo_avoid
 
     detectors = list(detectors)
@@ -297,13 +300,16 @@ def run(*, out: str | Path = "demo-out", seed: int = 2, jitter: float = 1.0,
     avoid = (None if closed is None
              else demo_avoid.drive(avoid_seed, jitter, *closed, resolution=avoid_resolution))
     names = ["demo.mp4", "demo_frame.png", "demo.png"]
-    names += [] if avoid is None else ["avoid.mp4", "avoid.png"]
+    names += [] if avoid is None else list(AVOID_FILES)
     with atomic_folder_outputs(out, names) as staging:
         write_video(ep, staging / names[0], staging / names[1])
         write_summary(ep, staging / names[2],
                       f"RoughTerrainObstacles, jitter {jitter:g}, seed {seed}")
         if avoid is not None:
             demo_avoid.write(avoid, staging / names[3], staging / names[4])
+    if avoid is None:  # an earlier run's would read as this one's: the folder is one set
+        for name in AVOID_FILES:
+            (out / name).unlink(missing_ok=True)
     hit = (f"collision at frame {ep.collision_frame}" if ep.collision_frame is not None
            else "no collision")
     print(f"{len(ep.frames)} frames, {hit}")

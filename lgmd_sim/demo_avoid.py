@@ -7,7 +7,8 @@ are calibrated there). Writes
 - ``avoid.png``: the episode from above (terrain, obstacles, goal as the benchmark's
   trajectories figure draws them), the robot's path with its manoeuvres and each alarm's
   onset, beside the detector's membrane potential and the time to collision of the
-  nearest threat;
+  world's threat (the most threatening obstacle or wall: one touched, else the soonest to
+  collide, else the nearest);
 - ``avoid.mp4``: the camera view beside the top view with the path so far.
 """
 
@@ -32,6 +33,9 @@ TTC_CLIP = 5.0
 PATH_COLOUR, MANOEUVRE_COLOUR = "#0072B2", "#E69F00"
 ALARM_MARK: dict[str, Any] = {"marker": "v", "ms": 10, "color": "#D62728", "mec": "black",
                               "ls": "none"}
+#: The goal, as the benchmark's trajectories figure marks it.
+GOAL_MARK: dict[str, Any] = {"marker": "*", "ms": 16, "color": "gold", "mec": "black",
+                             "ls": "none", "zorder": 4}
 #: The camera view's scale in the video (the benchmark's frames are small), and the most
 #: width of the top view beside it, in multiples of its height.
 VIDEO_SCALE, MAX_MAP_ASPECT = 3, 2.0
@@ -54,7 +58,7 @@ class AvoidEpisode:
     threshold: float
     alarm: np.ndarray  # controller.alarm
     manoeuvring: np.ndarray  # controller.manoeuvring
-    ttc: np.ndarray  # ground truth: the nearest threat's time to collision (s)
+    ttc: np.ndarray  # ground truth: the world's threat's time to collision (s)
     collision_frame: int | None
     goal_reached: bool
     view: dict[str, Any]  # the world's top_view()
@@ -74,30 +78,34 @@ class AvoidEpisode:
 
 def parse_avoider(text: str) -> tuple[str, str]:
     """"DETECTOR[,SIDE]" -> (detector, side): a detector ("model/preset+front",
-    `models.parse_spec`) and how `ReactiveAvoid` tells the threat's side ("halves", the
-    default, or "eyes"). ValueError, one line naming `text`, where either is unknown."""
+    `models.parse_spec`) and how `ReactiveAvoid` tells the threat's side ("halves" or
+    "eyes"; none: `ReactiveParams`' default). ValueError, one line naming `text`, where
+    either is unknown."""
     from lgmd_sim.controllers.avoid import ReactiveParams
 
     detector, _, side = (t.strip() for t in text.partition(","))
+    side = side or ReactiveParams.side
     try:
         name, preset = models.parse_spec(detector)
-        ReactiveParams(model=name, preset=preset, side=side or "halves")
+        ReactiveParams(model=name, preset=preset, side=side)
     except ValueError as exc:
         raise ValueError(f"--avoider {text!r}: {exc}") from None
-    return detector, side or "halves"
+    return detector, side
 
 
-def drive(seed: int, jitter: float, detector: str, side: str = "halves",
+def drive(seed: int, jitter: float, detector: str, side: str | None = None,
           resolution: str | Sequence[int] | None = None) -> AvoidEpisode:
     """Run one episode with `ReactiveAvoid` driven by `detector` ("model/preset+front",
-    `models.parse_spec`), telling the threat's side by `side` ("halves", "eyes"), at
-    `resolution` (None: the closed-loop benchmark's)."""
+    `models.parse_spec`), telling the threat's side by `side` ("halves", "eyes"; None:
+    `ReactiveParams`' default), at `resolution` (None: the closed-loop benchmark's)."""
     import gymnasium as gym
 
     import lgmd_sim  # noqa: F401  (registers the scenarios)
     from lgmd_sim import controllers
     from lgmd_sim.bench.closed_loop import ClosedLoopConfig
+    from lgmd_sim.controllers.avoid import ReactiveParams
 
+    side = ReactiveParams.side if side is None else side
     name, preset = models.parse_spec(detector)
     bench = ClosedLoopConfig()
     controller = controllers.make("reactive", model=name, preset=preset, side=side,
@@ -131,6 +139,12 @@ def _top_view_bounds(ep: AvoidEpisode) -> np.ndarray:
     from lgmd_sim.bench.figures import map_bounds
 
     return map_bounds([{"top_view": {**ep.view, "path": ep.path}}])
+
+
+def _draw_goal(ax, view: dict[str, Any], label: str | None = None) -> None:
+    """The goal's star on a map of `view` (the world's top_view()), where it has one."""
+    if view["goal"]:
+        ax.plot(*view["goal"], **GOAL_MARK, label=label)
 
 
 def _runs(mask: np.ndarray, xy: np.ndarray) -> np.ndarray:
@@ -170,9 +184,7 @@ def figure(ep: AvoidEpisode) -> Figure:
     if ep.collision_frame is not None:
         top.plot(*ep.path[ep.collision_frame], marker="X", ms=13, color="black",
                  mec="white", ls="none", label="collision", zorder=6)
-    if ep.view["goal"]:
-        top.plot(*ep.view["goal"], marker="*", ms=16, color="gold", mec="black", ls="none",
-                 label="goal", zorder=4)
+    _draw_goal(top, ep.view, label="goal")
     top.set(xlim=(x0, x1), ylim=(y0, y1), aspect="equal", xlabel="x (m)", ylabel="y (m)",
             title="from above (obstacles brown, terrain height grey)")
     top.legend(loc="upper center", bbox_to_anchor=(0.5, -0.1), ncols=3, fontsize="small")
@@ -197,7 +209,8 @@ def figure(ep: AvoidEpisode) -> Figure:
               title="the detector, and the ground truth")
     ttc = trace.twinx()
     ttc.plot(time, np.where(ep.ttc < TTC_CLIP, ep.ttc, np.nan), color="#009E73", lw=1.2,
-             ls="--", label=f"time to collision of the nearest threat (< {TTC_CLIP:g} s)")
+             ls="--", label="time to collision of the most threatening obstacle "
+             f"(< {TTC_CLIP:g} s)")
     ttc.set(ylim=(0, TTC_CLIP * 1.6), ylabel="time to collision (s)")
     lines, twin = trace.get_legend_handles_labels(), ttc.get_legend_handles_labels()
     trace.legend(lines[0] + twin[0], lines[1] + twin[1], loc="upper center",
@@ -242,8 +255,7 @@ class _Compositor:
         fig.set_layout_engine("none")
         ax = fig.add_axes((0, 0, 1, 1))
         draw_world(ax, ep.view)
-        if ep.view["goal"]:
-            ax.plot(*ep.view["goal"], marker="*", ms=14, color="gold", mec="black", ls="none")
+        _draw_goal(ax, ep.view)
         ax.set(xlim=(x0, x1), ylim=(centre - half, centre + half))
         ax.set_axis_off()
         fig.canvas.draw()

@@ -36,6 +36,13 @@ def test_the_onsets_are_where_the_controllers_alarm_turns_on(episode):
     assert episode.outcome == "collided" and episode.collision_frame == n - 1
 
 
+def test_the_side_defaults_to_the_controllers(episode):
+    from lgmd_sim.controllers.avoid import ReactiveParams
+
+    assert demo_avoid.parse_avoider(" lgmd1 ") == ("lgmd1", ReactiveParams.side)
+    assert episode.side == ReactiveParams.side  # drive() given none
+
+
 def test_the_figure_marks_the_controllers_onsets_on_the_path_and_in_time(episode):
     fig = demo_avoid.figure(episode)
     top, trace = fig.axes[:2]
@@ -45,6 +52,8 @@ def test_the_figure_marks_the_controllers_onsets_on_the_path_and_in_time(episode
     np.testing.assert_allclose(marks[trace].get_xdata(), episode.onsets / episode.fps)
     (hit,) = [line for line in top.get_lines() if line.get_label() == "collision"]
     np.testing.assert_array_equal(hit.get_xydata()[0], episode.path[episode.collision_frame])
+    (goal,) = [line for line in top.get_lines() if line.get_label() == "goal"]
+    np.testing.assert_array_equal(goal.get_xydata()[0], episode.view["goal"])
     title = fig.get_suptitle()
     assert f"seed {SMALL['seed']}" in title and "jitter 1" in title
     assert f"collided, {len(episode.onsets)} alarms" in title
@@ -72,10 +81,15 @@ def test_the_demo_writes_the_avoiding_episode_with_its_other_files(tmp_path, cap
     assert str((out / "avoid.png").resolve()) in printed
 
 
-def test_no_avoid_skips_it(tmp_path):
+def test_no_avoid_skips_it_and_removes_an_earlier_runs_avoiding_episode(tmp_path):
     out = tmp_path / "d"
+    out.mkdir()
+    for name in ("avoid.mp4", "avoid.png", "notes.txt"):  # an earlier run's, and the user's
+        (out / name).write_text("earlier")
     assert cli.main(["demo", "--out", str(out), *DEMO, "--no-avoid"]) == 0
-    assert sorted(p.name for p in out.iterdir()) == ["demo.mp4", "demo.png", "demo_frame.png"]
+    # the folder reads as one set: no avoiding episode of another run beside this one
+    assert sorted(p.name for p in out.iterdir()) == [
+        "demo.mp4", "demo.png", "demo_frame.png", "notes.txt"]
 
 
 @pytest.mark.parametrize(("avoider", "named"), [

@@ -27,9 +27,9 @@ BEARING = np.where((T >= 60) & (T <= 64), 2.0, 0.0)
 RAMP = 0.5 + 0.004 * T
 
 
-@pytest.fixture(autouse=True)
-def _window(monkeypatch):
-    """The placeholder window these traces are made for, whatever the lead sets."""
+@pytest.fixture
+def placeholder_window(monkeypatch):
+    """The window the hand-made traces are made for, whatever the measured one is."""
     monkeypatch.setattr(robot, "TTC_LO", 0.5)
     monkeypatch.setattr(robot, "TTC_HI", 1.5)
 
@@ -42,6 +42,7 @@ def _clear() -> robot.FrameLabel:
     return robot.frame_label("clear", np.full(101, math.inf), np.zeros(101))
 
 
+@pytest.mark.usefixtures("placeholder_window")
 def test_window_frames_are_ahead_within_the_ttc_window_and_clear_ones_beyond_the_horizon():
     label = _approach()
     assert robot.HORIZON == 2.0 and robot.AHEAD == 90.0  # the benchmark's and the Oracle's
@@ -58,6 +59,7 @@ def test_a_threat_passing_beside_a_clear_clip_makes_no_window_frames():
     assert not passing.window.any() and not passing.clear.any()
 
 
+@pytest.mark.usefixtures("placeholder_window")
 def test_an_approach_is_a_hit_only_when_its_first_alarm_falls_in_the_window():
     at = np.array([0.602, 0.73, 0.745, 0.85, 0.95])  # first alarm: 26, 58, 62, 88, never
     hit = robot.hits([_approach()], [RAMP], at)
@@ -69,6 +71,7 @@ def test_a_clear_clip_is_a_hit_only_when_it_never_alarms():
     assert robot.hits([_clear()], [RAMP], np.array([0.85, 0.95])).tolist() == [[False, True]]
 
 
+@pytest.mark.usefixtures("placeholder_window")
 def test_frame_balanced_accuracy_by_hand():
     at = np.array([0.602, 0.73, 0.95])
     alarmed, silent = robot.frame_counts([_approach(), _clear()], [RAMP, RAMP], at)
@@ -78,6 +81,7 @@ def test_frame_balanced_accuracy_by_hand():
     assert silent.tolist() == [26 + 26, 40 + 58, 40 + 101]
 
 
+@pytest.mark.usefixtures("placeholder_window")
 def test_the_objective_is_the_mean_of_its_three_parts_from_one_run():
     labels = [_approach(), _clear()]
     potentials = [RAMP, np.full(101, 0.5)]  # the clear clip never alarms
@@ -130,6 +134,14 @@ def test_robot_presets_merge_beside_the_walker_ones(tmp_path, monkeypatch):
         ("lgmd1", "robot"), ("lgmd1", "robot-imu"), ("lgmd1", "robot-image"))
 
 
+def test_calibrate_help_points_each_task_to_its_objective(capsys):
+    with pytest.raises(SystemExit):
+        cli.main(["calibrate", "--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    assert "lgmd_sim.calibration.objective" in text and "lgmd_sim.calibration.robot" in text
+    assert "The robot: its own calibration, two eyes, two tasks" in text
+
+
 def test_a_bad_task_is_refused_by_the_config_and_the_command(tmp_path, capsys):
     with pytest.raises(ValueError, match="task 'rover'"):
         run.CalibrateConfig(task="rover")
@@ -139,12 +151,56 @@ def test_a_bad_task_is_refused_by_the_config_and_the_command(tmp_path, capsys):
     assert not (tmp_path / "c").exists()
 
 
+#: Every detector, in `SPACES`' order: both tasks' default.
+DETECTORS = ["feedback", "feedback-open-loop", "lgmd1", "lgmd2", "f_on", "f_off",
+             *(f"{d}+{front}" for d in ("feedback", "feedback-open-loop", "lgmd1", "lgmd2",
+                                        "f_on", "f_off") for front in ("image", "imu"))]
+
+
 def test_a_walker_run_is_identified_as_before():
-    walker = run.CalibrateConfig().as_json()
-    assert "task" not in walker and walker["late"] == 0.15  # old run folders still resume
-    mine = run.CalibrateConfig(task="robot").as_json()
-    assert mine["task"] == "robot" and mine["groups"] == clips.ROBOT_GROUPS
-    assert mine["window"] == [robot.TTC_LO, robot.TTC_HI]
+    # as_json before there were tasks (958496c), at the defaults: old folders still resume
+    assert json.loads(json.dumps(run.CalibrateConfig().as_json())) == {
+        "calibration": 1, "detectors": DETECTORS, "budget": 32, "search_seeds": [0, 8],
+        "heldout_seeds": [100, 8], "resolution": "rl",
+        "groups": {"jitter": [["HandheldApproach", [1.0, 1.5]],
+                              ["MutualApproach", [1.0, 1.5]]],
+                   "stationary": [["StationaryApproach", [0.0]], ["HandheldApproach", [0.0]],
+                                  ["MutualApproach", [0.0]]],
+                   "near_miss": [["PassBy", [0.0, 1.0]]]},
+        "late": 0.15, "seed": 0}
+
+
+def test_a_robot_run_is_identified_by_its_clips_cruise_and_window():
+    jitters = [0.0, 1.0, 2.0]
+    assert json.loads(json.dumps(run.CalibrateConfig(task="robot").as_json())) == {
+        "calibration": 1, "task": "robot", "cruise": 0.6, "detectors": DETECTORS,
+        "budget": 32, "search_seeds": [0, 8], "heldout_seeds": [100, 8], "resolution": "rl",
+        "groups": {"approach": [["RobotApproach", jitters], ["RobotWallAhead", jitters]],
+                   "clear": [["RobotOpenGround", jitters], ["RobotPassBy", jitters]]},
+        "window": [0.6, 1.15], "horizon": 2.0, "ahead": 90.0, "seed": 0}
+
+
+def test_the_window_is_the_one_the_oracle_measured():
+    # scripts/oracle_window.py: the horizons at which the Oracle meets the closed-loop target
+    assert (robot.TTC_LO, robot.TTC_HI) == (0.6, 1.15)
+
+
+@pytest.mark.usefixtures("placeholder_window")
+def test_a_part_the_set_lacks_is_left_out_of_the_objective_and_a_dash_in_the_summary():
+    # approach clips only: no clear part; the frames part has the approach's clear frames
+    scores = robot.ROBOT.scores([_approach()], [RAMP], THRESHOLDS)
+    record = {"detector": "lgmd1", "index": 0, "params": {},
+              "sets": {"search": scores, "heldout": scores}}
+    kinds = {"search": [{"kind": "approach"}], "heldout": [{"kind": "approach"}]}
+    chosen = run.choose([record], kinds, robot.ROBOT)
+    assert set(chosen["search"]) == {"objective", "approach", "frames"}
+    assert chosen["search"]["objective"] == pytest.approx(
+        (chosen["search"]["approach"] + chosen["search"]["frames"]) / 2)
+    row = run.summary_markdown([chosen], robot.ROBOT).splitlines()[2]
+    cells = [c.strip() for c in row.strip("|").split("|")]
+    assert cells[0] == "lgmd1" and cells[4] == "-"  # approach, clear, frames: columns 3-5
+    assert cells[3] == "{0:.2f} / {0:.2f}".format(chosen["search"]["approach"])
+    run.calibration_figure([chosen], robot.ROBOT).canvas.draw()  # the clear panel empty
 
 
 def test_a_tiny_robot_calibration_end_to_end(tmp_path, monkeypatch):

@@ -4,8 +4,9 @@ can still avoid the threat ahead, and silence while nothing threatens.
 The robot's clips show it driving straight over rough ground (jitter 0, 1 and 2) at the
 closed-loop benchmark's cruise: **approach** clips at a box or a wall ahead until it hits
 it, **clear** clips with no obstacle in its way (open ground; obstacles and angled walls
-beside its path). Each frame is judged by the ground truth of its nearest threat
-(``threat_ttc``, ``threat_bearing``):
+beside its path). Each frame is judged by the ground truth of its threat, the world's
+most threatening obstacle or wall (one touched in this frame, else the soonest to collide,
+else the nearest: ``threat_ttc``, ``threat_bearing``):
 
 - a **window** frame (of an approach clip) when the threat is ahead (within ``AHEAD`` =
   90 degrees of the heading, as the Oracle's trigger) and its time to collision lies in
@@ -32,8 +33,10 @@ Three parts, each a rate in [0, 1]:
   cruises on and meets the next obstacle), and the many clear frames do not outweigh the
   few window frames.
 
-objective = mean of the three parts, in [0, 1]. An alarm is the potential above the
-threshold, frame by frame, as `lgmd_sim.controllers.ReactiveAvoid` triggers on it.
+objective = mean of the parts present, in [0, 1]: a set without approach or clear clips,
+or without window and clear frames, has no such part (the summary shows "-"). An alarm is
+the potential above the threshold, frame by frame, as `lgmd_sim.controllers.ReactiveAvoid`
+triggers on it.
 """
 
 from __future__ import annotations
@@ -145,7 +148,7 @@ ROBOT = _Robot(
     text=__doc__.strip(),
     parts={"approach": "approach clips hit", "clear": "clear clips silent",
            "frames": "frame balanced accuracy"},
-    titles={"objective": "objective\n(mean of the three parts)",
+    titles={"objective": "objective\n(mean of the parts present)",
             "approach": "approach clips:\nfirst alarm in the manoeuvre's window",
             "clear": "clear clips:\nno alarm",
             "frames": "frames: balanced accuracy\n(window alarmed, clear silent)"},

@@ -192,13 +192,13 @@ def choose(records: Sequence[dict[str, Any]], clip_sets: dict[str, list[dict]],
 
 def summary_markdown(chosen: Sequence[dict[str, Any]], objective: Objective = WALKER) -> str:
     """The chosen candidates, search and held-out, as a Markdown table: the objective and
-    each of its parts."""
+    each of its parts ("-" for a part the clips lack, which the objective leaves out)."""
     lines = ["| detector | threshold | objective search / held-out | "
              + " | ".join(objective.parts.values()) + " |",
              "|---|---:|---:|" + "---:|" * len(objective.parts)]
     for c in chosen:
         s, h = c["search"], c["heldout"]
-        cells = [f"{s[k]:.2f} / {h[k]:.2f}" for k in objective.parts]
+        cells = [f"{s[k]:.2f} / {h[k]:.2f}" if k in s else "-" for k in objective.parts]
         lines.append(f"| {c['detector']} | {c['threshold']:.3f} | "
                      f"{s['objective']:.3f} / {h['objective']:.3f} | {' | '.join(cells)} |")
     return "\n".join(lines) + "\n"
@@ -225,8 +225,9 @@ def calibration_figure(chosen: Sequence[dict[str, Any]], objective: Objective = 
     bar = {"edgecolor": "black", "lw": 0.5}
     for ax, what in zip(axes, ("objective", *objective.parts), strict=True):
         for k, (set_name, alpha) in enumerate((("search", 1.0), ("heldout", 0.45))):
-            bars = ax.bar(x + (k - 0.5) * 0.38, [c[set_name][what] for c in chosen], 0.38,
-                          color=colours, alpha=alpha, **bar)
+            # a part the clips lack has no bar
+            bars = ax.bar(x + (k - 0.5) * 0.38, [c[set_name].get(what, np.nan) for c in chosen],
+                          0.38, color=colours, alpha=alpha, **bar)
             for b, n in zip(bars, names, strict=True):
                 if "open-loop" in n:  # the feedback LGMD's control: its colour, hatched
                     b.set_hatch("//")

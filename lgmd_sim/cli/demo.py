@@ -62,7 +62,8 @@ def add(sub: argparse._SubParsersAction) -> None:
                    help="camera resolution of the avoiding episode (default: the closed-loop "
                    "benchmark's, rl: its detectors' presets are calibrated there)")
     p.add_argument("--no-avoid", action="store_true",
-                   help="skip the avoiding episode (avoid.mp4, avoid.png)")
+                   help="skip the avoiding episode (avoid.mp4, avoid.png: an earlier "
+                   "run's in DIR are removed, so that the folder holds one set)")
 
 
 def run(args: argparse.Namespace) -> int:
