@@ -224,8 +224,9 @@ def figure(ep: AvoidEpisode) -> Figure:
 
 def _spans(mask: np.ndarray) -> list[tuple[int, int]]:
     """The (first, last) frames of each run of True in `mask`."""
-    edges = np.flatnonzero(np.diff(np.r_[0, mask.astype(int), 0]))
-    return [(a, b - 1) for a, b in zip(edges[::2], edges[1::2], strict=True)]
+    from lgmd_sim.bench.encounters import runs
+
+    return runs(mask, np.arange(len(mask)), gap=0.0)
 
 
 def _rgb(colour: str) -> tuple[int, ...]:

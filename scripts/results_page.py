@@ -128,7 +128,8 @@ WHY_LATE = Commentary(
         "away, never reaching the goal. The calibration tuned them on the walker's clips,",
         "whose objective asks for an alarm late in the approach; the robot needs one earlier,",
         "and sees its own ground flow ([models.md](models.md), \"The robot: the ground's own",
-        "flow\"). Calibrating on the robot's own clips is the next step.")))
+        "flow\"). The robot's own calibration: \"The robot: its own calibration, two eyes,",
+        "two tasks\" below.")))
 
 
 def _rows(path: Path) -> list[dict[str, str]]:

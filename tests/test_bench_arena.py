@@ -102,7 +102,43 @@ def test_the_zone_is_the_oracles_trigger():
     wider = OracleParams(horizon=3.0)  # another zone: the definition follows the params
     assert encounters.in_zone({**base, "threat_ttc": 2.0}, wider)
     assert not encounters.in_zone({**base, "threat_ttc": 2.0})
-    assert str(p.horizon) in encounters.LEGEND or f"{p.horizon:g}" in encounters.LEGEND
+    assert f"time to collision < {p.horizon:g} s" in encounters.LEGEND
+    assert f"nearer than {p.clearance:g} m" in encounters.LEGEND
+
+
+def test_the_zone_and_the_oracles_trigger_are_one_test():
+    """The Oracle triggers exactly where an encounter is, turning by the threat's bearing."""
+    from lgmd_sim.controllers.avoid import Oracle, in_trigger_zone
+
+    p, oracle = OracleParams(), Oracle()
+    for ttc, distance, bearing in [(0.5, 2.0, 0.1), (2.0, 2.0, 0.1), (2.0, 0.2, -0.3),
+                                   (0.5, 2.0, math.radians(p.ahead + 1)), (math.inf, 0.1, 3.0)]:
+        info = {"threat_ttc": ttc, "threat_distance": distance, "threat_bearing": bearing}
+        inside = in_trigger_zone(info, p)
+        assert encounters.in_zone(info) is inside
+        assert oracle._trigger({}, info) == (bearing if inside else None)
+
+
+def test_an_encounter_starting_while_still_in_contact_is_not_avoided():
+    """Pressed against a wall and turning on the spot, the robot leaves the zone and comes
+    back: each return is an encounter with a collision, the one collision counted once."""
+    infos = scripted(80, frames(10, 20) | frames(40, 50), contact=frames(18, 60))
+    found = encounters.encounters(infos)
+    assert [(e.start, e.avoided) for e in found] == [(10, False), (40, False)]
+    # contact that began before the zone and ended before it does not fail it
+    infos = scripted(80, frames(40, 50), contact=frames(10, 20))
+    assert [(e.start, e.avoided) for e in encounters.encounters(infos)] == [
+        (10, False), (40, True)]
+
+
+def test_an_encounter_ending_too_near_the_end_to_judge_has_no_outcome():
+    """The MERGE_GAP after an encounter must be seen before it counts as avoided."""
+    assert encounters.encounters(scripted(30, frames(20, 27))) == []
+    (e,) = encounters.encounters(scripted(30, frames(20, 27), contact={28}))
+    assert not e.avoided  # a collision seen is an outcome
+    gap_frames = round(encounters.MERGE_GAP * FPS)
+    (e,) = encounters.encounters(scripted(30, frames(10, 29 - gap_frames)))
+    assert e.avoided  # its whole window seen
 
 
 # --- records and the summary --------------------------------------------------------------
@@ -172,6 +208,81 @@ def test_the_oracle_distance_is_the_same_jitter_levels():
     assert rows[("reactive", 0.0)]["distance_vs_oracle"] == pytest.approx(7.5 / 11.0)
 
 
+def test_the_oracle_distance_pairs_the_seeds_both_cells_have():
+    from lgmd_sim.bench import closed_loop
+
+    oracle = [record("oracle", 1000, distance=10.0), record("oracle", 1001, distance=12.0),
+              record("oracle", 1002, distance=20.0)]
+    reactive = [record("reactive", 1000, model="feedback", distance=6.0),
+                record("reactive", 1001, model="feedback", distance=None),
+                record("reactive", 1003, model="feedback", distance=9.0)]
+    rows = {r["controller"]: r for r in closed_loop.summarise([*oracle, *reactive])}
+    assert rows["reactive"]["distance_vs_oracle"] == pytest.approx(6.0 / 10.0)
+    assert rows["oracle"]["distance_vs_oracle"] == pytest.approx(1.0)
+    # no seed in common: no ratio
+    rows = closed_loop.summarise([*oracle, reactive[2]])
+    assert next(r for r in rows if r["controller"] == "reactive")["distance_vs_oracle"] is None
+
+
+def test_an_extra_cell_with_parameters_needs_a_tag():
+    """An untagged extra oracle with other parameters would read as the planned Oracle
+    (records, keys and labels carry no parameters but the side): it is refused."""
+    from lgmd_sim.bench.closed_loop import Cell, ClosedLoopConfig
+
+    other = Cell("ArenaRoam", 0.0, "oracle", params=(("horizon", 2.0),))
+    with pytest.raises(ValueError) as exc:
+        ClosedLoopConfig(scenarios=("ArenaRoam",), jitter=(0.0,), extra=(other,))
+    assert "horizon" in str(exc.value) and "tag" in str(exc.value)
+    assert "\n" not in str(exc.value)
+    ClosedLoopConfig(scenarios=("ArenaRoam",), jitter=(0.0,),
+                     extra=(Cell("ArenaRoam", 0.0, "oracle", params=(("horizon", 2.0),),
+                                 tag="horizon 2"),))
+    with pytest.raises(ValueError, match=r"cell oracle \(ArenaRoam, jitter 0\) is a cell of"):
+        ClosedLoopConfig(scenarios=("ArenaRoam",), jitter=(0.0,),
+                         extra=(Cell("ArenaRoam", 0.0, "oracle"),))
+
+
+def test_a_controller_that_cannot_tell_reports_no_manoeuvring_share(monkeypatch):
+    """A trained policy turns away without saying so: its share is unknown ("-"), not 0."""
+    import numpy as np
+
+    from lgmd_sim import controllers
+    from lgmd_sim.bench import closed_loop
+    from lgmd_sim.params import CheckedParams
+
+    class Blind(controllers.Controller):
+        Params = CheckedParams
+
+        def act(self, obs, info):
+            return np.array([0.5, 0.0], np.float32)
+
+    monkeypatch.setattr(controllers, "controller_class", lambda name: Blind)
+    monkeypatch.setattr(controllers, "make", lambda name, **params: Blind())
+    record_ = closed_loop.episode(closed_loop.Cell("StationaryApproach", 0.0, "policy", tag="b"),
+                                  1000, resolution="small", cruise=0.6, horizon=2.0)
+    assert record_["manoeuvring_share"] is None
+    (row,) = closed_loop.summarise([record("policy", 1000, share=None)])
+    assert row["manoeuvring_share"] is None
+    assert closed_loop.summary_markdown([row]).splitlines()[2].endswith("| - |")
+
+
+def test_the_sides_identify_a_run_only_where_a_controller_takes_one():
+    from lgmd_sim.bench.closed_loop import DEFAULT_SIDE, ClosedLoopConfig
+    from lgmd_sim.controllers.avoid import ReactiveParams
+
+    assert DEFAULT_SIDE == ReactiveParams().side
+    both, reversed_ = (ClosedLoopConfig(sides=("halves", "eyes")),
+                       ClosedLoopConfig(sides=("eyes", "halves")))
+    assert both.as_json() == reversed_.as_json()
+    assert both.as_json()["sides"] == ["halves", "eyes"]  # as runs before the fix wrote it
+    # the cells in the order asked for
+    assert [c.side for c in reversed_.cells() if c.controller == "reactive"][:2] == [
+        "eyes", None]
+    sideless = ClosedLoopConfig(controllers=("straight", "oracle"), sides=("halves", "eyes"))
+    assert "sides" not in sideless.as_json()
+    assert sideless.as_json() == ClosedLoopConfig(controllers=("straight", "oracle")).as_json()
+
+
 def test_the_markdown_has_a_table_per_task_kind_each_with_its_legend(tmp_path):
     from lgmd_sim.bench import closed_loop
 
@@ -189,6 +300,8 @@ def test_the_markdown_has_a_table_per_task_kind_each_with_its_legend(tmp_path):
     assert "RoughTerrainObstacles" in tables[0] and "ArenaRoam" not in tables[0]
     assert "ArenaRoam" in tables[1] and "RoughTerrainObstacles" not in tables[1]
     assert "success" in legends[0] and encounters.LEGEND in legends[1]
+    # encounters of an episode are not independent: the interval says it is too narrow
+    assert "cluster by episode" in legends[1]
     # summary.csv: one row per cell, every column, empty where it does not apply
     closed_loop.write_tables(tmp_path, [*goal, *roam_records()])
     import csv
@@ -398,6 +511,32 @@ def test_roam_figures_mark_each_encounter_and_report_no_success(tmp_path, monkey
     assert marks(panels["straight"], avoided) == [(1.0, 0.0)]
     assert marks(panels["straight"], failed) == [(3.0, 1.0)]
     assert "1 of 2 avoided" in panels["straight"].get_title()
+
+
+def test_a_roam_task_plots_collisions_per_minute_against_false_alarms(tmp_path, monkeypatch):
+    """Over a fixed time nearly every roam episode touches something: the collision rate
+    is about 1 for every cell, collisions per minute tell them apart."""
+    from lgmd_sim.bench import closed_loop, figures
+
+    goal = [record("oracle", 1000, scenario="RoughTerrainObstacles", goal=True, collisions=1)]
+    roam = [record("straight", s, collisions=c) for s, c in ((1000, 3), (1001, 6))]
+    rows = closed_loop.summarise([*goal, *roam])
+    made = {}
+    monkeypatch.setattr(figures, "_save", lambda fig, path: made.update({path.name: fig}))
+    figures.closed_loop(tmp_path, rows, [])
+    axes = {ax.get_title(): ax for ax in made["false_alarms_vs_collisions.png"].axes}
+    roam_ax, goal_ax = axes["ArenaRoam, jitter 0"], axes["RoughTerrainObstacles, jitter 0"]
+    assert [float(ln.get_ydata()[0]) for ln in roam_ax.get_lines()] == [4.5]  # 9 in 2 min
+    assert [float(ln.get_ydata()[0]) for ln in goal_ax.get_lines()] == [1.0]
+    assert roam_ax.get_ylabel() == "collisions per minute"
+    assert goal_ax.get_ylabel() == "collision rate"
+    assert roam_ax.get_ylim()[1] > 4.5
+
+
+def test_the_world_drawing_helpers_are_public():
+    from lgmd_sim.bench import figures
+
+    assert {"draw_world", "map_bounds"} <= set(figures.__all__)
 
 
 def test_a_path_that_goes_on_after_a_collision_ends_at_its_end(tmp_path, monkeypatch):

@@ -52,3 +52,14 @@ def test_reactive_avoid_feeds_a_stabilized_model_its_rotation():
     with pytest.raises(ValueError, match="front end"):
         make("reactive", model="lgmd1", preset="published+wobble")
     env.close()
+
+
+def test_only_controllers_that_can_tell_report_manoeuvring():
+    """None: cannot tell (a trained policy turns away without saying so); Straight never
+    manoeuvres; the avoiders say when they do."""
+    from lgmd_sim.controllers import Controller, make
+    from lgmd_sim.controllers.policy import Policy
+
+    assert Controller.manoeuvring is None and Policy.manoeuvring is None
+    assert Straight().manoeuvring is False
+    assert make("oracle").manoeuvring is False  # not yet: nothing triggered it

@@ -37,6 +37,7 @@ import numpy as np
 
 from lgmd_sim import metrics, options
 from lgmd_sim.bench import encounters
+from lgmd_sim.controllers.avoid import ReactiveParams
 from lgmd_sim.fileio import atomic_folder_outputs, csv_text, write_text_atomic
 from lgmd_sim.parallel import Job, run_jobs
 from lgmd_sim.runs import NULL, NUMBER, Maybe, RunFolder, RunResult
@@ -47,7 +48,7 @@ __all__ = ["DEFAULT_SIDE", "Cell", "ClosedLoopConfig", "episode", "plan", "run",
 #: ReactiveParams.side's default (one LGMD over the whole view, the side from its S
 #: layer's halves: the behaviour from before there was a choice). Cells at it carry no
 #: side parameter, so that their labels, keys and run folders stay what they were.
-DEFAULT_SIDE = "halves"
+DEFAULT_SIDE: str = ReactiveParams().side
 
 
 @dataclass(frozen=True)
@@ -145,7 +146,9 @@ def episode(cell: Cell, seed: int, *, resolution: Any, cruise: float, horizon: f
         "collisions": collisions,
         "collisions_per_min": _finite(collisions / minutes) if minutes else None,
         "encounters": len(found), "avoided": sum(e.avoided for e in found),
-        "manoeuvring_share": _finite(np.mean(manoeuvring)) if manoeuvring else None,
+        # None where the controller cannot tell (a trained policy)
+        "manoeuvring_share": (_finite(np.mean(manoeuvring))
+                              if manoeuvring and None not in manoeuvring else None),
     }
     if "goal_distance" in first:  # a scenario with a goal
         start = first["goal_distance"]
@@ -230,8 +233,9 @@ def summarise(records: Sequence[dict[str, Any]]) -> list[dict[str, Any]]:
     the success rate and mean progress; where the records count them (all but those from
     before the arena task) collisions per minute, the share of the pooled encounters
     avoided, the mean distance relative to the Oracle's (the untagged oracle cell of the
-    same scenario and jitter level, on the same seeds; None without one) and the mean share
-    of the time spent manoeuvring."""
+    same scenario and jitter level, over the seeds both have a distance for; None without
+    one) and the mean share of the time spent manoeuvring (None where the controller
+    cannot tell)."""
     groups: dict[tuple, list[dict[str, Any]]] = defaultdict(list)
     for r in records:
         groups[(r["scenario"], r["jitter"], r["controller"], r["model"], r["preset"],
@@ -269,13 +273,21 @@ def summarise(records: Sequence[dict[str, Any]]) -> list[dict[str, Any]]:
             "avoidance_ci": metrics.wilson_interval(avoided, met) if met else None,
             "manoeuvring_share": _mean([r.get("manoeuvring_share") for r in rs]),
         })
-    oracle = {(r["scenario"], r["jitter"]): r["mean_distance_m"] for r in rows
-              if r["controller"] == "oracle" and r["tag"] is None and r["side"] is None}
-    for r in rows:
-        base = oracle.get((r["scenario"], r["jitter"]))
-        r["distance_vs_oracle"] = (r["mean_distance_m"] / base
-                                   if base and r["mean_distance_m"] is not None else None)
+    # the Oracle: the planned cell, untagged (an extra cell with parameters has a tag)
+    distances = {key: {r["seed"]: r["distance_m"] for r in rs} for key, rs in groups.items()}
+    for key, row in zip(groups, rows, strict=True):
+        base = distances.get((*key[:2], "oracle", None, None, None, None), {})
+        row["distance_vs_oracle"] = _paired_ratio(distances[key], base)
     return rows
+
+
+def _paired_ratio(values: dict[int, float | None], base: dict[int, float | None]
+                  ) -> float | None:
+    """The mean of `values` over the mean of `base` (each by seed), over the seeds both
+    have a value for; None without one, or where the base's is 0."""
+    seeds = [s for s, v in values.items() if v is not None and base.get(s) is not None]
+    below = sum(base[s] for s in seeds)
+    return sum(values[s] for s in seeds) / below if below else None
 
 
 _EPISODE_COLUMNS = ["scenario", "jitter", "controller", "model", "preset", "tag", "side",
@@ -316,10 +328,11 @@ _GOAL_LEGEND = ("_collisions, success: shares of the episodes with a collision a
                 "alarm onset to the collision; progress: share of the way to the goal "
                 "covered._")
 _ROAM_LEGEND = (f"_{encounters.LEGEND}; avoided %: of the cell's pooled encounters (95% "
-                "Wilson interval); collisions / min: collision onsets; false alarm: an "
-                "alarm onset with no obstacle within the horizon's time to collision; "
-                "distance vs Oracle: mean distance travelled over the Oracle's on the same "
-                "seeds; manoeuvring: share of the time braking and turning away._")
+                "Wilson interval, too narrow: encounters cluster by episode); collisions / "
+                "min: collision onsets; false alarm: an alarm onset with no obstacle "
+                "within the horizon's time to collision; distance vs Oracle: mean distance "
+                "travelled over the Oracle's on the seeds both have; manoeuvring: share of "
+                "the time braking and turning away (-: the controller cannot tell)._")
 
 
 def summary_markdown(rows: Sequence[dict[str, Any]]) -> str:
@@ -447,6 +460,17 @@ class ClosedLoopConfig:
                 _check_side(side)
         if not (self.controllers or self.extra):
             raise ValueError("no controllers given")
+        keys = {cell.key(self.first_seed) for cell in plan(
+            self.scenarios, self.jitter, self.controllers, self.detectors, self.sides)}
+        for cell in self.extra:
+            # records, keys and labels name no parameter but the side: a tag tells apart
+            named = sorted(set(dict(cell.params)) - {"side"})
+            where = f"extra cell {cell.label} ({cell.scenario}, jitter {cell.jitter:g})"
+            if named and cell.tag is None:
+                raise ValueError(f"{where}: parameters {', '.join(named)} need a tag")
+            if cell.key(self.first_seed) in keys:
+                raise ValueError(f"{where} is a cell of the run already: give it a tag")
+            keys.add(cell.key(self.first_seed))
 
     @property
     def seed_list(self) -> list[int]:
@@ -459,6 +483,8 @@ class ClosedLoopConfig:
 
     def as_json(self) -> dict[str, Any]:
         """The configuration as the run folder records it (what identifies the run)."""
+        from lgmd_sim.controllers import controller_class
+
         out: dict[str, Any] = {
             "benchmark": "closed-loop", "scenarios": list(self.scenarios),
             "jitter": list(self.jitter), "controllers": list(self.controllers),
@@ -466,8 +492,11 @@ class ClosedLoopConfig:
             "seeds": [self.first_seed, self.seeds],
             "resolution": self.resolution, "cruise": self.cruise, "horizon": self.horizon,
         }
-        if self.sides != (DEFAULT_SIDE,):  # so that a run from before sides still resumes
-            out["sides"] = list(self.sides)
+        # only where a cell takes a side, so that a run from before sides still resumes;
+        # the default first, then by name: the cells' order is not the run's identity
+        if self.sides != (DEFAULT_SIDE,) and any(
+                "side" in controller_class(c).Params.names() for c in self.controllers):
+            out["sides"] = sorted(self.sides, key=lambda side: (side != DEFAULT_SIDE, side))
         if self.extra:
             out["extra"] = [{"scenario": c.scenario, "jitter": c.jitter,
                              "controller": c.controller, "params": dict(c.params),

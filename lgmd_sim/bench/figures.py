@@ -14,7 +14,7 @@ from lgmd_sim.fileio import write_files
 from lgmd_sim.plots import figure, model_style
 
 __all__ = ["ARENA_VS_JITTER", "CLOSED_LOOP", "closed_loop", "closed_loop_figures",
-           "encounters_figure", "open_loop"]
+           "draw_world", "encounters_figure", "map_bounds", "open_loop"]
 
 #: The closed-loop benchmark's figures of every task.
 CLOSED_LOOP = ("collisions_vs_jitter.png", "false_alarms_vs_collisions.png",
@@ -219,27 +219,33 @@ def _false_alarms_vs_collisions(path: Path, rows: Sequence[dict[str, Any]],
                                 scenarios: list[str], styles: dict[str, dict[str, Any]]
                                 ) -> None:
     """One panel per scenario and jitter level: each cell's false alarms per minute and
-    collision rate; equal points nest (the first listed largest)."""
+    collision rate, or for a roam task collisions per minute (over a fixed time nearly
+    every episode touches something: its collision rate is about 1 for every cell); equal
+    points nest (the first listed largest)."""
     jitters = sorted({r["jitter"] for r in rows})
     fig = figure(figsize=(max(3.6 * len(jitters), 4.6) + 3.2, 3.3 * len(scenarios)))
     axes = fig.subplots(len(scenarios), len(jitters), squeeze=False, sharex=True,
-                        sharey=True)
+                        sharey="row")
     span = max(1.0, max(r["false_alarms_per_min"] for r in rows))
     order = list(styles)
     for i, sc in enumerate(scenarios):
+        own = [r for r in rows if r["scenario"] == sc]
+        value, what = (("collision_rate", "collision rate") if _is_goal(own[0])
+                       else ("collisions_per_min", "collisions per minute"))
+        top = max(1.0, *(r[value] for r in own))
         for ax, j in zip(axes[i], jitters, strict=True):
-            cells = sorted((r for r in rows if r["scenario"] == sc and r["jitter"] == j),
+            cells = sorted((r for r in own if r["jitter"] == j),
                            key=lambda r: order.index(r["cell"]))
-            points = [np.array([[r["false_alarms_per_min"] / span, r["collision_rate"]]])
+            points = [np.array([[r["false_alarms_per_min"] / span, r[value] / top]])
                       for r in cells]
             for r, widen in zip(cells, _covers(points, 0.03), strict=True):
-                ax.plot(r["false_alarms_per_min"], r["collision_rate"],
+                ax.plot(r["false_alarms_per_min"], r[value],
                         **_point(styles[r["cell"]], int(widen[0])))
             ax.set_title(f"{sc}, jitter {j:g}", fontsize="medium")
             ax.grid(alpha=0.3)
             ax.set_xlabel("false alarms per minute")
-        axes[i, 0].set_ylabel("collision rate")
-    axes[0, 0].set_ylim(-0.08, 1.08)
+            ax.set_ylabel(what)
+        axes[i, 0].set_ylim(-0.08 * top, 1.08 * top)
     axes[0, 0].set_xlim(-0.06 * span, 1.06 * span)
     # from the left: centred on the figure, a narrow one's title ran under the legend
     fig.suptitle("The cost of avoiding (lower left is better)", fontsize="medium", x=0.02,
@@ -249,8 +255,13 @@ def _false_alarms_vs_collisions(path: Path, rows: Sequence[dict[str, Any]],
 
 
 def draw_world(ax, view: dict[str, Any]) -> None:
-    """An episode's world from above: terrain heights, obstacles (arena walls among
-    them)."""
+    """Draw an episode's world from above on matplotlib axes `ax`: the terrain's heights
+    (grey, where `view` has "terrain" and its "extent") and the obstacles, arena walls
+    among them (brown; each a "polygon" of (x, y) corners or a "circle" (x, y, radius)).
+
+    `view` is a top view as `lgmd_sim.world.core.JitterWorld.top_view` gives it (the
+    closed-loop records' and the avoidance demo's); the axes keep their limits and aspect.
+    """
     from matplotlib.patches import Circle, Polygon
 
     if "terrain" in view:
@@ -264,7 +275,9 @@ def draw_world(ax, view: dict[str, Any]) -> None:
 
 
 def map_bounds(group: Sequence[dict[str, Any]]) -> np.ndarray:
-    """(x0, y0), (x1, y1) around one panel's paths, obstacles and goal."""
+    """The box around one map's drawing, [[x0, y0], [x1, y1]] (m), with a margin: every
+    record's path (its ``top_view["path"]``) and the first's obstacles and goal (records
+    of one scenario, jitter level and seed share the world)."""
     view = group[0]["top_view"]
     points = [np.array(r["top_view"]["path"]).reshape(-1, 2) for r in group]
     for ob in view["obstacles"]:

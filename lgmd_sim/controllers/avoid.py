@@ -25,6 +25,7 @@ __all__ = [
     "OracleParams",
     "ReactiveAvoid",
     "ReactiveParams",
+    "in_trigger_zone",
 ]
 
 _TUNED = "design: tuned so that Oracle avoids the obstacles of RoughTerrainObstacles"
@@ -95,22 +96,26 @@ class OracleParams(AvoidParams):
                          doc="... and its bearing within this many degrees of straight ahead")
 
 
+def in_trigger_zone(info: Mapping[str, Any], params: OracleParams) -> bool:
+    """Whether the frame's threat is in the Oracle's trigger zone of `params`: its time to
+    collision (``info["threat_ttc"]``) below ``horizon`` or its distance
+    (``info["threat_distance"]``) below ``clearance``, with its bearing
+    (``info["threat_bearing"]``, radians) within ``ahead`` degrees of straight ahead. The
+    benchmark's encounters are this zone too (`lgmd_sim.bench.encounters`)."""
+    near = info["threat_ttc"] < params.horizon or info["threat_distance"] < params.clearance
+    return bool(near and abs(math.degrees(info["threat_bearing"])) <= params.ahead)
+
+
 class Oracle(Avoider):
-    """The manoeuvre triggered by ground truth: ``info["threat_ttc"]`` below ``horizon``
-    or ``info["threat_distance"]`` below ``clearance``, with ``info["threat_bearing"]``
-    within ``ahead`` degrees. The upper bound of what the manoeuvre can do, and the check
-    that it can avoid the obstacles at all."""
+    """The manoeuvre triggered by ground truth: the threat in the trigger zone
+    (`in_trigger_zone`), turning away from its bearing. The upper bound of what the
+    manoeuvre can do, and the check that it can avoid the obstacles at all."""
 
     Params = OracleParams
     params: OracleParams
 
     def _trigger(self, obs: Mapping[str, np.ndarray], info: Mapping[str, Any]) -> float | None:
-        bearing = float(info["threat_bearing"])
-        p = self.params
-        near = info["threat_ttc"] < p.horizon or info["threat_distance"] < p.clearance
-        if near and abs(math.degrees(bearing)) <= p.ahead:
-            return bearing
-        return None
+        return float(info["threat_bearing"]) if in_trigger_zone(info, self.params) else None
 
 
 @dataclass(frozen=True)

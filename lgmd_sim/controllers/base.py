@@ -28,8 +28,9 @@ class Controller(ABC):
     #: last frame it acted on; False for controllers without one.
     alarm: bool = False
     #: Whether the last action was an avoidance manoeuvre (braking and turning away from
-    #: a threat); False for controllers without one.
-    manoeuvring: bool = False
+    #: a threat); None where the controller cannot tell (a trained policy turns away
+    #: without naming it a manoeuvre), so that no one reports it as never manoeuvring.
+    manoeuvring: bool | None = None
 
     def __init__(self, **params: Any) -> None:
         self.params = self.Params(**params)

@@ -41,6 +41,7 @@ class Policy(Controller):
     in (same id, frame size): `wrap_env` refuses another frame size. ``alarm`` is the
     observed LGMD model's alarm on the frame (False for a pixel policy), so that the
     benchmark's false-alarm columns describe the detector the policy reads.
+    ``manoeuvring`` stays None: the policy turns away without naming it a manoeuvre.
     """
 
     Params = PolicyParams

@@ -31,6 +31,7 @@ class Straight(Controller):
 
     Params = StraightParams
     params: StraightParams
+    manoeuvring = False  # it never does
 
     def act(self, obs: Mapping[str, np.ndarray], info: Mapping[str, Any]) -> np.ndarray:
         p = self.params
