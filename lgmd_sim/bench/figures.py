@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from collections import defaultdict
 from collections.abc import Sequence
 from pathlib import Path
@@ -109,8 +110,12 @@ def _legend(fig, styles: dict[str, dict[str, Any]], note: str, lines: bool) -> N
     handles = [Line2D([], [], label=cell, color=st["color"], ls=st["ls"] if lines else "none",
                       lw=_LW + 0.4, marker=st["marker"], ms=7, mec="black", mew=0.6)
                for cell, st in styles.items()]
+    # as many columns as it takes to fit the figure's height (a "small" entry takes
+    # about 0.22 in): with many cells one column runs off the bottom
+    rows = max(1, int((fig.get_figheight() - 0.8) / 0.22))
     fig.legend(handles=handles, loc="outside right upper", fontsize="small",
-               title=note, title_fontsize="x-small", alignment="left")
+               ncols=math.ceil(len(handles) / rows), title=note, title_fontsize="x-small",
+               alignment="left")
 
 
 def _save(fig, path: Path) -> None:
