@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from lgmd_sim import cli, demo, demo_avoid
+from lgmd_sim.cli.demo import AVOIDER
 
 #: At 64 x 64 this detector alarms (it is calibrated at 120 x 160) and the episode is short.
 SMALL = {"seed": 3, "jitter": 1.0, "detector": "lgmd1/calibrated-image", "resolution": "small"}
@@ -77,7 +78,8 @@ def test_the_demo_writes_the_avoiding_episode_with_its_other_files(tmp_path, cap
     assert sorted(p.name for p in out.iterdir()) == [
         "avoid.mp4", "avoid.png", "demo.mp4", "demo.png", "demo_frame.png"]
     printed = capsys.readouterr().out
-    assert "avoiding (lgmd1/calibrated-image, halves, seed 3)" in printed
+    detector, side = AVOIDER.split(",")
+    assert f"avoiding ({detector}, {side}, seed 3)" in printed
     assert str((out / "avoid.png").resolve()) in printed
 
 
