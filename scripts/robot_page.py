@@ -6,7 +6,8 @@ one between the markers (or is appended), the rest of the page stays as
 `scripts/results_page.py` made it.
 
     .venv/bin/python scripts/robot_page.py --oracle-window runs/oracle-window \
-        --calibration runs/calibration-robot --closed-loop runs/closed-loop-robot
+        --calibration runs/calibration-robot \
+        --closed-loop runs/closed-loop-robot-j1 runs/closed-loop-robot-j1-parts
 """
 
 from __future__ import annotations
@@ -19,6 +20,7 @@ from pathlib import Path
 from oracle_window import COLLISIONS, SUCCESS, horizon, window
 from results_page import FIGURES, OUT, ROOT, Figures, _command, _copier, _copy, _rows
 
+from lgmd_sim.bench import encounters
 from lgmd_sim.calibration import robot
 from lgmd_sim.calibration.clips import specs
 from lgmd_sim.calibration.objective import THRESHOLDS, unpack_hits
@@ -166,7 +168,8 @@ def targets(rows: Sequence[dict[str, str]]) -> list[str]:
                        f"{_pct(best, 'collision')}, "
                        f"{float(best['false_alarms_per_min']):.1f} false alarms a minute."
                        + (f" Oracle: success {_pct(oracle, 'success')}, collisions "
-                          f"{_pct(oracle, 'collision')}." if oracle else "") + goal)
+                          f"{_pct(oracle, 'collision')}." if oracle else "") + goal
+                       + why(best))
         else:
             best = _best_arena(rs)
             need = ARENA_TARGETS.get(jitter)
@@ -185,8 +188,27 @@ def targets(rows: Sequence[dict[str, str]]) -> list[str]:
                        f"{float(best['false_alarms_per_min']):.1f} false alarms a minute."
                        + (f" Oracle: {_pct(oracle, 'avoidance')} avoided." if oracle else "")
                        + ("" if need is None else f" Target: {100 * need:.0f}% or more"
-                          + (": met." if met else ": not met.")))
+                          + (": met." if met else ": not met.")) + why(best))
     return [*out, ""]
+
+
+def why(best: dict[str, str]) -> str:
+    """What came before each of a cell's collisions: its last alarm's lead (none, later
+    than the window, in it, earlier), from the run's episodes."""
+    episodes = [e for e in _rows(Path(best["run"]) / "episodes.csv")
+                if all(e[k] == best[k] for k in ("scenario", "jitter", "controller", "model",
+                                                 "preset", "side"))
+                and e["collided"] == "True"]
+    leads = [float(e["lead_time_s"]) if e["lead_time_s"] else None for e in episodes]
+    counts = [sum(v is None for v in leads),
+              sum(v is not None and v < robot.TTC_LO for v in leads),
+              sum(v is not None and robot.TTC_LO <= v <= robot.TTC_HI for v in leads),
+              sum(v is not None and v > robot.TTC_HI for v in leads)]
+    return (f" Of its {len(episodes)} episodes with a collision, the last alarm onset before "
+            f"the (first) collision came: none in {counts[0]}, less than {robot.TTC_LO:g} s "
+            f"before it in {counts[1]}, {robot.TTC_LO:g} to {robot.TTC_HI:g} s before it "
+            f"(the window's times to collision) in {counts[2]}, more than "
+            f"{robot.TTC_HI:g} s before it in {counts[3]}.")
 
 
 def _by(rows: Sequence[dict[str, str]]) -> dict[tuple[str, float], list[dict[str, str]]]:
@@ -203,15 +225,16 @@ def attribution(rows: Sequence[dict[str, str]]) -> list[str]:
     out = ["### Which part does the work", "",
            "Per task and jitter level: each model (rows) under each preset and way of "
            "choosing the side (columns), the same held-out seeds; the goal task gives "
-           "success / collisions (%), the arena encounters avoided (%) / distance against "
-           "the Oracle's. `robot` against the model's default preset is the calibration, "
+           "success [95% CI] / collisions (%), the arena encounters avoided [95% CI] / "
+           "distance against the Oracle's. `robot` against the model's default preset is "
+           "the calibration, "
            "`robot-imu` and `robot-image` against `robot` the front end, `eyes` against "
            "`halves` the two eyes, the feedback LGMD's `robot-open-loop*` against "
            "`robot*` its loop.", ""]
     reactive = [r for r in rows if r["controller"] == "reactive"]
     for (scenario, jitter), rs in sorted(_by(reactive).items()):
         columns = sorted({(r["preset"].replace("-open-loop", ""), r["side"] or "halves")
-                          for r in rs})
+                          for r in rs}, key=lambda c: (c[0], c[1] != "halves", c[1]))
         models = sorted({r["model"] for r in rs} | {f"{r['model']} (open loop)" for r in rs
                                                     if "open-loop" in r["preset"]})
         head = [f"{p}, {s}" for p, s in columns]
@@ -222,7 +245,9 @@ def attribution(rows: Sequence[dict[str, str]]) -> list[str]:
             base, loop_open = model.removesuffix(" (open loop)"), model.endswith("(open loop)")
             cells = []
             for preset, side in columns:
-                want = preset.replace("robot", "robot-open-loop", 1) if loop_open else preset
+                # the open-loop control exists only for the calibrated presets
+                want = (preset.replace("robot", "robot-open-loop", 1) if loop_open
+                        and preset.startswith("robot") else None if loop_open else preset)
                 r = next((r for r in rs if r["model"] == base and r["preset"] == want
                           and (r["side"] or "halves") == side), None)
                 cells.append("" if r is None else _measure(r))
@@ -233,30 +258,44 @@ def attribution(rows: Sequence[dict[str, str]]) -> list[str]:
 
 def _measure(r: dict[str, str]) -> str:
     if r["task"] == "goal":
-        return f"{100 * float(r['success_rate']):.0f} / {100 * float(r['collision_rate']):.0f}"
+        return f"{_pct(r, 'success')} / {100 * float(r['collision_rate']):.0f}"
     distance = float(r["distance_vs_oracle"]) if r["distance_vs_oracle"] else float("nan")
-    avoided = f"{100 * float(r['avoidance_rate']):.0f}" if r["avoidance_rate"] else "-"
-    return f"{avoided} / {distance:.2f}"
+    return f"{_pct(r, 'avoidance')} / {distance:.2f}"
 
 
-def closed_loop_section(run: Path, figures: Figures) -> list[str]:
-    rows = _rows(run / "summary.csv")
-    lines = ["### Closed loop: the goal and the arena", "", "```bash", _command(run), "```", "",
-             f"Wall time {_wall(run)}.", "", (run / "summary.md").read_text().strip(), ""]
+def closed_loop_section(runs: Sequence[Path], figures: Figures) -> list[str]:
+    """The closed-loop runs (the same episode seeds: their cells are compared as one
+    table), each with its command, wall time, summary and figures, then the targets and
+    which part does the work over all of their cells."""
+    seeds = {json.dumps(json.loads((r / "run.json").read_text())["config"]["seeds"])
+             for r in runs}
+    if len(seeds) > 1:
+        raise SystemExit(f"robot_page.py: the closed-loop runs ran different seeds ({seeds})")
+    lines = ["### Closed loop: the goal and the arena", "",
+             "Two tasks: RoughTerrainObstacles (reach the goal 8 m ahead through obstacles) "
+             "and ArenaRoam (roam a walled arena with obstacles for 30 s; collisions do not "
+             "end it), both over rough ground. " + encounters.__doc__.strip(), ""]
+    rows: list[dict[str, str]] = []
+    for k, run in enumerate(runs):
+        lines += ["```bash", _command(run), "```", "", f"Wall time {_wall(run)}.", "",
+                  (run / "summary.md").read_text().strip(), ""]
+        names = sorted(p.name for p in run.glob("*.png"))
+        for fig in _copy(run, names, f"closed-loop-robot-{k + 1}", figures):
+            lines += [f"![{fig}]({fig})", ""]
+        rows += [{**r, "run": str(run)} for r in _rows(run / "summary.csv")
+                 if k == 0 or r["controller"] == "reactive"]
     lines += targets(rows)
     lines += attribution(rows)
-    lines += [CONSTANTS, ""]
-    names = sorted(p.name for p in run.glob("*.png"))
-    for fig in _copy(run, names, "closed-loop-robot", figures):
-        lines += [f"![{fig}]({fig})", ""]
-    return lines
+    return [*lines, CONSTANTS, ""]
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--oracle-window", type=Path, required=True)
     parser.add_argument("--calibration", type=Path, required=True)
-    parser.add_argument("--closed-loop", type=Path)
+    parser.add_argument("--closed-loop", type=Path, nargs="+", default=[],
+                        help="closed-loop runs on the same seeds (the first one's Oracle "
+                        "and Straight are shown)")
     args = parser.parse_args()
     figures: Figures = {}
     lines = [BEGIN, "", "## The robot: its own calibration, two eyes, two tasks", ""]
