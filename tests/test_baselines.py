@@ -15,7 +15,11 @@ from lgmd_sim.models.reference import make_reference
 
 BASELINES = ["lgmd1", "lgmd2", "f_on", "f_off"]
 #: (model, preset) for every preset of every baseline.
-PRESETS = [(n, p) for n in BASELINES for p in models.presets_of(n)]
+# Presets whose front end reads the camera's rotation from the environment (imu, pose)
+# need it every step: these frame-only checks leave them to tests/test_stabilize.py and
+# tests/test_sectors.py, which give it.
+PRESETS = [(n, p) for n in BASELINES for p, values in models.presets_of(n).items()
+           if values.get("stabilize", "none") not in ("imu", "pose")]
 SMALL = (40, 56)
 # Selectivity set: a 0.2 m square, contrast 0.3, approaching from 3 m at 2 m/s; the same
 # object receding from 1.5 to 3 m (the approach's first half, reversed) and crossing the
