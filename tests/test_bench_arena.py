@@ -147,7 +147,7 @@ def record(controller: str, seed: int, *, scenario: str = "ArenaRoam", jitter: f
            model: str | None = None, side: str | None = None, distance: float = 10.0,
            found: int = 0, avoided: int = 0, collisions: int = 0, share: float = 0.0,
            goal: bool = False) -> dict:
-    """An episode's record as `closed_loop.episode` writes it (one minute long)."""
+    """An episode's record as `episode.episode` writes it (one minute long)."""
     r = {"scenario": scenario, "jitter": jitter, "controller": controller, "model": model,
          "preset": "paper" if model else None, "tag": None, "side": side, "seed": seed,
          "task": "goal" if goal else "roam", "frames": 1800, "time_s": 60.0,
@@ -172,9 +172,9 @@ def roam_records() -> list[dict]:
 
 
 def test_the_roam_summary_pools_encounters_and_compares_distance_with_the_oracle():
-    from lgmd_sim.bench import closed_loop
+    from lgmd_sim.bench import summary
 
-    rows = {r["controller"]: r for r in closed_loop.summarise(roam_records())}
+    rows = {r["controller"]: r for r in summary.summarise(roam_records())}
     reactive = rows["reactive"]
     assert reactive["task"] == "roam"
     assert reactive["encounters"] == 10 and reactive["avoidance_rate"] == pytest.approx(0.9)
@@ -191,43 +191,44 @@ def test_the_roam_summary_pools_encounters_and_compares_distance_with_the_oracle
 
 
 def test_without_an_oracle_cell_there_is_no_oracle_relative_distance():
-    from lgmd_sim.bench import closed_loop
+    from lgmd_sim.bench import summary
 
-    rows = closed_loop.summarise([r for r in roam_records() if r["controller"] != "oracle"])
+    rows = summary.summarise([r for r in roam_records() if r["controller"] != "oracle"])
     assert all(r["distance_vs_oracle"] is None for r in rows)
 
 
 def test_the_oracle_distance_is_the_same_jitter_levels():
-    from lgmd_sim.bench import closed_loop
+    from lgmd_sim.bench import summary
 
     records = [*roam_records(), record("oracle", 1000, jitter=1.0, distance=3.0, found=1,
                                        avoided=1),
                record("reactive", 1000, jitter=1.0, model="feedback", distance=1.5)]
-    rows = {(r["controller"], r["jitter"]): r for r in closed_loop.summarise(records)}
+    rows = {(r["controller"], r["jitter"]): r for r in summary.summarise(records)}
     assert rows[("reactive", 1.0)]["distance_vs_oracle"] == pytest.approx(0.5)
     assert rows[("reactive", 0.0)]["distance_vs_oracle"] == pytest.approx(7.5 / 11.0)
 
 
 def test_the_oracle_distance_pairs_the_seeds_both_cells_have():
-    from lgmd_sim.bench import closed_loop
+    from lgmd_sim.bench import summary
 
     oracle = [record("oracle", 1000, distance=10.0), record("oracle", 1001, distance=12.0),
               record("oracle", 1002, distance=20.0)]
     reactive = [record("reactive", 1000, model="feedback", distance=6.0),
                 record("reactive", 1001, model="feedback", distance=None),
                 record("reactive", 1003, model="feedback", distance=9.0)]
-    rows = {r["controller"]: r for r in closed_loop.summarise([*oracle, *reactive])}
+    rows = {r["controller"]: r for r in summary.summarise([*oracle, *reactive])}
     assert rows["reactive"]["distance_vs_oracle"] == pytest.approx(6.0 / 10.0)
     assert rows["oracle"]["distance_vs_oracle"] == pytest.approx(1.0)
     # no seed in common: no ratio
-    rows = closed_loop.summarise([*oracle, reactive[2]])
+    rows = summary.summarise([*oracle, reactive[2]])
     assert next(r for r in rows if r["controller"] == "reactive")["distance_vs_oracle"] is None
 
 
 def test_an_extra_cell_with_parameters_needs_a_tag():
     """An untagged extra oracle with other parameters would read as the planned Oracle
     (records, keys and labels carry no parameters but the side): it is refused."""
-    from lgmd_sim.bench.closed_loop import Cell, ClosedLoopConfig
+    from lgmd_sim.bench.closed_loop import ClosedLoopConfig
+    from lgmd_sim.bench.episode import Cell
 
     other = Cell("ArenaRoam", 0.0, "oracle", params=(("horizon", 2.0),))
     with pytest.raises(ValueError) as exc:
@@ -247,7 +248,7 @@ def test_a_controller_that_cannot_tell_reports_no_manoeuvring_share(monkeypatch)
     import numpy as np
 
     from lgmd_sim import controllers
-    from lgmd_sim.bench import closed_loop
+    from lgmd_sim.bench import episode, summary
     from lgmd_sim.params import CheckedParams
 
     class Blind(controllers.Controller):
@@ -258,16 +259,17 @@ def test_a_controller_that_cannot_tell_reports_no_manoeuvring_share(monkeypatch)
 
     monkeypatch.setattr(controllers, "controller_class", lambda name: Blind)
     monkeypatch.setattr(controllers, "make", lambda name, **params: Blind())
-    record_ = closed_loop.episode(closed_loop.Cell("StationaryApproach", 0.0, "policy", tag="b"),
+    record_ = episode.episode(episode.Cell("StationaryApproach", 0.0, "policy", tag="b"),
                                   1000, resolution="small", cruise=0.6, horizon=2.0)
     assert record_["manoeuvring_share"] is None
-    (row,) = closed_loop.summarise([record("policy", 1000, share=None)])
+    (row,) = summary.summarise([record("policy", 1000, share=None)])
     assert row["manoeuvring_share"] is None
-    assert closed_loop.summary_markdown([row]).splitlines()[2].endswith("| - |")
+    assert summary.summary_markdown([row]).splitlines()[2].endswith("| - |")
 
 
 def test_the_sides_identify_a_run_only_where_a_controller_takes_one():
-    from lgmd_sim.bench.closed_loop import DEFAULT_SIDE, ClosedLoopConfig
+    from lgmd_sim.bench.closed_loop import ClosedLoopConfig
+    from lgmd_sim.bench.episode import DEFAULT_SIDE
     from lgmd_sim.controllers.avoid import ReactiveParams
 
     assert DEFAULT_SIDE == ReactiveParams().side
@@ -284,11 +286,11 @@ def test_the_sides_identify_a_run_only_where_a_controller_takes_one():
 
 
 def test_the_markdown_has_a_table_per_task_kind_each_with_its_legend(tmp_path):
-    from lgmd_sim.bench import closed_loop
+    from lgmd_sim.bench import summary
 
     goal = [record(c, s, scenario="RoughTerrainObstacles", goal=True, found=2, avoided=2)
             for c in ("oracle", "straight") for s in (1000, 1001)]
-    text = closed_loop.summary_markdown(closed_loop.summarise([*goal, *roam_records()]))
+    text = summary.summary_markdown(summary.summarise([*goal, *roam_records()]))
     blocks = [block.strip() for block in text.split("\n\n") if block.strip()]
     assert len(blocks) == 4  # each table, then its legend of definitions
     tables, legends = blocks[::2], blocks[1::2]
@@ -303,7 +305,7 @@ def test_the_markdown_has_a_table_per_task_kind_each_with_its_legend(tmp_path):
     # encounters of an episode are not independent: the interval says it is too narrow
     assert "cluster by episode" in legends[1]
     # summary.csv: one row per cell, every column, empty where it does not apply
-    closed_loop.write_tables(tmp_path, [*goal, *roam_records()])
+    summary.write_tables(tmp_path, [*goal, *roam_records()])
     import csv
 
     rows = list(csv.DictReader((tmp_path / "summary.csv").open()))
@@ -317,15 +319,15 @@ def test_the_markdown_has_a_table_per_task_kind_each_with_its_legend(tmp_path):
 def test_older_records_without_the_arena_fields_still_summarise():
     """A run folder from before the arena task resumes: its goal records lack the new
     fields, and read as goal tasks."""
-    from lgmd_sim.bench import closed_loop
+    from lgmd_sim.bench import episode, summary
     from lgmd_sim.runs import _mismatch
 
     old = record("straight", 1000, scenario="RoughTerrainObstacles", goal=True)
     for name in ("side", "task", "collisions", "collisions_per_min", "encounters", "avoided",
                  "manoeuvring_share"):
         del old[name]
-    assert _mismatch(old, closed_loop.RECORD_FIELDS) is None
-    (row,) = closed_loop.summarise([old])
+    assert _mismatch(old, episode.RECORD_FIELDS) is None
+    (row,) = summary.summarise([old])
     assert row["task"] == "goal" and row["success_rate"] == 0.0
     assert row["avoidance_rate"] is None
 
@@ -392,11 +394,11 @@ def test_the_command_takes_sides(sided):
 
 
 def test_the_summary_keeps_the_sides_apart():
-    from lgmd_sim.bench import closed_loop
+    from lgmd_sim.bench import summary
 
     records = [record("reactive", 1000, model="feedback", found=2, avoided=2),
                record("reactive", 1000, model="feedback", side="eyes", found=2, avoided=1)]
-    rows = {r["cell"]: r for r in closed_loop.summarise(records)}
+    rows = {r["cell"]: r for r in summary.summarise(records)}
     assert rows["reactive: feedback/paper"]["avoidance_rate"] == 1.0
     assert rows["reactive: feedback/paper, eyes"]["avoidance_rate"] == 0.5
     assert rows["reactive: feedback/paper, eyes"]["side"] == "eyes"
@@ -470,11 +472,11 @@ def roam_example(controller: str, marks: list) -> dict:
 def test_roam_figures_mark_each_encounter_and_report_no_success(tmp_path, monkeypatch):
     from matplotlib.colors import to_rgb
 
-    from lgmd_sim.bench import closed_loop, figures
+    from lgmd_sim.bench import figures, summary
 
     goal = [record(c, 1000, scenario="RoughTerrainObstacles", goal=True, found=1, avoided=1)
             for c in ("oracle", "straight")]
-    rows = closed_loop.summarise([*goal, *roam_records()])
+    rows = summary.summarise([*goal, *roam_records()])
     examples = [roam_example("oracle", [[1.0, 0.0, True], [2.0, 0.5, True]]),
                 roam_example("straight", [[1.0, 0.0, True], [3.0, 1.0, False]])]
     made = {}
@@ -516,11 +518,11 @@ def test_roam_figures_mark_each_encounter_and_report_no_success(tmp_path, monkey
 def test_a_roam_task_plots_collisions_per_minute_against_false_alarms(tmp_path, monkeypatch):
     """Over a fixed time nearly every roam episode touches something: the collision rate
     is about 1 for every cell, collisions per minute tell them apart."""
-    from lgmd_sim.bench import closed_loop, figures
+    from lgmd_sim.bench import figures, summary
 
     goal = [record("oracle", 1000, scenario="RoughTerrainObstacles", goal=True, collisions=1)]
     roam = [record("straight", s, collisions=c) for s, c in ((1000, 3), (1001, 6))]
-    rows = closed_loop.summarise([*goal, *roam])
+    rows = summary.summarise([*goal, *roam])
     made = {}
     monkeypatch.setattr(figures, "_save", lambda fig, path: made.update({path.name: fig}))
     figures.closed_loop(tmp_path, rows, [])
@@ -542,9 +544,9 @@ def test_the_world_drawing_helpers_are_public():
 def test_a_path_that_goes_on_after_a_collision_ends_at_its_end(tmp_path, monkeypatch):
     """Without termination on collision the path goes on: its end marker stands at its
     end, the cross at its first collision."""
-    from lgmd_sim.bench import closed_loop, figures
+    from lgmd_sim.bench import figures, summary
 
-    rows = closed_loop.summarise([record("straight", 1000, found=1, collisions=1)])
+    rows = summary.summarise([record("straight", 1000, found=1, collisions=1)])
     example = roam_example("straight", [[1.0, 0.0, False]])
     example["top_view"]["collision_frame"] = 1
     made = {}

@@ -127,10 +127,10 @@ def open_loop_config(args: argparse.Namespace) -> Any:
 
 
 def run(args: argparse.Namespace) -> int:
-    from lgmd_sim.bench import closed_loop, open_loop
+    from lgmd_sim.bench import closed_loop, open_loop, summary
 
     job, config, markdown = (
-        (closed_loop, closed_loop_config(args), closed_loop.summary_markdown)
+        (closed_loop, closed_loop_config(args), summary.summary_markdown)
         if args.what == "closed-loop" else
         (open_loop, open_loop_config(args), open_loop.summary_markdown))
     result = job.run(config, args.out, **run_folder_kwargs(args))

@@ -61,7 +61,7 @@ def config_from_args(args: argparse.Namespace) -> Any:
 
 
 def run(args: argparse.Namespace) -> int:
-    from lgmd_sim.bench.closed_loop import summary_markdown
+    from lgmd_sim.bench.summary import summary_markdown
     from lgmd_sim.training.evaluate import evaluate
 
     result = evaluate(config_from_args(args), args.out, **run_folder_kwargs(args))

@@ -7,7 +7,7 @@ In one run, on the same scenario and frame size:
   with `ReactiveAvoid` driven by each model (the model on every frame, its S layer, the
   controller): the ratio is the share of the speed the detector leaves (target 0.9 or
   more: the LGMD and the controller cost at most 10%);
-- episodes of ``lgmd-sim bench closed-loop`` (`lgmd_sim.bench.closed_loop.episode`) on one
+- episodes of ``lgmd-sim bench closed-loop`` (`lgmd_sim.bench.episode.episode`) on one
   and on two local workers, the same episodes: the speed-up (target 1.7x or more).
 """
 
@@ -69,7 +69,7 @@ def measure_overhead(scenario: str, resolution: str, models: list[str], steps: i
 
 def measure_workers(scenario: str, resolution: str, episodes: int) -> dict:
     """Episodes per minute of the closed-loop benchmark on one and on two workers."""
-    from lgmd_sim.bench.closed_loop import Cell, episode
+    from lgmd_sim.bench.episode import Cell, episode
     from lgmd_sim.parallel import Job, run_jobs
 
     cell = Cell(scenario, 1.0, "reactive", "feedback", "paper")

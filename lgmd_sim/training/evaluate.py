@@ -16,7 +16,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from lgmd_sim.bench.closed_loop import Cell, ClosedLoopConfig
+from lgmd_sim.bench.closed_loop import ClosedLoopConfig
+from lgmd_sim.bench.episode import Cell
 from lgmd_sim.fileio import write_text_atomic
 from lgmd_sim.runs import RunResult
 
