@@ -1,28 +1,128 @@
-"""Names that stand for classes: a registry maps each name to a ``"module:attr"`` string,
-imported on first use, so that listing the names stays cheap and a module loads only when
-one of its classes is asked for (the models, the controllers, the reference models)."""
+"""Names that stand for classes: a `Registry` maps each name to a class or a
+``"module:attr"`` string, imported on first use, so that listing the names stays cheap and
+a module loads only when one of its classes is asked for (the models, the controllers, the
+reference models).
+
+A registry holds, in this order: the package's own names, those added by `Registry.register`
+(a researcher's classes), and those an installed distribution declares in the registry's
+entry-point group (read once, on first use). A ``"package.module:Class"`` spec names a
+class directly, wherever a name is accepted.
+"""
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Mapping
-from importlib import import_module
+from importlib import import_module, metadata
 from typing import Any
 
-__all__ = ["load", "lookup"]
+__all__ = ["Registry"]
+
+# They separate a detector's parts ("model/preset+front,model"), so no name may hold one.
+_SEPARATORS = ":/+, "
 
 
-def load(spec: str) -> Any:
-    """The object a ``"package.module:attr"`` string names."""
-    module, attr = spec.split(":")
-    return getattr(import_module(module), attr)
+def _is_spec(text: Any) -> bool:
+    """Whether `text` reads as "package.module:attr" (an absolute module)."""
+    module, colon, attr = text.partition(":") if isinstance(text, str) else ("", "", "")
+    return bool(colon and module and attr and ":" not in attr and not module.startswith("."))
 
 
-def lookup(registry: Mapping[str, str], name: str, what: str) -> Any:
-    """The object registered as `name`; ValueError naming the valid ones for another.
+@dataclasses.dataclass
+class Registry:
+    """The classes of one kind (`base`), by name.
 
-    Args:
-        what: the kind of name, for the message ("model").
+    Attributes:
+        what: the kind of name, for messages ("model").
+        base: the class every entry must subclass.
+        builtins: the package's own, name -> "module:attr".
+        group: the entry-point group installed distributions add theirs to, or None.
+        registered: those `register` added, name -> class or "module:attr".
     """
-    if name not in registry:
-        raise ValueError(f"unknown {what} {name!r}; available: {', '.join(registry)}")
-    return load(registry[name])
+
+    what: str
+    base: type
+    builtins: Mapping[str, str]
+    group: str | None = None
+    registered: dict[str, type | str] = dataclasses.field(default_factory=dict)
+    # name -> ("module:attr", distribution) of the entry-point group; None until first read
+    _entry_points: dict[str, tuple[str, str]] | None = dataclasses.field(
+        default=None, init=False, repr=False)
+
+    def names(self) -> list[str]:
+        """Every name: the built-ins, then the registered, then the entry points'."""
+        return list({**dict.fromkeys(self.builtins), **dict.fromkeys(self.registered),
+                     **dict.fromkeys(self._found())})
+
+    def register(self, name: str, cls: type | str) -> None:
+        """Add `cls` (a class, or a "package.module:Class" string imported on first use)
+        under `name`; ValueError for a name taken or not a plain name, or a class that is
+        not a `base`."""
+        if not isinstance(name, str) or not name or any(c in name for c in _SEPARATORS):
+            raise ValueError(f"a {self.what} name is a non-empty string without any of "
+                             f"{' '.join(repr(c) for c in _SEPARATORS)}, got {name!r}")
+        if name in self.names():
+            raise ValueError(f"{self.what} name {name!r} is taken ({self.origin(name)})")
+        if isinstance(cls, str):
+            if not _is_spec(cls):
+                raise ValueError(f"{self.what} {name!r}: {cls!r} is not a "
+                                 "'package.module:Class' string")
+        else:
+            self._check(cls, name)
+        self.registered[name] = cls
+
+    def get(self, name: str) -> type:
+        """The class behind a name or a "package.module:Class" spec; a one-line ValueError
+        naming the valid names for another, or what is wrong with a spec."""
+        found = self._found()
+        if name in self.builtins:
+            target: type | str = self.builtins[name]
+        elif name in self.registered:
+            target = self.registered[name]
+        elif name in found:
+            target = found[name][0]
+        elif _is_spec(name):
+            target = name
+        else:
+            raise ValueError(f"unknown {self.what} {name!r}; available: "
+                             f"{', '.join(self.names())} (or a 'package.module:Class' spec)")
+        if isinstance(target, str):
+            target = self._import(target, name)
+        return self._check(target, name)
+
+    def origin(self, name: str) -> str:
+        """Where a name comes from: "built-in", "registered", "entry point of DIST", or
+        "spec"."""
+        if name in self.builtins:
+            return "built-in"
+        if name in self.registered:
+            return "registered"
+        found = self._found()
+        return f"entry point of {found[name][1]}" if name in found else "spec"
+
+    def _found(self) -> dict[str, tuple[str, str]]:
+        if self._entry_points is None:
+            self._entry_points = {} if self.group is None else {
+                ep.name: (ep.value, ep.dist.name if ep.dist else "?")
+                for ep in metadata.entry_points(group=self.group)}
+        return self._entry_points
+
+    def _import(self, spec: str, name: str) -> Any:
+        where = name if name == spec else f"{name} = {spec}"
+        if not _is_spec(spec):
+            raise ValueError(f"{self.what} {where!r}: not a 'package.module:Class' string")
+        module, _, attr = spec.partition(":")
+        try:
+            imported = import_module(module)
+        except ImportError as exc:
+            raise ValueError(f"{self.what} {where!r}: cannot import module {module!r} "
+                             f"({exc})") from exc
+        if not hasattr(imported, attr):
+            raise ValueError(f"{self.what} {where!r}: module {module!r} has no {attr!r}")
+        return getattr(imported, attr)
+
+    def _check(self, cls: Any, name: str) -> type:
+        if not (isinstance(cls, type) and issubclass(cls, self.base)):
+            raise ValueError(f"{self.what} {name!r}: {cls!r} is not a subclass of "
+                             f"{self.base.__module__}.{self.base.__qualname__}")
+        return cls

@@ -72,10 +72,14 @@ class Cell:
         return self.controller + (f": {detail}" if detail else "") + side
 
     def key(self, seed: int) -> str:
+        """The cell's record name for one seed (a file name: a plug-in's
+        "package.module:Class" gives "package.module_Class", as ':' is no file-name
+        character on every system)."""
         detail = f"-{self.model}-{self.preset}" if self.model else (
             f"-{self.tag}" if self.tag else "")
         side = f"-{self.side}" if self.side else ""
-        return f"{self.scenario}-j{self.jitter:g}-{self.controller}{detail}{side}-s{seed}"
+        key = f"{self.scenario}-j{self.jitter:g}-{self.controller}{detail}{side}-s{seed}"
+        return key.replace(":", "_")
 
 
 def plan(scenarios: Sequence[str], jitters: Sequence[float], controllers: Sequence[str],

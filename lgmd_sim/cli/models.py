@@ -1,5 +1,6 @@
-"""`lgmd-sim models`: the models, their presets (a calibrated one with the file it comes
-from) and every parameter with its source."""
+"""`lgmd-sim models`: the models (the built-ins, the registered and those of installed
+distributions), their presets (a calibrated one with the file it comes from) and every
+parameter with its source."""
 
 from __future__ import annotations
 
@@ -9,12 +10,14 @@ import argparse
 def add(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "models", help="list the LGMD models and their parameters with sources",
-        description="List the LGMD models, their presets (each calibrated one with the "
-        "file it comes from: shipped with the package, or your presets file, "
-        "$LGMD_SIM_DATA_DIR/calibrated.json) and every parameter with its default and "
-        "where that default comes from.",
+        description="List the LGMD models (the built-ins, then those of installed "
+        "distributions, their entry points in the group lgmd_sim.models), their presets "
+        "(each calibrated one with the file it comes from: shipped with the package, or "
+        "your presets file, $LGMD_SIM_DATA_DIR/calibrated.json) and every parameter with "
+        "its default and where that default comes from.",
     )
-    p.add_argument("name", nargs="?", help="show one model only")
+    p.add_argument("name", nargs="?",
+                   help="show one model only (a name, or a package.module:Class spec)")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -25,7 +28,9 @@ def run(args: argparse.Namespace) -> int:
     names = [args.name] if args.name else models.available()
     for name in names:
         cls = models.model_class(name)
-        print(f"{name}: {cls.__doc__.strip().splitlines()[0]}")
+        origin = models.origin(name)
+        summary = (cls.__doc__ or "").strip().partition("\n")[0]
+        print(f"{name}: {summary}" + ("" if origin == "built-in" else f" ({origin})"))
         presets = models.presets_of(name)
         files = preset_files(name)
         listed = [p if p not in files else

@@ -12,6 +12,18 @@ A detector is named "model", "model/preset" or either with front ends appended:
 "lgmd1/published+image", "feedback+imu+gain" (`parse_spec`). A front end is a preset
 suffix that sets the parameters ``stabilize`` ("+pose", "+imu", "+image") and ``gain``
 ("+gain"); see `lgmd_sim.models.stabilize`.
+
+A model of your own (an `LGMDModel` subclass: the contract is its docstring) joins in any
+of three ways, and is then a model like the built-ins, with its presets and front ends:
+
+- by a "package.module:Class" spec wherever a model name goes:
+  ``make("mypkg.looming:Mine", preset="fast+image")``, ``"mypkg.looming:Mine/fast+image"``;
+- by a name, from Python: ``register("mine", Mine)`` (or ``register("mine",
+  "mypkg.looming:Mine")``, imported on first use);
+- by a name, from an installed distribution: an entry point in the group
+  ``lgmd_sim.models`` (`ENTRY_POINTS`), its name the model's and its value
+  "package.module:Class" (pyproject.toml: ``[project.entry-points."lgmd_sim.models"]``
+  ``mine = "mypkg.looming:Mine"``).
 """
 
 from __future__ import annotations
@@ -19,10 +31,13 @@ from __future__ import annotations
 from typing import Any
 
 from lgmd_sim.models.base import LGMDModel, LGMDOutput, ModelParams
-from lgmd_sim.registry import lookup
+from lgmd_sim.registry import Registry
 
-__all__ = ["FRONT_END_SUFFIXES", "LGMDModel", "LGMDOutput", "ModelParams", "available", "make",
-           "model_class", "parse_spec", "presets_of"]
+__all__ = ["ENTRY_POINTS", "FRONT_END_SUFFIXES", "LGMDModel", "LGMDOutput", "ModelParams",
+           "available", "make", "model_class", "origin", "parse_spec", "presets_of", "register"]
+
+#: The entry-point group through which an installed distribution adds models.
+ENTRY_POINTS = "lgmd_sim.models"
 
 #: Front ends as preset suffixes ("published+image"), in the order a spec lists them, and
 #: the parameters each sets.
@@ -33,24 +48,50 @@ FRONT_END_SUFFIXES: dict[str, dict[str, Any]] = {
     "gain": {"gain": True},
 }
 
-# name -> "module:class"; imported on first use so that `available()` stays cheap.
-_REGISTRY: dict[str, str] = {
+# The built-ins as "module:class", imported on first use so that `available()` stays cheap.
+_MODELS = Registry("model", LGMDModel, {
     "feedback": "lgmd_sim.models.feedback:FeedbackLGMD",
     "lgmd1": "lgmd_sim.models.lgmd1:LGMD1",
     "lgmd2": "lgmd_sim.models.lgmd2:LGMD2",
     "f_on": "lgmd_sim.models.ffi:FOnLGMD",
     "f_off": "lgmd_sim.models.ffi:FOffLGMD",
-}
+}, group=ENTRY_POINTS)
 
 
 def available() -> list[str]:
-    """The model names `make` accepts."""
-    return list(_REGISTRY)
+    """The model names `make` accepts: the built-ins, then those `register`ed, then those
+    of installed distributions (`ENTRY_POINTS`). Any "package.module:Class" spec of an
+    `LGMDModel` is accepted as well."""
+    return _MODELS.names()
+
+
+def register(name: str, cls: type[LGMDModel] | str) -> None:
+    """Make model `cls` (an `LGMDModel` subclass, or a "package.module:Class" string,
+    imported on first use) available as `name`, for this process only: the workers of a
+    parallel run (``--workers``) are fresh interpreters that do not see it, so a run
+    with workers names the model by its spec or an entry point.
+
+    Raises:
+        ValueError: `name` is taken or holds one of ": / + ," or a space, or `cls` is not
+            an `LGMDModel` subclass.
+    """
+    _MODELS.register(name, cls)
 
 
 def model_class(name: str) -> type[LGMDModel]:
-    """The class behind a model name."""
-    return lookup(_REGISTRY, name, "model")
+    """The class behind a model name or a "package.module:Class" spec.
+
+    Raises:
+        ValueError: an unknown name (naming the valid ones), or a spec whose module does
+            not import, that has no such class, or whose class is not an `LGMDModel`.
+    """
+    return _MODELS.get(name)
+
+
+def origin(name: str) -> str:
+    """Where model `name` comes from: "built-in", "registered", "entry point of DIST"
+    or "spec"."""
+    return _MODELS.origin(name)
 
 
 def presets_of(name: str) -> dict[str, dict[str, Any]]:
@@ -69,7 +110,7 @@ def make(
     """Build model `name` from a preset (the model's first by default) and overrides.
 
     Args:
-        name: one of `available()`.
+        name: one of `available()`, or a "package.module:Class" spec.
         preset: a named parameter set of that model (e.g. "paper" for `feedback`), with
             optional front-end suffixes (`FRONT_END_SUFFIXES`: "published+image").
         n_streams: None for one stream; N to run N independent streams at once.
@@ -93,7 +134,9 @@ def parse_spec(token: str) -> tuple[str, str]:
     """A detector named "model" (its default preset) or "model/preset", either optionally
     followed by front ends ("+image", "+gain"...): (model, preset), the preset written
     out in full with its front ends in a fixed order ("lgmd1+gain+image" ->
-    ("lgmd1", "published+image+gain")), ready for ``make(model, preset=preset)``.
+    ("lgmd1", "published+image+gain")), ready for ``make(model, preset=preset)``. The
+    model may be a "package.module:Class" spec: "mypkg.looming:Mine/fast+image" ->
+    ("mypkg.looming:Mine", "fast+image").
 
     Raises:
         ValueError: unknown model, preset or front end, naming the valid ones.

@@ -6,11 +6,9 @@ same model runs N independent streams at once when built with ``n_streams=N``: t
 ``step`` takes frames of shape (N, H, W) or (N, H, W, 3) and returns arrays of N values,
 identical to N separate streaming models.
 
-Subclasses implement three hooks on a (N, H, W) stack of grey frames (uint8 in 0..255 or
-float32 in 0..255): `_allocate` (state for a new frame size), `_reset_streams` (fresh
-state for some streams) and `_step` (one frame per stream, returning potentials); and,
-for ego-motion compensation, `_state_maps` (the stored maps that move with the camera)
-with the optional `_maps_moved`.
+A model is a subclass of `LGMDModel`; its docstring is the contract: what a model
+implements (parameters, presets, layers and the hooks `allocate`, `reset_streams`,
+`step_batch`, `state_maps` and `maps_moved`), and what this base gives it.
 
 Ego-motion compensation (`lgmd_sim.models.stabilize`): ``step(frame, motion=Motion(H))``
 first warps every stored map into the current camera frame by the homography H between
@@ -92,7 +90,7 @@ class LGMDOutput:
 
 @dataclass(frozen=True)
 class StateMap:
-    """A stored map of a model's state that moves with the camera (see `_state_maps`).
+    """A stored map of a model's state that moves with the camera (see `state_maps`).
 
     Attributes:
         attr: the model attribute holding it, an array of shape (N, ..., H, W) (or of
@@ -119,6 +117,60 @@ class LGMDModel(ABC):
     Frames are grey (H, W) or RGB colour (H, W, 3), uint8 in 0..255 or float in 0..1;
     batched models take the same with a leading stream axis. The frame size is set by the
     first frame after construction or a full `reset` and must then stay the same.
+
+    **The contract.** A model (a built-in, or yours: `lgmd_sim.models.register`) is a
+    subclass that declares, as class attributes:
+
+    - ``name``: the model's name in messages (conventionally the name it is registered by);
+    - ``Params``: its parameters, a frozen dataclass subclassing `ModelParams` whose every
+      field is a `lgmd_sim.params.param` (a default, its source, a check, a doc); it
+      inherits ``threshold``, ``stabilize``, ``fovy`` and ``gain``. ``threshold``'s check
+      (0.5..1) fits a sigmoid membrane potential, as the built-ins report; a model whose
+      potentials span another range redefines ``threshold`` with its own check;
+    - ``layer_names``: the names of the maps it can return (``step(..., layers=True)``),
+      () for none;
+    - ``presets``: named parameter sets, each the overrides of the defaults it makes
+      ({} for the defaults themselves); the first is the model's default preset;
+
+    and implements the hooks, each on all N streams at once (N = 1 for a streaming model),
+    as arrays it keeps as attributes of its own:
+
+    - ``allocate(n, height, width)``: make the state of n streams of height x width
+      frames. Called on the first frame after construction or a full `reset` (so the frame
+      size changes only there), then at once ``reset_streams`` of every stream: the values
+      need not be set here;
+    - ``reset_streams(idx)``: give the streams ``idx`` (an int array, possibly with
+      repeats) the state of a new stream, one that has seen no frame. Also called by
+      ``reset(streams)``, only once `allocate` has been;
+    - ``step_batch(grey, layers)``: take one frame per stream and return the N potentials,
+      a new float array of shape (N,) (the caller keeps it: return no array the model
+      writes into later), finite. ``grey`` is a C-contiguous (N, H, W) stack at the
+      allocated size: uint8 in 0..255 for uint8 frames, else float32 in 0..255 (float
+      frames in 0..1, times 255); colour frames arrive as BT.601 luma. Its dtype may
+      change from one frame to the next (uint8, then float32 after a float frame), so a
+      stored previous frame follows it. ``layers`` is None, or a dict holding an
+      uninitialised float32 (N, H, W) array for every name of ``layer_names``, each to be
+      filled in full with that layer's map of this frame;
+    - ``state_maps()`` (for the front ends; a model without it runs only with
+      ``stabilize="none"``, ``gain=False`` and no ``motion``): the `StateMap` of every
+      stored map that moves with the camera: an attribute of shape (N, ..., H, W) (or of
+      padded rows, see `StateMap`), warped in place. Before the warp, the base turns a
+      ``fill="frame"`` map (the previous frame) into float32 by assigning the attribute
+      anew, so the hooks read every map through ``self`` rather than through references
+      kept from before. Called on every frame after the first that has a motion;
+    - ``maps_moved()`` (optional): after a warp that moved some stream's maps, refresh
+      what the model derives from them (a running sum, a mean).
+
+    **What the base gives.** `step` and `reset` for one stream and for N from the one
+    implementation (the single-stream output unpacks stream 0); the checks on every input
+    (shapes, dtypes, value ranges, stream counts, frame-size changes, stream indices),
+    with one-line messages naming the model; colour to grey; the front ends
+    (`lgmd_sim.models.stabilize`: ``stabilize`` "pose", "imu", "image", and ``gain``) and a
+    given ``motion=``, warping each declared state map and scaling the previous frame by
+    the brightness gain; the alarms, ``potential > params.threshold``; and, through
+    `lgmd_sim.models.make`, the presets (with calibrated ones from data files and the
+    front-end suffixes "+image"...), the parameter checks (unknown names, each value
+    checked on creation) and the parameters' sources listed by ``lgmd-sim models``.
     """
 
     name: ClassVar[str]
@@ -168,7 +220,7 @@ class LGMDModel(ABC):
         if idx.size and (idx.min() < 0 or idx.max() >= self._n):
             raise ValueError(f"stream index out of range 0..{self._n - 1}: {idx.tolist()}")
         if self.frame_shape is not None and idx.size:
-            self._reset_streams(idx)
+            self.reset_streams(idx)
         if self.front_end is not None and idx.size:
             self.front_end.reset(idx)
 
@@ -201,8 +253,8 @@ class LGMDModel(ABC):
         shape = (grey.shape[1], grey.shape[2])
         if self.frame_shape is None:
             self.frame_shape = shape
-            self._allocate(self._n, *shape)
-            self._reset_streams(np.arange(self._n))
+            self.allocate(self._n, *shape)
+            self.reset_streams(np.arange(self._n))
         elif shape != self.frame_shape:
             raise ValueError(
                 f"{self.name}: frame size {shape[0]}x{shape[1]} differs from this stream's "
@@ -213,7 +265,7 @@ class LGMDModel(ABC):
         maps = {n: np.empty((self._n, *shape), np.float32) for n in self.layer_names} if (
             layers
         ) else None
-        potential = self._step(grey, maps)
+        potential = self.step_batch(grey, maps)
         alarm = potential > self.params.threshold
         if self.batched:
             return LGMDOutput(potential, alarm, maps)
@@ -241,14 +293,14 @@ class LGMDModel(ABC):
 
     def _compensate(self, grey: np.ndarray, hs: np.ndarray | None, gains: np.ndarray | None,
                     horizons: np.ndarray | None, grounds: np.ndarray | None) -> None:
-        """Warp every stored map (`_state_maps`) into the current frame by the streams'
+        """Warp every stored map (`state_maps`) into the current frame by the streams'
         homographies `hs` (N, 3, 3) (and below their `horizons`, by `grounds`: see
         `Motion`) and scale the previous frame by their `gains` ((N, 1, 1) or (N, H, W))."""
         n, height, width = grey.shape
         if gains is not None and gains.shape[1:] not in ((1, 1), (height, width)):
             raise ValueError(f"{self.name}: gain fields of {gains.shape[1]}x{gains.shape[2]} "
                              f"for frames of {height}x{width}")
-        maps = self._state_maps()
+        maps = self.state_maps()
         for m in maps:  # a previous frame holds interpolated grey levels from now on
             if m.fill == "frame" and getattr(self, m.attr).dtype != np.float32:
                 setattr(self, m.attr, getattr(self, m.attr).astype(np.float32))
@@ -281,32 +333,37 @@ class LGMDModel(ABC):
             for m in maps:
                 if m.padded is not None:
                     fill_pad_columns(getattr(self, m.attr)[..., :height, :], width, m.padded)
-            self._maps_moved()
+            self.maps_moved()
 
     # -- hooks -------------------------------------------------------------------------
 
-    def _state_maps(self) -> Sequence[StateMap]:
+    def state_maps(self) -> Sequence[StateMap]:
         """The stored maps (each an attribute of shape (N, ..., H, W)) that move with the
-        camera, for ego-motion compensation; a model without the list cannot be warped."""
+        camera, for ego-motion compensation; a model without the list cannot be warped
+        (see the class's contract)."""
         raise NotImplementedError(f"{self.name}: {type(self).__name__} lists no state maps, "
                                   "so it cannot be motion-compensated")
 
-    def _maps_moved(self) -> None:  # noqa: B027  (optional hook)
-        """After `_state_maps` were warped: refresh what is derived from them."""
+    def maps_moved(self) -> None:  # noqa: B027  (optional hook)
+        """After `state_maps` were warped: refresh what is derived from them."""
 
     @abstractmethod
-    def _allocate(self, n: int, height: int, width: int) -> None:
-        """Allocate the state of n streams of height x width frames."""
+    def allocate(self, n: int, height: int, width: int) -> None:
+        """Allocate the state of n streams of height x width frames (values need not be
+        set: `reset_streams` of every stream follows)."""
 
     @abstractmethod
-    def _reset_streams(self, idx: np.ndarray) -> None:
-        """Give the streams in idx the state of a new stream (no previous frame)."""
+    def reset_streams(self, idx: np.ndarray) -> None:
+        """Give the streams in idx (an int array) the state of a new stream (no previous
+        frame)."""
 
     @abstractmethod
-    def _step(self, grey: np.ndarray, layers: dict[str, np.ndarray] | None) -> np.ndarray:
-        """Process grey frames (N, H, W) uint8 or float32 in 0..255; return N potentials.
+    def step_batch(self, grey: np.ndarray, layers: dict[str, np.ndarray] | None) -> np.ndarray:
+        """Process grey frames (N, H, W), uint8 in 0..255 or float32 in 0..255; return the
+        N potentials, a new float array.
 
-        When ``layers`` is given, fill each of its (N, H, W) arrays with that layer's map.
+        When ``layers`` is given, fill each of its float32 (N, H, W) arrays with that
+        layer's map.
         """
 
     # -- frames ------------------------------------------------------------------------

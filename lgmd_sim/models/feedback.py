@@ -198,7 +198,7 @@ class FeedbackLGMD(LGMDModel):
 
     # -- state -------------------------------------------------------------------------
 
-    def _allocate(self, n: int, height: int, width: int) -> None:
+    def allocate(self, n: int, height: int, width: int) -> None:
         p = self.params
         # The previous frame stays uint8 (4x less memory traffic) until a float frame comes.
         self._prev = np.zeros((n, height, width), np.uint8)
@@ -210,23 +210,23 @@ class FeedbackLGMD(LGMDModel):
                               (n, p.tv_window, *frame), (n, *frame)]))
         self._t = 0  # frame counter shared by all streams: it picks the ring slots
 
-    def _reset_streams(self, idx: np.ndarray) -> None:
+    def reset_streams(self, idx: np.ndarray) -> None:
         for state in (self._pon_hist, self._poff_hist, self._s_prev, self._ds_hist, self._d):
             state[idx] = 0.0
         self._has_prev[idx] = False
         self._potential_prev[idx] = 0.5
 
-    def _state_maps(self) -> list[StateMap]:
+    def state_maps(self) -> list[StateMap]:
         return [StateMap("_prev", "frame"), *(StateMap(a) for a in (
             "_pon_hist", "_poff_hist", "_s_prev", "_ds_hist"))]
 
-    def _maps_moved(self) -> None:
+    def maps_moved(self) -> None:
         # D, the running sum of the |dS| history, summed afresh from the warped history
         self._d[:] = self._ds_hist[:, 0]
         for t in range(1, self._ds_hist.shape[1]):
             self._d += self._ds_hist[:, t]
 
-    def _step(self, grey: np.ndarray, layers: dict[str, np.ndarray] | None) -> np.ndarray:
+    def step_batch(self, grey: np.ndarray, layers: dict[str, np.ndarray] | None) -> np.ndarray:
         if grey.dtype != np.uint8 and self._prev.dtype == np.uint8:
             self._prev = self._prev.astype(np.float32)
         if not self._has_prev.all():  # Eq. 5 on a stream's first frame: P = 0

@@ -205,7 +205,7 @@ class LGMD1(LGMDModel):
 
     params: LGMD1Params
 
-    def _allocate(self, n: int, height: int, width: int) -> None:
+    def allocate(self, n: int, height: int, width: int) -> None:
         # The previous frame stays uint8 (less memory traffic) until a float frame comes.
         self._prev = np.zeros((n, height, width), np.uint8)
         self._fresh = np.ones(n, bool)
@@ -217,7 +217,7 @@ class LGMD1(LGMDModel):
             staggered_arrays([(n, height + 1, width + 2), older, (4, width + 2), (2, width),
                               (width + 2,), (height, width), (width,)]))
 
-    def _reset_streams(self, idx: np.ndarray) -> None:
+    def reset_streams(self, idx: np.ndarray) -> None:
         self._e[idx] = 0.0
         if self._p_older.shape[0] == self._n:
             self._p_older[idx] = 0.0
@@ -225,13 +225,13 @@ class LGMD1(LGMDModel):
         self._frame_index[idx] = 0
         self._fresh[idx] = True
 
-    def _state_maps(self) -> list[StateMap]:
+    def state_maps(self) -> list[StateMap]:
         # E(t-1) = P(t-1) in padded rows; P(t-2) where persistence keeps it
         maps = [StateMap("_prev", "frame"),
                 StateMap("_e", padded=border_code(self.params.border)[0])]
         return maps + ([StateMap("_p_older")] if self.params.persistence != "none" else [])
 
-    def _step(self, grey: np.ndarray, layers: dict[str, np.ndarray] | None) -> np.ndarray:
+    def step_batch(self, grey: np.ndarray, layers: dict[str, np.ndarray] | None) -> np.ndarray:
         self._prev = take_first_frames(grey, self._prev, self._fresh)
         p = self.params
         f32 = np.float32

@@ -217,7 +217,7 @@ class LGMD2(LGMDModel):
 
     # -- state -------------------------------------------------------------------------
 
-    def _allocate(self, n: int, height: int, width: int) -> None:
+    def allocate(self, n: int, height: int, width: int) -> None:
         p = self.params
         self._prev = np.zeros((n, height, width), np.uint8)
         self._fresh = np.ones(n, bool)
@@ -246,7 +246,7 @@ class LGMD2(LGMDModel):
         self._k = np.full(n, 0.5)
         self._adapted = np.full(n, 0.5)
 
-    def _reset_streams(self, idx: np.ndarray) -> None:
+    def reset_streams(self, idx: np.ndarray) -> None:
         self._fresh[idx] = True
         for state in (self._on, self._off, self._m_prev, self._pm, self._aim):
             state[idx] = 0.0
@@ -259,13 +259,13 @@ class LGMD2(LGMDModel):
         self._k[idx] = 0.5
         self._adapted[idx] = 0.5
 
-    def _state_maps(self) -> list[StateMap]:
+    def state_maps(self) -> list[StateMap]:
         maps = [StateMap("_prev", "frame"), StateMap("_on"), StateMap("_off")]
         if self.params.inhibition_filter == "low-pass":
             maps.append(StateMap("_lp", padded=self._border))
         return maps + ([StateMap("_p_hist")] if self.params.persistence != "none" else [])
 
-    def _maps_moved(self) -> None:
+    def maps_moved(self) -> None:
         # ON(t) = [P]+ + carry ON(t-1) takes its mean from ON(t-1)'s: now the warped one's
         n_cells = self._on[0].size
         for i in range(self._n):
@@ -274,7 +274,7 @@ class LGMD2(LGMDModel):
 
     # -- one frame ---------------------------------------------------------------------
 
-    def _step(self, grey: np.ndarray, layers: dict[str, np.ndarray] | None) -> np.ndarray:
+    def step_batch(self, grey: np.ndarray, layers: dict[str, np.ndarray] | None) -> np.ndarray:
         self._prev = take_first_frames(grey, self._prev, self._fresh)
         p = self.params
         f32 = np.float32

@@ -16,24 +16,24 @@ from typing import Any
 
 from lgmd_sim import models
 from lgmd_sim.models.base import LGMDModel
-from lgmd_sim.registry import load
+from lgmd_sim.registry import Registry
 
 __all__ = ["available_references", "make_reference"]
 
 # model name -> "module:class"; imported on first use, so a reference whose module is not
 # written yet only fails when asked for.
-_REFERENCES: dict[str, str] = {
+_REFERENCES = Registry("reference implementation", LGMDModel, {
     "feedback": "lgmd_sim.models.reference.feedback:FeedbackReference",
     "lgmd1": "lgmd_sim.models.reference.baselines:LGMD1Reference",
     "lgmd2": "lgmd_sim.models.reference.baselines:LGMD2Reference",
     "f_on": "lgmd_sim.models.reference.baselines:FOnReference",
     "f_off": "lgmd_sim.models.reference.baselines:FOffReference",
-}
+})
 
 
 def available_references() -> list[str]:
     """Model names that have a reference implementation registered."""
-    return list(_REFERENCES)
+    return _REFERENCES.names()
 
 
 def make_reference(
@@ -45,11 +45,6 @@ def make_reference(
         ValueError: unknown model, preset or parameter, or no reference available for it.
     """
     params_of = models.make(name, preset=preset, **params).params  # checks every argument
-    if name not in _REFERENCES:
+    if name not in _REFERENCES.builtins:  # a model spec is no reference implementation
         raise ValueError(f"no reference implementation registered for model {name!r}")
-    try:
-        ref_cls = load(_REFERENCES[name])
-    except (ImportError, AttributeError) as exc:
-        raise ValueError(f"reference implementation of {name!r} ({_REFERENCES[name]}) is not "
-                         f"available: {exc}") from exc
-    return ref_cls(params_of, n_streams=n_streams)
+    return _REFERENCES.get(name)(params_of, n_streams=n_streams)

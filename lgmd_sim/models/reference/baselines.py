@@ -66,14 +66,14 @@ def _persistence(p: BaselineParams, k: int) -> tuple[float, float]:
 class _PerStream:
     """Per-stream state as a dict, created on a stream's first frame."""
 
-    def _allocate(self, n: int, height: int, width: int) -> None:
+    def allocate(self, n: int, height: int, width: int) -> None:
         self._state: list[dict | None] = [None] * n
 
-    def _reset_streams(self, idx: np.ndarray) -> None:
+    def reset_streams(self, idx: np.ndarray) -> None:
         for i in idx:
             self._state[i] = None
 
-    def _step(self, grey: np.ndarray, layers: dict[str, np.ndarray] | None) -> np.ndarray:
+    def step_batch(self, grey: np.ndarray, layers: dict[str, np.ndarray] | None) -> np.ndarray:
         out = np.empty(len(grey))
         for i, frame in enumerate(grey):
             maps = {}

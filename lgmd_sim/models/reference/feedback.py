@@ -132,16 +132,16 @@ class _Stream:
 class FeedbackReference(FeedbackLGMD):
     """Per-equation float64 feedback LGMD (same parameters and interface as `FeedbackLGMD`)."""
 
-    def _allocate(self, n: int, height: int, width: int) -> None:
+    def allocate(self, n: int, height: int, width: int) -> None:
         self._streams: list[_Stream] = []
         self._shape = (height, width)
 
-    def _reset_streams(self, idx: np.ndarray) -> None:
+    def reset_streams(self, idx: np.ndarray) -> None:
         p = self.params
         fresh = {int(i): _Stream(self._shape, p.delay_taps, p.tv_window) for i in idx}
         self._streams = [fresh.get(i) or self._streams[i] for i in range(self._n)]
 
-    def _step(self, grey: np.ndarray, layers: dict[str, np.ndarray] | None) -> np.ndarray:
+    def step_batch(self, grey: np.ndarray, layers: dict[str, np.ndarray] | None) -> np.ndarray:
         return np.array([self._step_stream(i, grey[i], layers) for i in range(self._n)])
 
     def _step_stream(self, i: int, frame: np.ndarray, layers: dict | None) -> float:
