@@ -10,7 +10,7 @@ any work starts.
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from typing import Any
 
 __all__ = [
@@ -22,6 +22,7 @@ __all__ = [
     "check_seed",
     "comma_list",
     "detectors",
+    "file_key",
     "jitter_levels",
     "model_names",
     "names",
@@ -36,24 +37,37 @@ def comma_list(text: str) -> list[str]:
 
 
 def names(text: str | Iterable[str], valid: Sequence[str], what: str, *,
-          drop_repeats: bool = True) -> list[str]:
+          drop_repeats: bool = True, load: Callable[[str], Any] | None = None) -> list[str]:
     """Names from a comma-separated list (or a sequence), each among `valid`; "all" is
-    every one; order kept.
+    every one (and listed among them in the message); order kept.
 
     Args:
         what: the kind of name, for the message ("scenario(s)").
         drop_repeats: drop a name given twice; False keeps it, for a configuration whose
             own check refuses it (a dataset's).
+        load: for names that may also be a plug-in's "package.module:Class" spec: a name
+            outside `valid` holding ':' is accepted if ``load(name)`` returns (it raises
+            the one-line ValueError of a bad spec), so that it fails here, before any work.
     """
     given = comma_list(text) if isinstance(text, str) else [str(t) for t in text]
     if given == ["all"]:
         return list(valid)
-    unknown = [n for n in given if n not in valid]
+    unknown = [n for n in given if n not in valid and not (load and ":" in n)]
     if unknown or not given:
         problem = f"unknown {what} {', '.join(map(repr, unknown))}" if unknown else (
             f"no {what} given")
-        raise ValueError(f"{problem}; valid: {', '.join(valid)}")
+        raise ValueError(f"{problem}; valid: all, {', '.join(valid)}")
+    if load:
+        for n in given:
+            if n not in valid:
+                load(n)
     return list(dict.fromkeys(given)) if drop_repeats else given
+
+
+def file_key(name: str) -> str:
+    """`name` as part of a file name: a plug-in's "package.module:Class" gives
+    "package.module_Class", as ':' is no file-name character on every system."""
+    return name.replace(":", "_")
 
 
 def _jitter_error(shown: str) -> ValueError:
@@ -159,18 +173,13 @@ def check_range(value: Any, option: str, lo: float, hi: float) -> None:
 
 
 def model_names(spec: str | Sequence[str]) -> list[str]:
-    """Model names from "all", a comma-separated list, or a sequence; unknown names fail."""
+    """Model names from "all", a comma-separated list, or a sequence, each a name of
+    `lgmd_sim.models.available()` or a "package.module:Class" spec; unknown names and
+    bad specs fail."""
     from lgmd_sim import models
 
-    given = comma_list(spec) if isinstance(spec, str) else [n.strip() for n in spec
-                                                              if n.strip()]
-    if given == ["all"]:
-        return models.available()
-    unknown = [n for n in given if n not in models.available()]
-    if unknown or not given:
-        what = f"unknown model(s) {', '.join(map(repr, unknown))}" if unknown else "no models"
-        raise ValueError(f"{what}; valid: all, {', '.join(models.available())}")
-    return list(dict.fromkeys(given))
+    given = spec if isinstance(spec, str) else [n.strip() for n in spec if n.strip()]
+    return names(given, models.available(), "model(s)", load=models.model_class)
 
 
 def detectors(models_text: str | Sequence[str], presets_text: str | None = None

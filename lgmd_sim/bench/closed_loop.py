@@ -38,8 +38,8 @@ class ClosedLoopConfig:
     Attributes:
         scenarios: catalogue scenario names (`lgmd-sim envs`).
         jitter: jitter levels; every cell runs at each.
-        controllers: names of `lgmd_sim.controllers.available()`; one driven by a model
-            gets a cell per detector.
+        controllers: names of `lgmd_sim.controllers.available()` or "package.module:Class"
+            specs; one driven by a model gets a cell per detector.
         detectors: (model, preset) pairs, presets with any front ends
             ("published+image"); None: every model at its default preset.
         seeds: episodes per cell, seeded ``first_seed``, ``first_seed + 1``, ...
@@ -78,7 +78,8 @@ class ClosedLoopConfig:
         set_("scenarios", tuple(options.names(self.scenarios, list(scenarios()),
                                               "scenario(s)")))
         set_("controllers", tuple(options.names(self.controllers, controllers.available(),
-                                                "controller(s)")
+                                                "controller(s)",
+                                                load=controllers.controller_class)
                                   if self.controllers else ()))
         set_("jitter", tuple(float(j) for j in self.jitter))
         options.check_jitter(self.jitter)

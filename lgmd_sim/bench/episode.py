@@ -24,6 +24,7 @@ from typing import Any
 
 import numpy as np
 
+from lgmd_sim import options
 from lgmd_sim.bench import encounters
 from lgmd_sim.controllers.avoid import ReactiveParams
 from lgmd_sim.runs import NULL, NUMBER, Maybe
@@ -72,14 +73,12 @@ class Cell:
         return self.controller + (f": {detail}" if detail else "") + side
 
     def key(self, seed: int) -> str:
-        """The cell's record name for one seed (a file name: a plug-in's
-        "package.module:Class" gives "package.module_Class", as ':' is no file-name
-        character on every system)."""
+        """The cell's record name for one seed (a file name: `lgmd_sim.options.file_key`)."""
         detail = f"-{self.model}-{self.preset}" if self.model else (
             f"-{self.tag}" if self.tag else "")
         side = f"-{self.side}" if self.side else ""
         key = f"{self.scenario}-j{self.jitter:g}-{self.controller}{detail}{side}-s{seed}"
-        return key.replace(":", "_")
+        return options.file_key(key)
 
 
 def plan(scenarios: Sequence[str], jitters: Sequence[float], controllers: Sequence[str],

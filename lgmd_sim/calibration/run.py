@@ -34,7 +34,14 @@ from lgmd_sim.bench.closed_loop import ClosedLoopConfig
 from lgmd_sim.calibration import clips as clip_mod
 from lgmd_sim.calibration.objective import WALKER, Objective
 from lgmd_sim.calibration.robot import ROBOT
-from lgmd_sim.calibration.search import SPACES, THRESHOLDS, candidates, evaluate
+from lgmd_sim.calibration.search import (
+    CONTROLS,
+    THRESHOLDS,
+    candidates,
+    detector_list,
+    evaluate,
+    space,
+)
 from lgmd_sim.fileio import write_files, write_text_atomic
 from lgmd_sim.models import presets
 from lgmd_sim.parallel import Job, run_jobs
@@ -73,9 +80,11 @@ class CalibrateConfig:
 
     Attributes:
         task: a key of `TASKS`: the clips and the objective ("walker" or "robot").
-        detectors: keys of `lgmd_sim.calibration.search.SPACES` (a model, the feedback
-            LGMD's open-loop control "feedback-open-loop", each also with a front end:
-            "lgmd1+image"); None: every one.
+        detectors: detectors of `lgmd_sim.calibration.search.space`: a model whose class
+            declares a search space (a name, or a plug-in's "package.module:Class" spec),
+            or the feedback LGMD's open-loop control "feedback-open-loop", each also with
+            a front end ("lgmd1+image"); None: every one of the models available
+            (`lgmd_sim.calibration.search.detector_list`).
         budget: candidate settings per detector, its starting preset included (the same
             for every detector).
         seeds: episode seeds per clip group in each set.
@@ -103,9 +112,7 @@ class CalibrateConfig:
     def __post_init__(self) -> None:
         if self.task not in TASKS:
             raise ValueError(f"--task {self.task!r}: must be one of {', '.join(TASKS)}")
-        object.__setattr__(self, "detectors", tuple(
-            SPACES if self.detectors is None else options.names(
-                self.detectors, list(SPACES), "detector(s)")))
+        object.__setattr__(self, "detectors", tuple(detector_list(self.detectors)))
         options.check_positive(self.budget, "--budget", integer=True)
         options.check_positive(self.seeds, "--seeds", integer=True)
         for name in ("first_seed", "heldout_seed", "seed"):
@@ -162,10 +169,10 @@ def preset_name(detector: str, task: str = "walker") -> tuple[str, str]:
     """The (model, preset) a calibrated detector becomes: the task's prefix ("calibrated",
     "robot"), for the feedback LGMD's control "calibrated-open-loop", with a front end
     "calibrated-image", "robot-open-loop-imu" ..."""
-    model, _preset, _sample, front = SPACES[detector]
-    name = TASKS[task].prefix + ("-open-loop" if detector.startswith("feedback-open-loop")
+    sp = space(detector)
+    name = TASKS[task].prefix + ("-open-loop" if detector.partition("+")[0] in CONTROLS
                                  else "")
-    return model, name + (f"-{front}" if front else "")
+    return sp.model, name + (f"-{sp.front}" if sp.front else "")
 
 
 def choose(records: Sequence[dict[str, Any]], clip_sets: dict[str, list[dict]],
@@ -295,10 +302,10 @@ def calibrate(config: CalibrateConfig, out: str | Path, *, resume: bool = False,
     }
     for c in chosen:
         model, name = preset_name(c["detector"], config.task)
-        _model, base, _sample, front = SPACES[c["detector"]]
+        sp = space(c["detector"])
         params = {**c["params"], "threshold": c["threshold"],
-                  **({"stabilize": front} if front else {})}
-        calibration["presets"][model][name] = {"from": base, "params": params,
+                  **({"stabilize": sp.front} if sp.front else {})}
+        calibration["presets"][model][name] = {"from": sp.preset, "params": params,
                                            "search": c["search"], "heldout": c["heldout"]}
     write_text_atomic(folder.path / "calibrated.json", json.dumps(calibration, indent=2) + "\n")
     files = ["summary.md", "calibration.png", "calibrated.json", "run.json"]

@@ -1,5 +1,11 @@
-"""What the calibration searches: each model's free parameters, sampled with the same
-budget for every model, and the evaluation of one candidate on the recorded clips.
+"""What the calibration searches: each model's free parameters, as its class declares them
+(`lgmd_sim.models.base.LGMDModel.search_space`), sampled with the same budget for every
+model, and the evaluation of one candidate on the recorded clips.
+
+A detector is a model whose class declares a search space (a name, or a plug-in's
+"package.module:Class" spec), its candidates starting from its default preset, or the
+feedback LGMD's open-loop control (`CONTROLS`); either with a front end of `FRONT_ENDS`
+or not ("lgmd1+image").
 
 The alarm threshold is free for every model, and costs nothing to search: one run of a
 candidate gives its potentials, and every threshold of `THRESHOLDS` is scored from them by
@@ -8,98 +14,163 @@ the task's objective (`lgmd_sim.calibration.objective.Objective`).
 
 from __future__ import annotations
 
-import math
-from collections.abc import Callable, Mapping, Sequence
+import re
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
+from lgmd_sim import models, options
 from lgmd_sim.calibration.clips import FRONT_ENDS, load_clip, load_truth
 from lgmd_sim.calibration.objective import THRESHOLDS, WALKER, Objective
+from lgmd_sim.models.base import LGMDModel, SearchRange
 
-__all__ = ["SPACES", "THRESHOLDS", "Candidate", "candidates", "evaluate"]
+__all__ = ["CONTROLS", "THRESHOLDS", "Candidate", "Space", "candidates", "detector_list",
+           "evaluate", "space"]
 
-
-def _log_uniform(lo: float, hi: float) -> Callable[[np.random.Generator], float]:
-    return lambda rng: float(np.exp(rng.uniform(math.log(lo), math.log(hi))))
-
-
-def _feedback(rng: np.random.Generator) -> dict[str, Any]:
-    """The feedback LGMD's free parameters (docs/models.md, choices 2-9), loop closed."""
-    eta1 = _log_uniform(0.5, 200.0)(rng)
-    return {
-        "feedback_gain": _log_uniform(1.0, 1e6)(rng),
-        "rho": _log_uniform(0.01, 10.0)(rng),
-        "eta": (eta1, eta1 * rng.uniform(1.5, 4.0)),
-        "zeta": (rng.uniform(0.2, 1.0), rng.uniform(0.2, 1.0)),
-        "tv_window": int(rng.choice([3, 5, 8, 12])),
-        "k_mode": str(rng.choice(["constant", "potential"])),
-        "mu": _log_uniform(0.3, 10.0)(rng),
-    }
-
-
-def _open_loop(rng: np.random.Generator) -> dict[str, Any]:
-    """The feedback LGMD with its loop open (`FIXED`): only the sigmoid scale is left."""
-    return {"mu": _log_uniform(0.3, 10.0)(rng)}
-
-
-def _scale(rng: np.random.Generator) -> dict[str, Any]:
-    """A baseline's sigmoid coefficient (its threshold is searched as for every model)."""
-    return {"c_sig": _log_uniform(0.1, 100.0)(rng)}
-
-
-#: Parameters every candidate of a detector has, its starting one included.
-FIXED: dict[str, dict[str, Any]] = {"feedback-open-loop": {"feedback_gain": 0.0}}
-_BASES: dict[str, tuple[str, str, Callable[[np.random.Generator], dict[str, Any]]]] = {
-    "feedback": ("feedback", "paper", _feedback),
-    "feedback-open-loop": ("feedback", "paper", _open_loop),
-    "lgmd1": ("lgmd1", "published", _scale),
-    "lgmd2": ("lgmd2", "published", _scale),
-    "f_on": ("f_on", "published", _scale),
-    "f_off": ("f_off", "published", _scale),
+#: Detectors that are no model of their own: the feedback LGMD with its loop opened (gain
+#: 0), the control of what the loop adds, of which only the sigmoid's scale is left to
+#: search. Each: the model, the keys of its search space searched, and the parameters
+#: every candidate has, its starting one included.
+CONTROLS: dict[str, tuple[str, tuple[str, ...], dict[str, Any]]] = {
+    "feedback-open-loop": ("feedback", ("mu",), {"feedback_gain": 0.0}),
 }
-#: Per calibrated detector ("lgmd1", or with a front end "lgmd1+image"): the model, the
-#: preset the candidates start from, the sampler of the parameters searched, and the front
-#: end (None, or one of `FRONT_ENDS`).
-SPACES: dict[str, tuple[str, str, Callable[[np.random.Generator], dict[str, Any]],
-                        str | None]] = {
-    **{key: (*base, None) for key, base in _BASES.items()},
-    **{f"{key}+{front}": (*base, front) for key, base in _BASES.items()
-       for front in FRONT_ENDS},
-}
+
+# A search-space key: a parameter, or one element of a tuple parameter ("eta[0]").
+_KEY = re.compile(r"(\w+)(?:\[(\d+)\])?")
+
+
+@dataclass(frozen=True)
+class Space:
+    """What the calibration searches for one detector (`space`).
+
+    Attributes:
+        model: the model's name or spec.
+        preset: the preset the candidates start from, the model's default.
+        ranges: the keys searched, in the order they are drawn.
+        fixed: the parameters every candidate has.
+        front: None, or the front end of `FRONT_ENDS` every candidate runs with.
+    """
+
+    model: str
+    preset: str
+    ranges: Mapping[str, SearchRange]
+    fixed: Mapping[str, Any]
+    front: str | None
+
+    def sample(self, rng: np.random.Generator) -> dict[str, Any]:
+        """One candidate's parameters: every range drawn once, in order; a tuple
+        parameter's elements joined, and placed where its last element is drawn."""
+        drawn: dict[str, Any] = {}
+        for key, r in self.ranges.items():
+            value = r.draw(rng)
+            drawn[key] = value * drawn[r.times] if r.times else value
+        params: dict[str, Any] = {}
+        elements: dict[str, dict[int, Any]] = {}
+        for key, value in drawn.items():
+            name, index = _KEY.fullmatch(key).groups()
+            params.pop(name, None)
+            if index is None:
+                params[name] = value
+            else:
+                elements.setdefault(name, {})[int(index)] = value
+                params[name] = tuple(v for _, v in sorted(elements[name].items()))
+        return {**self.fixed, **params}
+
+
+def _check_space(model: str, cls: type[LGMDModel], ranges: Mapping[str, SearchRange]) -> None:
+    """A declared search space's keys: parameters of the model (or their elements), each
+    `SearchRange`'s ``times`` a key drawn before it."""
+    known = cls.Params.names()
+    for i, (key, r) in enumerate(ranges.items()):
+        where = f"model {model!r}: search_space key {key!r}"
+        match = _KEY.fullmatch(key) if isinstance(key, str) else None
+        if match is None or match.group(1) not in known:
+            raise ValueError(f"{where} is no parameter (or 'parameter[i]') of the model")
+        if not isinstance(r, SearchRange):
+            raise ValueError(f"{where}: {r!r} is not a SearchRange")
+        if r.times is not None and r.times not in list(ranges)[:i]:
+            raise ValueError(f"{where}: times={r.times!r} is no key drawn before it")
+
+
+def space(detector: str) -> Space:
+    """The search of a detector: a model or a key of `CONTROLS`, optionally with a front
+    end ("+image", "+imu").
+
+    Raises:
+        ValueError: an unknown model, a bad spec or front end, or a model that declares
+            no search space (one line, naming it).
+    """
+    head, plus, front = detector.partition("+")
+    if plus and front not in FRONT_ENDS:
+        raise ValueError(f"detector {detector!r}: the calibration's front ends are "
+                         f"{', '.join('+' + f for f in FRONT_ENDS)}")
+    model, searched, fixed = CONTROLS.get(head, (head, (), {}))
+    cls = models.model_class(model)
+    ranges = dict(cls.search_space)
+    if not ranges:
+        raise ValueError(f"model {model!r} declares no search_space: the calibration has "
+                         "nothing to tune")
+    _check_space(model, cls, ranges)
+    if searched:
+        ranges = {key: ranges[key] for key in searched}
+    return Space(model, next(iter(cls.presets)), ranges, dict(fixed), front or None)
+
+
+def detector_list(given: str | Sequence[str] | None = None) -> list[str]:
+    """The detectors to calibrate, each checked (`space`): those `given` (a
+    comma-separated list or a sequence: models by name or spec, keys of `CONTROLS`, each
+    with or without a front end), or, for None or "all", every model of
+    `lgmd_sim.models.available()` whose class declares a search space, each followed by
+    its controls, then all of them with each front end in turn."""
+    named = [n for m in models.available()
+             for n in (m, *(c for c, (of, _, _) in CONTROLS.items() if of == m))]
+    listed = None if given is None else (
+        options.comma_list(given) if isinstance(given, str) else list(given))
+    if listed in (None, ["all"]):
+        return _with_fronts([n for n in named if models.model_class(
+            CONTROLS.get(n, (n,))[0]).search_space])
+    chosen = options.names(listed, _with_fronts(named), "detector(s)", load=space)
+    for d in chosen:
+        space(d)  # a model named without a search space fails here
+    return chosen
+
+
+def _with_fronts(names: list[str]) -> list[str]:
+    return names + [f"{n}+{front}" for n in names for front in FRONT_ENDS]
 
 
 @dataclass(frozen=True)
 class Candidate:
     """One parameter setting of a detector."""
 
-    detector: str  # a key of SPACES
+    detector: str  # a detector of `space`
     index: int  # 0 is the starting preset itself
     params: Mapping[str, Any]
 
     @property
     def key(self) -> str:
-        return f"{self.detector}-{self.index:03d}"
+        """Its record name (a file name: `lgmd_sim.options.file_key`)."""
+        return options.file_key(f"{self.detector}-{self.index:03d}")
 
 
 def candidates(detector: str, budget: int, seed: int) -> list[Candidate]:
     """The starting preset and `budget` - 1 samples of the detector's space (seeded)."""
-    _model, _preset, sample, _front = SPACES[detector]
-    fixed = FIXED.get(detector.split("+")[0], {})
+    sp = space(detector)
     rng = np.random.default_rng([seed, sum(map(ord, detector))])
-    return [Candidate(detector, 0, dict(fixed))] + [
-        Candidate(detector, i, {**fixed, **sample(rng)}) for i in range(1, budget)]
+    return [Candidate(detector, 0, dict(sp.fixed))] + [
+        Candidate(detector, i, sp.sample(rng)) for i in range(1, budget)]
 
 
 def evaluate(candidate: Candidate, folder: str, clip_sets: Mapping[str, Sequence[dict]],
              objective: Objective = WALKER) -> dict[str, Any]:
     """Run a candidate over every clip; per set, its scores by `objective` at every
     threshold (a job)."""
-    from lgmd_sim import models
     from lgmd_sim.models.warp import Motion
 
-    name, preset, _, front = SPACES[candidate.detector]
+    sp = space(candidate.detector)
+    name, preset, front = sp.model, sp.preset, sp.front
     out: dict[str, Any] = {"detector": candidate.detector, "index": candidate.index,
                            "params": dict(candidate.params), "sets": {}}
     for set_name, records in clip_sets.items():

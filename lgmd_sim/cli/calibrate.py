@@ -47,8 +47,11 @@ def add(sub: argparse._SubParsersAction) -> None:
                    "robot-image ...")
     p.add_argument("--detectors", default="all",
                    help="comma-separated among feedback, feedback-open-loop, lgmd1, lgmd2, "
-                   "f_on, f_off, each also with a front end (+image: the rotation fitted "
-                   "from the frames; +imu: the world's IMU), or all (default)")
+                   "f_on, f_off, any other model whose class declares a search_space (a "
+                   "registered name or a package.module:Class spec), each also with a "
+                   "front end (+image: the rotation fitted from the frames; +imu: the "
+                   "world's IMU), or all (default: every model available that declares "
+                   "one)")
     p.add_argument("--budget", type=positive_int, default=32,
                    help="candidate settings per detector, its starting preset included "
                    "(default 32, the same for every detector)")

@@ -118,10 +118,22 @@ class Oracle(Avoider):
         return float(info["threat_bearing"]) if in_trigger_zone(info, self.params) else None
 
 
+def _model_check(v: Any) -> str | None:
+    """A model name or a plug-in's "package.module:Class" spec (`lgmd_sim.models`)."""
+    if not isinstance(v, str):
+        return "must be a model name or a 'package.module:Class' spec"
+    try:
+        models.model_class(v)
+    except ValueError as exc:
+        return str(exc)
+    return None
+
+
 @dataclass(frozen=True)
 class ReactiveParams(AvoidParams):
-    model: str = param("feedback", DESIGN, check=one_of(*models.available()),
-                       doc="the LGMD model that triggers the manoeuvre")
+    model: str = param("feedback", DESIGN, check=_model_check,
+                       doc="the LGMD model that triggers the manoeuvre: a name of "
+                           "lgmd_sim.models.available() or a 'package.module:Class' spec")
     preset: str | None = param(None, "the model's default preset",
                                doc="its preset, with front ends (e.g. 'calibrated+image')")
     model_params: Mapping[str, Any] = field(

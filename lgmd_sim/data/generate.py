@@ -69,8 +69,9 @@ class GenerateConfig:
         episodes: episodes per (scenario, jitter), seeded ``seed``, ``seed + 1``, ...
             (the same seeds at every jitter level: paired worlds).
         resolution: a preset name or (height, width).
-        controller: a name of `lgmd_sim.controllers.available()`.
-        models: LGMD models whose potential and alarm join the labels.
+        controller: a name of `lgmd_sim.controllers.available()`, or a
+            "package.module:Class" spec.
+        models: LGMD models whose potential and alarm join the labels (names or specs).
         noise: noise variants, each "kind:level" or several joined by "+".
         video: how frames are stored, a key of `layout.VIDEO_FORMATS`.
         seed: the first episode seed.
@@ -203,7 +204,8 @@ def _validate(config: GenerateConfig) -> None:
     options.check_jitter(config.jitter)
     options.check_positive(config.episodes, "--episodes", integer=True)
     options.check_seed(config.seed, "--seed")
-    options.names([config.controller], controllers.available(), "controller")
+    options.names([config.controller], controllers.available(), "controller",
+                  load=controllers.controller_class)
     if config.models:
         options.model_names(list(config.models))
     for variant in config.noise:

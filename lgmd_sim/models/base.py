@@ -19,6 +19,7 @@ itself, and with ``gain=True`` the brightness gain between frames.
 
 from __future__ import annotations
 
+import math
 from abc import ABC, abstractmethod
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
@@ -108,6 +109,44 @@ class StateMap:
     padded: int | None = None
 
 
+@dataclass(frozen=True)
+class SearchRange:
+    """How the calibration draws one value it searches (see `LGMDModel.search_space`):
+    uniform in [low, high] (log-uniform with ``log``, the default: a scale), or one of
+    ``choices``, each as likely.
+
+    Attributes:
+        times: the key of a value drawn before this one that multiplies it, so that one
+            value stays above another (the feedback LGMD's second time constant is its
+            first times U(1.5, 4)).
+    """
+
+    low: float | None = None
+    high: float | None = None
+    log: bool = True
+    choices: tuple[Any, ...] = ()
+    times: str | None = None
+
+    def __post_init__(self) -> None:
+        if self.choices:
+            if self.low is not None or self.high is not None or self.times is not None:
+                raise ValueError(f"{self}: either choices, or low and high (and times)")
+            return
+        real = all(isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v)
+                   for v in (self.low, self.high))
+        if not (real and self.low < self.high and (self.low > 0 or not self.log)):
+            raise ValueError(f"{self}: needs finite low < high (low > 0 when log), or "
+                             "choices")
+
+    def draw(self, rng: np.random.Generator) -> Any:
+        """One value (before ``times``), by one draw of `rng`."""
+        if self.choices:
+            return self.choices[int(rng.choice(len(self.choices)))]
+        if self.log:
+            return float(np.exp(rng.uniform(math.log(self.low), math.log(self.high))))
+        return float(rng.uniform(self.low, self.high))
+
+
 # --- models -----------------------------------------------------------------------------
 
 
@@ -131,6 +170,13 @@ class LGMDModel(ABC):
       () for none;
     - ``presets``: named parameter sets, each the overrides of the defaults it makes
       ({} for the defaults themselves); the first is the model's default preset;
+    - ``search_space`` (optional; for ``lgmd-sim calibrate``): the parameters the
+      calibration searches, each key a parameter ("rho") or one element of a tuple
+      parameter ("eta[0]", the tuple made of all its elements), each value a `SearchRange`.
+      A candidate is the default preset with every key drawn once, in the mapping's order
+      (a seed gives the same candidates while the order stays); the alarm ``threshold`` is
+      searched for every model besides, at no cost. A model without one (the default {})
+      is not calibrated: there would be nothing but the threshold to tune;
 
     and implements the hooks, each on all N streams at once (N = 1 for a streaming model),
     as arrays it keeps as attributes of its own:
@@ -179,6 +225,8 @@ class LGMDModel(ABC):
     layer_names: ClassVar[tuple[str, ...]]
     #: Named parameter sets; the first is the default.
     presets: ClassVar[Mapping[str, Mapping[str, Any]]] = {"default": {}}
+    #: What the calibration searches, by parameter (or "param[i]" of a tuple parameter).
+    search_space: ClassVar[Mapping[str, SearchRange]] = {}
 
     def __init__(self, params: ModelParams | None = None, *, n_streams: int | None = None):
         if n_streams is not None and (

@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 from numba import njit
 
-from lgmd_sim.models.base import ModelParams
+from lgmd_sim.models.base import ModelParams, SearchRange
 from lgmd_sim.models.kernels import BORDERS, JIT_NO_FMA, REFLECT, TAP_FLOOR, fill_borders_as
 from lgmd_sim.models.sources import SOURCES
 from lgmd_sim.params import non_negative, one_of, param, positive, tuple_of
@@ -60,6 +60,11 @@ BORDER_DOC = (
     "cells outside the frame in 3x3 neighbourhoods: 'replicate' the edge (C#), 'reflect' "
     "(OpenCV's default, BORDER_REFLECT_101), 'zero' (MATLAB conv2 'same'), or 'interior' "
     "(S zero on a 1-pixel border, Ce reflected)")
+
+
+#: The baselines' calibration search (`LGMDModel.search_space`): the sigmoid's coefficient,
+#: a scale over three decades (their threshold is searched as for every model).
+SIGMOID_SEARCH = {"c_sig": SearchRange(0.1, 100.0)}
 
 
 def border_code(border: str) -> tuple[int, bool]:

@@ -27,7 +27,7 @@ from typing import Any, ClassVar
 import numpy as np
 from numba import njit
 
-from lgmd_sim.models.base import LGMDModel, ModelParams, StateMap
+from lgmd_sim.models.base import LGMDModel, ModelParams, SearchRange, StateMap
 from lgmd_sim.models.kernels import (
     JIT,
     fill_borders,
@@ -177,6 +177,19 @@ class FeedbackLGMD(LGMDModel):
         "paper": TABLE_1,
         # Table 1 with the feedback coefficients of Sec. 4.1.1
         "paper-text": {**TABLE_1, "beta1": 0.001, "beta2": -0.01},
+    }
+    # The free parameters of docs/models.md, choices 2-9, loop closed. Drawn in this order,
+    # that of the first calibration's sampler, so that its seeds give the same candidates.
+    search_space: ClassVar[dict[str, SearchRange]] = {
+        "eta[0]": SearchRange(0.5, 200.0),
+        "feedback_gain": SearchRange(1.0, 1e6),
+        "rho": SearchRange(0.01, 10.0),
+        "eta[1]": SearchRange(1.5, 4.0, log=False, times="eta[0]"),  # the slower one
+        "zeta[0]": SearchRange(0.2, 1.0, log=False),
+        "zeta[1]": SearchRange(0.2, 1.0, log=False),
+        "tv_window": SearchRange(choices=(3, 5, 8, 12)),
+        "k_mode": SearchRange(choices=("constant", "potential")),
+        "mu": SearchRange(0.3, 10.0),
     }
 
     params: FeedbackParams

@@ -33,11 +33,12 @@ from typing import Any, ClassVar
 import numpy as np
 from numba import njit
 
-from lgmd_sim.models.base import LGMDModel, ModelParams, StateMap
+from lgmd_sim.models.base import LGMDModel, ModelParams, SearchRange, StateMap
 from lgmd_sim.models.baseline import (
     BORDER_DOC,
     BORDER_RULES,
     NO_MAP,
+    SIGMOID_SEARCH,
     BaselineParams,
     boolean,
     border_code,
@@ -202,6 +203,7 @@ class LGMD1(LGMDModel):
         "v0.1": {"w_i": 0.6, "t_s": 30.0, "t_s_rule": "abs", "coincidence": True,
                  "t_ffi": 10.0, "border": "replicate"},
     }
+    search_space: ClassVar[dict[str, SearchRange]] = SIGMOID_SEARCH
 
     params: LGMD1Params
 

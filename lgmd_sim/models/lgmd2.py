@@ -33,9 +33,10 @@ from typing import Any, ClassVar
 import numpy as np
 from numba import njit
 
-from lgmd_sim.models.base import LGMDModel, ModelParams, StateMap
+from lgmd_sim.models.base import LGMDModel, ModelParams, SearchRange, StateMap
 from lgmd_sim.models.baseline import (
     NO_MAP,
+    SIGMOID_SEARCH,
     BaselineParams,
     boolean,
     border_code,
@@ -199,6 +200,7 @@ class LGMD2(LGMDModel):
         # this project's first reading: low-passed previous frames, SFA following K
         "v0.1": {"dt_integer": False, "inhibition_filter": "low-pass", "sfa_rise": "follow"},
     }
+    search_space: ClassVar[dict[str, SearchRange]] = SIGMOID_SEARCH  # the oLGMDs' too
 
     params: LGMD2Params
 

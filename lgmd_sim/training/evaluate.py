@@ -55,7 +55,8 @@ class EvalConfig:
         hand_made = [c for c in controllers.available() if c != "policy"]
         object.__setattr__(self, "policies", tuple(self.policies) or ("shipped",))
         object.__setattr__(self, "controllers", tuple(
-            options.names(self.controllers, hand_made, "controller(s)")
+            options.names(self.controllers, hand_made, "controller(s)",
+                          load=controllers.controller_class)
             if self.controllers else ()))
         self.bench()  # the policies' configurations and every episode option, checked now
         for policy in self.policies:  # and their networks, before any run folder is made
