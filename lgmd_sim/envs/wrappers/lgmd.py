@@ -61,7 +61,8 @@ class LGMDFeatures:
 
     Args:
         n_envs: number of environments (streams of each model).
-        model: a name of `lgmd_sim.models.available()`, or a list of them.
+        model: a name of `lgmd_sim.models.available()` or a plug-in's
+            "package.module:Class" spec, or a list of them.
         preset: the models' parameter set (None: each model's default), optionally with
             front ends ("published+image", see `lgmd_sim.models.parse_spec`); with several
             models it, like ``params``, applies to every one of them. A model that
@@ -227,7 +228,8 @@ class LGMDObservation(gym.Wrapper, gym.utils.RecordConstructorArgs):
 
     Args:
         env: a jitter environment, or any with a Dict observation holding a uint8 "frame".
-        model: a name of `lgmd_sim.models.available()`, or a list of them to compare.
+        model: a name of `lgmd_sim.models.available()` or a plug-in's
+            "package.module:Class" spec, or a list of them to compare.
         preset: the models' parameter set (None: each model's default).
         history: number of membrane potentials observed, newest last.
         grid: (rows, cols) of the S-layer summary, or None for none.

@@ -31,7 +31,8 @@ class VecLGMDObservation(_vec_env.VecEnvWrapper):
 
     Args:
         venv: a VecEnv of jitter environments (Dict observations with a uint8 "frame").
-        model: a name of `lgmd_sim.models.available()`, or a list of them.
+        model: a name of `lgmd_sim.models.available()` or a plug-in's
+            "package.module:Class" spec, or a list of them.
         preset: the models' parameter set (None: each model's default).
         history: number of membrane potentials observed, newest last.
         grid: (rows, cols) of the S-layer summary, or None for none.
