@@ -33,8 +33,9 @@ def add(sub: argparse._SubParsersAction) -> None:
                    "episode N)")
     p.add_argument(
         "--models", default="all",
-        help="'all' or a comma-separated list of: feedback, lgmd1, lgmd2, f_on, f_off "
-        "(default: all)",
+        help="'all' (every model `lgmd-sim models` lists) or a "
+        "comma-separated list of model names (`lgmd-sim models`) or plug-ins' "
+        "'package.module:Class' specs (default: all)",
     )
     p.add_argument(
         "--preset", metavar="NAME",
