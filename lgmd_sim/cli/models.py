@@ -16,8 +16,15 @@ def add(sub: argparse._SubParsersAction) -> None:
         "your presets file, $LGMD_SIM_DATA_DIR/calibrated.json) and every parameter with "
         "its default and where that default comes from.",
     )
-    p.add_argument("name", nargs="?",
-                   help="show one model only (a name, or a package.module:Class spec)")
+    which = p.add_mutually_exclusive_group()
+    which.add_argument("name", nargs="?",
+                       help="show one model only (a name, or a package.module:Class spec)")
+    which.add_argument("--check", metavar="SPEC",
+                       help="check that model SPEC (a name or package.module:Class spec, "
+                       "optionally /preset and front ends) keeps the model contract: "
+                       "streaming equals batched, reset, determinism, potentials in range, "
+                       "parameters with sources and checks, the front ends; exit status 2 "
+                       "with what is wrong")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -25,6 +32,8 @@ def run(args: argparse.Namespace) -> int:
     from lgmd_sim import models
     from lgmd_sim.models.presets import CALIBRATED, preset_files
 
+    if args.check:
+        return _check(args.check)
     names = [args.name] if args.name else models.available()
     for name in names:
         cls = models.model_class(name)
@@ -39,4 +48,15 @@ def run(args: argparse.Namespace) -> int:
         for pname, default, source, _doc in cls.Params.describe():
             print(f"  {pname} = {default!r}  [{source}]")
         print()
+    return 0
+
+
+def _check(spec: str) -> int:
+    """`lgmd-sim models --check SPEC`: the checks it passes; a failure is a ValueError."""
+    from lgmd_sim.models.check import CHECKS, check_model
+
+    check_model(spec)
+    print(f"{spec}: passes {len(CHECKS)} checks")
+    for title, check in CHECKS.items():
+        print(f"  {title}: {' '.join((check.__doc__ or '').split())}")
     return 0
