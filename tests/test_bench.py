@@ -96,6 +96,29 @@ def test_resume_keeps_finished_episodes_and_refuses_other_runs(one_worker, tmp_p
     assert len(err.splitlines()) == 1 and "seeds" in err and "another configuration" in err
 
 
+def test_a_run_whose_preset_changed_since_is_not_resumed(one_worker, tmp_path, capsys,
+                                                         monkeypatch):
+    import shutil
+
+    from lgmd_sim import models
+
+    out = tmp_path / "recalibrated"
+    shutil.copytree(one_worker, out)
+    recorded = json.loads((out / "run.json").read_text())["config"]["detector_params"]
+    assert recorded["lgmd1/published"]["threshold"] == models.make("lgmd1").params.threshold
+    shipped = models.presets_of
+
+    def recalibrated(name):  # lgmd1's default preset with another threshold
+        own = shipped(name)
+        return {**own, "published": {**own["published"], "threshold": 0.91}} if (
+            name == "lgmd1") else own
+
+    monkeypatch.setattr(models, "presets_of", recalibrated)
+    assert _bench(out, "--workers", "1", "--resume") == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "detector_params.lgmd1/published.threshold" in err
+
+
 @pytest.mark.parametrize(("option", "value", "message"), [
     ("--models", "lgmd9", "lgmd9"),
     ("--models", "feedback/nope", "unknown preset 'nope'"),

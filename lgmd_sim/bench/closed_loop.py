@@ -16,6 +16,7 @@ the tables.
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -140,7 +141,18 @@ class ClosedLoopConfig:
             out["extra"] = [{"scenario": c.scenario, "jitter": c.jitter,
                              "controller": c.controller, "params": dict(c.params),
                              "tag": c.tag} for c in self.extra]
+        # every parameter of every detector a cell runs, as its preset resolves today: a
+        # preset recalibrated (or a default changed) since the run began is another run
+        detectors = sorted({(c.model, c.preset) for c in self.cells() if c.model})
+        if detectors:
+            out["detector_params"] = {f"{m}/{p}": _params(m, p) for m, p in detectors}
         return out
+
+
+def _params(model: str, preset: str) -> dict[str, Any]:
+    from lgmd_sim import models
+
+    return dataclasses.asdict(models.make(model, preset=preset).params)
 
 
 def _check_side(side: str) -> None:
