@@ -11,8 +11,10 @@ class directly, wherever a name is accepted.
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
-from collections.abc import Mapping
+import warnings
+from collections.abc import Iterator, Mapping
 from importlib import import_module, metadata
 from typing import Any
 
@@ -23,9 +25,11 @@ _SEPARATORS = ":/+, "
 
 
 def _is_spec(text: Any) -> bool:
-    """Whether `text` reads as "package.module:attr" (an absolute module)."""
+    """Whether `text` reads as "package.module:attr": an absolute dotted module and an
+    identifier ("mypkg.looming:Mine/fast" is a spec with a preset, not a spec)."""
     module, colon, attr = text.partition(":") if isinstance(text, str) else ("", "", "")
-    return bool(colon and module and attr and ":" not in attr and not module.startswith("."))
+    return bool(colon and attr.isidentifier()
+                and all(part.isidentifier() for part in module.split(".")))
 
 
 @dataclasses.dataclass
@@ -100,11 +104,29 @@ class Registry:
         found = self._found()
         return f"entry point of {found[name][1]}" if name in found else "spec"
 
+    @contextlib.contextmanager
+    def isolated(self) -> Iterator[None]:
+        """Within the block, nothing registered and the entry points read afresh; after
+        it, the registry as it was (for tests that register or install classes)."""
+        saved = self.registered, self._entry_points
+        self.registered, self._entry_points = {}, None
+        try:
+            yield
+        finally:
+            self.registered, self._entry_points = saved
+
     def _found(self) -> dict[str, tuple[str, str]]:
         if self._entry_points is None:
-            self._entry_points = {} if self.group is None else {
-                ep.name: (ep.value, ep.dist.name if ep.dist else "?")
-                for ep in metadata.entry_points(group=self.group)}
+            self._entry_points = {}
+            for ep in [] if self.group is None else metadata.entry_points(group=self.group):
+                dist = ep.dist.name if ep.dist else "?"
+                clash = ep.name in self.builtins or ep.name in self.registered
+                if clash or not ep.name or any(c in ep.name for c in _SEPARATORS):
+                    why = "is taken" if clash else f"holds one of {_SEPARATORS!r}"
+                    warnings.warn(f"{self.what} entry point {ep.name!r} of {dist} skipped: "
+                                  f"the name {why}", stacklevel=2)
+                else:
+                    self._entry_points[ep.name] = (ep.value, dist)
         return self._entry_points
 
     def _import(self, spec: str, name: str) -> Any:

@@ -52,3 +52,13 @@ def installed(wheel, tmp_path_factory) -> dict[str, str]:
     env["PATH"] = os.pathsep.join([str(target / "bin"), str(Path(sys.executable).parent),
                                    "/usr/bin", "/bin"])
     return env
+
+
+@pytest.fixture
+def fresh_registries():
+    """The model and controller registries as the session began for the test (nothing
+    registered, the entry points read afresh), and as they were after it."""
+    from lgmd_sim import controllers, models
+
+    with models._MODELS.isolated(), controllers._CONTROLLERS.isolated():
+        yield

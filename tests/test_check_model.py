@@ -4,15 +4,17 @@ each kind of broken model is caught with one line naming what is wrong."""
 import re
 import sys
 from dataclasses import dataclass
+from pathlib import Path
+from typing import ClassVar
 
 import numpy as np
 import pytest
 
 from lgmd_sim import cli, models
 from lgmd_sim.models import LGMDModel, ModelCheckError, ModelParams, check_model
-from lgmd_sim.models.base import StateMap
+from lgmd_sim.models.base import SearchRange, StateMap
 from lgmd_sim.models.check import CHECKS
-from lgmd_sim.params import in_range, param
+from lgmd_sim.params import in_range, param, tuple_of
 
 SMALL = {"frames": 20, "size": (24, 32)}
 
@@ -90,7 +92,7 @@ class NotFinite(Tiny):
 
 @dataclass(frozen=True)
 class UnsourcedParams(TinyParams):
-    gain: float = 1.0
+    scale: float = 1.0
 
 
 class Unsourced(Tiny):
@@ -99,7 +101,7 @@ class Unsourced(Tiny):
 
 @dataclass(frozen=True)
 class UncheckedParams(TinyParams):
-    gain: float = param(1.0, "test")
+    scale: float = param(1.0, "test")
 
 
 class Unchecked(Tiny):
@@ -167,20 +169,79 @@ class Unwarpable(Tiny):
     state_maps = LGMDModel.state_maps
 
 
+@dataclass(frozen=True)
+class PairedParams(TinyParams):
+    pair: tuple[float, float] = param((0.2, 0.4), "test", check=tuple_of(in_range(0.0, 1.0), 2),
+                                      doc="two shares")
+
+
+class Tuned(Tiny):
+    """Declares a search space: a parameter and both elements of a tuple parameter."""
+
+    Params = PairedParams
+    search_space: ClassVar[dict[str, SearchRange]] = {
+        "pair[1]": SearchRange(0.1, 0.9), "decay": SearchRange(0.1, 0.9),
+        "pair[0]": SearchRange(0.5, 1.0, log=False, times="pair[1]")}
+
+
+class Unknown(Tuned):
+    search_space: ClassVar[dict[str, SearchRange]] = {
+        "decay": SearchRange(0.1, 0.9), "nosuch": SearchRange(0.1, 0.9)}
+
+
+class HalfTuple(Tuned):
+    search_space: ClassVar[dict[str, SearchRange]] = {"pair[1]": SearchRange(0.1, 0.9)}
+
+
+class Mixed(Tuned):
+    search_space: ClassVar[dict[str, SearchRange]] = {
+        "pair": SearchRange(choices=((0.1, 0.2),)), "pair[0]": SearchRange(0.1, 0.9),
+        "pair[1]": SearchRange(0.1, 0.9)}
+
+
+class Indexed(Tuned):
+    search_space: ClassVar[dict[str, SearchRange]] = {"decay[0]": SearchRange(0.1, 0.9)}
+
+
+class OutOfRange(Tuned):
+    search_space: ClassVar[dict[str, SearchRange]] = {"decay": SearchRange(1.5, 2.0)}
+
+
 def test_the_built_ins_pass():
     for name in models.available():
-        check_model(name, **SMALL)
+        assert check_model(name, **SMALL) == [(title, "passed") for title in CHECKS]
 
 
-@pytest.mark.parametrize("model", [Tiny, Unwarpable])
-def test_a_valid_plug_in_passes(model):
-    check_model(model, **SMALL)
+@pytest.mark.parametrize(("model", "skipped"), [
+    (Tiny, {"search space": "skipped: no search_space"}),
+    (Unwarpable, {"front ends": "skipped: no state_maps",
+                  "search space": "skipped: no search_space"}),
+    (Tuned, {}),
+])
+def test_a_valid_plug_in_passes_saying_what_it_skipped(model, skipped):
+    assert check_model(model, **SMALL) == [(title, skipped.get(title, "passed"))
+                                           for title in CHECKS]
+
+
+@pytest.mark.parametrize(("spec", "message"), [
+    ("lgmd1/nosuchpreset", "lgmd1/nosuchpreset: unknown preset 'nosuchpreset' for model "
+                           "'lgmd1'; available: published"),
+    ("lgmd1+nosuch", "lgmd1+nosuch: unknown front end(s) 'nosuch'; available: +pose"),
+    ("eta_lgmd:EtaLGMD/nosuch", "eta_lgmd:EtaLGMD/nosuch: unknown preset 'nosuch' for model "
+                                "'eta_lgmd:EtaLGMD'; available: gabbiani"),
+    ("nosuch", "nosuch: unknown model 'nosuch'; available: feedback"),
+])
+def test_a_bad_preset_or_front_end_is_the_specs_fault(spec, message, monkeypatch):
+    monkeypatch.syspath_prepend(str(Path(__file__).parent / "plugins"))
+    with pytest.raises(ModelCheckError, match=re.escape(message)) as exc:
+        check_model(spec, **SMALL)
+    assert len(str(exc.value).splitlines()) == 1
 
 
 @pytest.mark.parametrize(("model", "message"), [
     (int, "class: <class 'int'> is not a subclass of LGMDModel"),
-    (Unsourced, "parameters: parameter gain has no source"),
-    (Unchecked, "parameters: parameter gain has no check"),
+    (Unsourced, "parameters: parameter scale has no source"),
+    (Unchecked, "parameters: parameter scale has no check"),
     (Unbounded, "potentials: potential 0 at frame 0, stream 0, is outside the range the "
                 "alarm threshold takes (a threshold must be a number in [0.5, 1.0])"),
     (NotFinite, "potentials: potential nan at frame 0, stream 0, is not finite"),
@@ -195,6 +256,15 @@ def test_a_valid_plug_in_passes(model):
              "front ends cannot warp it"),
     (Stale, "front ends: a brightness gain (0.7) changes none of the outputs: the model does "
             "not read its scaled previous frame _prev"),
+    (Unknown, "search space: model 'tiny': search_space key 'nosuch' is no parameter (or "
+              "'parameter[i]') of the model"),
+    (HalfTuple, "search space: model 'tiny': search_space keys pair[1]: name pair[0] to "
+                "pair[1], each once"),
+    (Mixed, "search space: model 'tiny': search_space keys pair, pair[0], pair[1]: name "
+            "pair[0] to pair[1], each once"),
+    (Indexed, "search space: model 'tiny': search_space keys decay[0]: name decay alone: its "
+              "default is no tuple"),
+    (OutOfRange, "search space: the candidate {'decay': 1."),
 ])
 def test_a_broken_model_is_caught_in_one_line_naming_the_problem(model, message):
     with pytest.raises(ModelCheckError, match=re.escape(message)) as exc:
@@ -204,11 +274,17 @@ def test_a_broken_model_is_caught_in_one_line_naming_the_problem(model, message)
     assert isinstance(exc.value, ValueError)
 
 
-def test_models_check_lists_the_checks_passed(capsys):
+def test_models_check_lists_the_checks_passed_and_skipped(capsys, monkeypatch):
     assert cli.main(["models", "--check", "lgmd1"]) == 0
     out = capsys.readouterr().out.splitlines()
-    assert out[0] == f"lgmd1: passes {len(CHECKS)} checks"
+    assert out[0] == f"lgmd1: passes {len(CHECKS)} checks, skips 0"
     assert [line.split(":")[0].strip() for line in out[1:]] == list(CHECKS)
+    monkeypatch.syspath_prepend(str(Path(__file__).parent / "plugins"))
+    assert cli.main(["models", "--check", "lgmd_plug:NoMaps"]) == 0
+    out = capsys.readouterr().out.splitlines()
+    assert out[0] == f"lgmd_plug:NoMaps: passes {len(CHECKS) - 2} checks, skips 2"
+    assert out[-2:] == ["  front ends: skipped (no state_maps)",
+                        "  search space: skipped (no search_space)"]
 
 
 BROKEN = '''
@@ -221,11 +297,11 @@ from lgmd_sim.models import LGMDModel, ModelParams
 
 @dataclass(frozen=True)
 class BrokenParams(ModelParams):
-    gain: float = 1.0
+    scale: float = 1.0
 
 
 class Broken(LGMDModel):
-    """A detector whose parameter gain has no source."""
+    """A detector whose parameter scale has no source."""
 
     name = "broken"
     Params = BrokenParams
@@ -251,6 +327,6 @@ def test_models_check_of_a_broken_spec_exits_2_with_one_line(tmp_path, monkeypat
     finally:
         sys.modules.pop("lgmdcheckplug", None)
     assert capsys.readouterr().err == (
-        "lgmd-sim models: error: lgmdcheckplug:Broken: parameters: parameter gain has no "
+        "lgmd-sim models: error: lgmdcheckplug:Broken: parameters: parameter scale has no "
         "source (where its default comes from): declare it with lgmd_sim.params.param("
         "default, source, check=...)\n")

@@ -7,120 +7,32 @@ were declared by the models."""
 from __future__ import annotations
 
 import csv
-import dataclasses
 import hashlib
 import json
 import re
-import sys
+from pathlib import Path
 
 import cv2
+import numpy as np
 import pytest
 
 from lgmd_sim import cli, controllers, models, options, stimuli
 from lgmd_sim.calibration import search
 from lgmd_sim.calibration.run import CalibrateConfig
 
-# A small model with a search space, and one without: the potential is a sigmoid of the
-# mean frame change.
-MODEL = '''
-from dataclasses import dataclass
-
-import numpy as np
-
-from lgmd_sim.models import LGMDModel, ModelParams
-from lgmd_sim.models.base import SearchRange, StateMap
-from lgmd_sim.params import in_range, param
-
-
-@dataclass(frozen=True)
-class BlinkParams(ModelParams):
-    scale: float = param(20.0, "test", check=in_range(0.0, 1000.0), doc="gain of the change")
-
-
-class Blink(LGMDModel):
-    """A test detector: the potential rises with the mean frame change."""
-
-    name = "blink"
-    Params = BlinkParams
-    layer_names = ("P",)
-    presets = {"plain": {}, "fast": {"scale": 200.0}}
-    search_space = {"scale": SearchRange(1.0, 500.0)}
-
-    def allocate(self, n, height, width):
-        self._prev = np.zeros((n, height, width), np.float32)
-        self._fresh = np.ones(n, bool)
-
-    def reset_streams(self, idx):
-        self._fresh[idx] = True
-
-    def state_maps(self):
-        return [StateMap("_prev", "frame")]
-
-    def step_batch(self, grey, layers):
-        g = grey.astype(np.float32)
-        self._prev[self._fresh] = g[self._fresh]
-        self._fresh[:] = False
-        p = np.abs(g - self._prev)
-        self._prev = g
-        if layers is not None:
-            layers["P"][:] = p
-        return 1.0 / (1.0 + np.exp(-self.params.scale * p.mean(axis=(1, 2)) / 255.0))
-
-
-class Untuned(Blink):
-    """The same, declaring nothing to search."""
-
-    search_space = {}
-'''
-
-CONTROLLER = '''
-from dataclasses import dataclass
-
-import numpy as np
-
-from lgmd_sim.controllers import Controller
-from lgmd_sim.params import CheckedParams
-
-
-@dataclass(frozen=True)
-class CreepParams(CheckedParams):
-    pass
-
-
-class Creep(Controller):
-    """Creeps forward."""
-
-    Params = CreepParams
-
-    def act(self, obs, info):
-        return np.array([0.3, 0.0], np.float32)
-'''
-
-SPEC = "lgmdcmdplug.looming:Blink"
-DRIVE = "lgmdcmdplug.drive:Creep"
+# The plug-in, tests/plugins/lgmd_plug.py, by its specs: a model with a search space, the
+# same without one ("Untuned"), and a controller.
+SPEC = "lgmd_plug:Blink"
+DRIVE = "lgmd_plug:Creep"
 QUIET = ["--workers", "1", "--no-progress"]
 
 
 @pytest.fixture(scope="module", autouse=True)
-def plugin(tmp_path_factory):
-    """A package ``lgmdcmdplug`` on sys.path (of this process only: ``--workers 1``)."""
-    root = tmp_path_factory.mktemp("plug")
-    package = root / "lgmdcmdplug"
-    package.mkdir()
-    (package / "__init__.py").write_text("")
-    (package / "looming.py").write_text(MODEL)
-    (package / "drive.py").write_text(CONTROLLER)
+def plugin():
+    """tests/plugins on sys.path (of this process only: ``--workers 1``)."""
     with pytest.MonkeyPatch.context() as mp:
-        mp.syspath_prepend(str(root))
-        yield root
-    for name in [m for m in sys.modules if m.split(".")[0] == "lgmdcmdplug"]:
-        del sys.modules[name]
-
-
-@pytest.fixture
-def fresh_models(monkeypatch):
-    """Nothing registered, as the session began."""
-    monkeypatch.setattr(models, "_MODELS", dataclasses.replace(models._MODELS, registered={}))
+        mp.syspath_prepend(str(Path(__file__).parent / "plugins"))
+        yield
 
 
 # --- the built-ins' spaces --------------------------------------------------------------
@@ -154,12 +66,19 @@ DEFAULT_DETECTORS = [
     "f_off+imu"]
 
 
+def _built_in(detector: str) -> bool:
+    head = detector.partition("+")[0]
+    return models.origin(search.CONTROLS.get(head, (head,))[0]) == "built-in"
+
+
 def test_the_declared_spaces_draw_the_candidates_of_before():
     for (detector, budget, seed), params in BEFORE.items():
         got = [dict(c.params) for c in search.candidates(detector, budget, seed)]
         assert got == params, detector
         assert [list(p) for p in got] == [list(p) for p in params]  # in the same order
-    assert search.detector_list() == DEFAULT_DETECTORS == list(CalibrateConfig().detectors)
+    # the built-ins' only: an installed distribution's model may declare a space too
+    assert [d for d in search.detector_list() if _built_in(d)] == DEFAULT_DETECTORS
+    assert [d for d in CalibrateConfig().detectors if _built_in(d)] == DEFAULT_DETECTORS
     text = repr([(c.detector, c.index, list(c.params.items())) for d in DEFAULT_DETECTORS
                  for c in search.candidates(d, 32, 0)])
     assert hashlib.sha256(text.encode()).hexdigest() == BEFORE_ALL
@@ -176,7 +95,7 @@ def test_names_take_specs_and_refuse_bad_ones():
     with pytest.raises(ValueError, match=re.escape(f"unknown controller(s) '{DRIVE}'")):
         options.names(DRIVE, known, "controller(s)")  # no load: no spec
     with pytest.raises(ValueError, match="has no 'Nope'"):
-        options.names("lgmdcmdplug.drive:Nope", known, "controller(s)", load=load)
+        options.names("lgmd_plug:Nope", known, "controller(s)", load=load)
     assert options.model_names(f"lgmd1,{SPEC}") == ["lgmd1", SPEC]
     with pytest.raises(ValueError, match="cannot import module 'nowhere'"):
         options.model_names("nowhere:Blink")
@@ -185,21 +104,21 @@ def test_names_take_specs_and_refuse_bad_ones():
 def test_the_reactive_controller_takes_a_spec():
     reactive = controllers.make("reactive", model=SPEC, preset="fast+image")
     assert type(reactive.params).__name__ == "ReactiveParams" and reactive.params.model == SPEC
-    with pytest.raises(ValueError, match=r"parameter model='lgmdcmdplug\.looming:Nope'.*no 'Nope'"):
-        controllers.make("reactive", model="lgmdcmdplug.looming:Nope")
+    with pytest.raises(ValueError, match=r"parameter model='lgmd_plug:Nope'.*no 'Nope'"):
+        controllers.make("reactive", model="lgmd_plug:Nope")
 
 
-def test_the_calibration_takes_a_model_that_declares_a_space(fresh_models):
+def test_the_calibration_takes_a_model_that_declares_a_space(fresh_registries):
     sp = search.space(f"{SPEC}+image")
     assert (sp.model, sp.preset, list(sp.ranges), sp.front) == (SPEC, "plain", ["scale"],
                                                                  "image")
     [first, second] = search.candidates(SPEC, 2, 0)
     assert first.params == {} and 1.0 <= second.params["scale"] <= 500.0
-    assert first.key == "lgmdcmdplug.looming_Blink-000"  # a file name
+    assert first.key == "lgmd_plug_Blink-000"  # a file name
     models.register("blink", SPEC)
     assert search.detector_list()[:7] == [*DEFAULT_DETECTORS[:6], "blink"]
     assert CalibrateConfig(detectors=("blink+imu", SPEC)).detectors == ("blink+imu", SPEC)
-    untuned = "lgmdcmdplug.looming:Untuned"
+    untuned = "lgmd_plug:Untuned"
     models.register("untuned", untuned)
     assert "untuned" not in search.detector_list()
     for detector in (untuned, "untuned+image"):
@@ -213,20 +132,54 @@ def test_the_calibration_takes_a_model_that_declares_a_space(fresh_models):
 # --- the commands -----------------------------------------------------------------------
 
 
-def test_detect_runs_a_spec(tmp_path):
+@pytest.fixture(scope="module")
+def approach(tmp_path_factory):
+    """A video of an approach (48 x 64), and its clip."""
     clip = stimuli.approaching((48, 64), start_distance=1.0, speed=2.0, still_frames=3,
                                look=stimuli.Look(background="texture"))
-    video = tmp_path / "approach.mp4"
+    video = tmp_path_factory.mktemp("video") / "approach.mp4"
     writer = cv2.VideoWriter(str(video), cv2.VideoWriter_fourcc(*"mp4v"), 30.0, (64, 48))
     for f in clip.frames:
         writer.write(cv2.cvtColor(f, cv2.COLOR_GRAY2BGR))
     writer.release()
+    return video, clip
+
+
+def test_detect_runs_a_spec(approach, tmp_path):
+    video, clip = approach
     out = tmp_path / "out"
     assert cli.main(["detect", str(video), "--models", f"lgmd1,{SPEC}", "--out", str(out),
                      "--no-progress"]) == 0
     rows = list(csv.DictReader((out / "approach.csv").open()))
-    assert len(rows) == len(clip) and 0.5 <= float(rows[-1][f"{SPEC}_potential"]) < 1
+    assert len(rows) == len(clip)
+    # above rest on every frame the disc grows (the clip ends still: it fills the frame)
+    growing = np.abs(np.diff(clip.frames.astype(float), axis=0)).mean(axis=(1, 2)) > 1
+    potentials = np.array([float(r[f"{SPEC}_potential"]) for r in rows[1:]])
+    assert growing.sum() >= 10 and (potentials[growing] > 0.5).all()
     assert list(json.loads((out / "approach.json").read_text())["models"]) == ["lgmd1", SPEC]
+
+
+@pytest.mark.parametrize(("models_arg", "stabilize", "message"), [
+    ("lgmd_plug:NoMaps", "image", "nomaps lists no state maps (state_maps), so it runs "
+                                  "without front ends only: stabilize 'none', gain off"),
+    (f"lgmd1,{SPEC}/fast", "none", f"unknown model '{SPEC}/fast'"),
+    ("lgmd1/published", "none", "unknown model(s) 'lgmd1/published'"),
+])
+def test_detect_refuses_in_one_line(approach, tmp_path, capsys, models_arg, stabilize,
+                                    message):
+    assert cli.main(["detect", str(approach[0]), "--models", models_arg, "--stabilize",
+                     stabilize, "--out", str(tmp_path / "out"), "--no-progress"]) == 2
+    err = capsys.readouterr().err
+    assert message in err and len(err.strip().splitlines()) == 1
+    assert err.strip().endswith("(a preset goes in --preset)") == ("/" in models_arg)
+
+
+def test_eval_refuses_the_policy_controller_by_spec_as_by_name():
+    from lgmd_sim.training.evaluate import EvalConfig
+
+    for given in ("policy", "lgmd_sim.controllers.policy:Policy"):
+        with pytest.raises(ValueError, match=re.escape(f"unknown controller(s) '{given}'")):
+            EvalConfig(controllers=(given,))
 
 
 def test_open_loop_bench_runs_a_spec_with_a_front_end(tmp_path):

@@ -151,7 +151,7 @@ def test_a_bad_task_is_refused_by_the_config_and_the_command(tmp_path, capsys):
     assert not (tmp_path / "c").exists()
 
 
-#: Every detector, in `SPACES`' order: both tasks' default.
+#: Every detector, in `search.detector_list()`'s order: both tasks' default.
 DETECTORS = ["feedback", "feedback-open-loop", "lgmd1", "lgmd2", "f_on", "f_off",
              *(f"{d}+{front}" for d in ("feedback", "feedback-open-loop", "lgmd1", "lgmd2",
                                         "f_on", "f_off") for front in ("image", "imu"))]

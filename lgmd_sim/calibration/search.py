@@ -14,7 +14,6 @@ the task's objective (`lgmd_sim.calibration.objective.Objective`).
 
 from __future__ import annotations
 
-import re
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -24,7 +23,7 @@ import numpy as np
 from lgmd_sim import models, options
 from lgmd_sim.calibration.clips import FRONT_ENDS, load_clip, load_truth
 from lgmd_sim.calibration.objective import THRESHOLDS, WALKER, Objective
-from lgmd_sim.models.base import LGMDModel, SearchRange
+from lgmd_sim.models.base import SearchRange, check_search_space, draw_search
 
 __all__ = ["CONTROLS", "THRESHOLDS", "Candidate", "Space", "candidates", "detector_list",
            "evaluate", "space"]
@@ -36,9 +35,6 @@ __all__ = ["CONTROLS", "THRESHOLDS", "Candidate", "Space", "candidates", "detect
 CONTROLS: dict[str, tuple[str, tuple[str, ...], dict[str, Any]]] = {
     "feedback-open-loop": ("feedback", ("mu",), {"feedback_gain": 0.0}),
 }
-
-# A search-space key: a parameter, or one element of a tuple parameter ("eta[0]").
-_KEY = re.compile(r"(\w+)(?:\[(\d+)\])?")
 
 
 @dataclass(frozen=True)
@@ -60,38 +56,9 @@ class Space:
     front: str | None
 
     def sample(self, rng: np.random.Generator) -> dict[str, Any]:
-        """One candidate's parameters: every range drawn once, in order; a tuple
-        parameter's elements joined, and placed where its last element is drawn."""
-        drawn: dict[str, Any] = {}
-        for key, r in self.ranges.items():
-            value = r.draw(rng)
-            drawn[key] = value * drawn[r.times] if r.times else value
-        params: dict[str, Any] = {}
-        elements: dict[str, dict[int, Any]] = {}
-        for key, value in drawn.items():
-            name, index = _KEY.fullmatch(key).groups()
-            params.pop(name, None)
-            if index is None:
-                params[name] = value
-            else:
-                elements.setdefault(name, {})[int(index)] = value
-                params[name] = tuple(v for _, v in sorted(elements[name].items()))
-        return {**self.fixed, **params}
-
-
-def _check_space(model: str, cls: type[LGMDModel], ranges: Mapping[str, SearchRange]) -> None:
-    """A declared search space's keys: parameters of the model (or their elements), each
-    `SearchRange`'s ``times`` a key drawn before it."""
-    known = cls.Params.names()
-    for i, (key, r) in enumerate(ranges.items()):
-        where = f"model {model!r}: search_space key {key!r}"
-        match = _KEY.fullmatch(key) if isinstance(key, str) else None
-        if match is None or match.group(1) not in known:
-            raise ValueError(f"{where} is no parameter (or 'parameter[i]') of the model")
-        if not isinstance(r, SearchRange):
-            raise ValueError(f"{where}: {r!r} is not a SearchRange")
-        if r.times is not None and r.times not in list(ranges)[:i]:
-            raise ValueError(f"{where}: times={r.times!r} is no key drawn before it")
+        """One candidate's parameters (`lgmd_sim.models.base.draw_search`), with the fixed
+        ones."""
+        return {**self.fixed, **draw_search(self.ranges, rng)}
 
 
 def space(detector: str) -> Space:
@@ -108,11 +75,11 @@ def space(detector: str) -> Space:
                          f"{', '.join('+' + f for f in FRONT_ENDS)}")
     model, searched, fixed = CONTROLS.get(head, (head, (), {}))
     cls = models.model_class(model)
-    ranges = dict(cls.search_space)
-    if not ranges:
+    if not cls.search_space:
         raise ValueError(f"model {model!r} declares no search_space: the calibration has "
                          "nothing to tune")
-    _check_space(model, cls, ranges)
+    check_search_space(model, cls.Params, cls.search_space)
+    ranges = dict(cls.search_space)
     if searched:
         ranges = {key: ranges[key] for key in searched}
     return Space(model, next(iter(cls.presets)), ranges, dict(fixed), front or None)

@@ -23,8 +23,9 @@ def add(sub: argparse._SubParsersAction) -> None:
                        help="check that model SPEC (a name or package.module:Class spec, "
                        "optionally /preset and front ends) keeps the model contract: "
                        "streaming equals batched, reset, determinism, potentials in range, "
-                       "parameters with sources and checks, the front ends; exit status 2 "
-                       "with what is wrong")
+                       "parameters with sources and checks, the front ends, the search space; "
+                       "prints each check passed or skipped (and why), or exits with status "
+                       "2 and what is wrong")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -52,11 +53,15 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _check(spec: str) -> int:
-    """`lgmd-sim models --check SPEC`: the checks it passes; a failure is a ValueError."""
+    """`lgmd-sim models --check SPEC`: what it checked and skipped; a failure is a
+    ValueError."""
     from lgmd_sim.models.check import CHECKS, check_model
 
-    check_model(spec)
-    print(f"{spec}: passes {len(CHECKS)} checks")
-    for title, check in CHECKS.items():
-        print(f"  {title}: {' '.join((check.__doc__ or '').split())}")
+    done = check_model(spec)
+    skipped = sum(result != "passed" for _, result in done)
+    print(f"{spec}: passes {len(done) - skipped} checks, skips {skipped}")
+    for title, result in done:
+        what = " ".join((CHECKS[title].__doc__ or "").split()) if result == "passed" else (
+            f"skipped ({result.removeprefix('skipped: ')})")
+        print(f"  {title}: {what}")
     return 0

@@ -69,7 +69,13 @@ class DetectConfig:
             raise ValueError("no videos given")
         object.__setattr__(self, "videos", tuple(
             v if isinstance(v, Video) else Video(str(v), str(v)) for v in self.videos))
-        object.__setattr__(self, "models", tuple(options.model_names(list(self.models))))
+        try:
+            names = options.model_names(list(self.models))
+        except ValueError as exc:
+            if any("/" in m for m in self.models):
+                raise ValueError(f"{exc} (a preset goes in --preset)") from None
+            raise
+        object.__setattr__(self, "models", tuple(names))
         noise_lib.parse(self.noise)  # a bad spec fails before any video is read
         front_end_params(self.stabilize, self.fov)
         options.check_seed(self.noise_seed, "--noise-seed")

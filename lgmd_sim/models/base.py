@@ -19,7 +19,9 @@ itself, and with ``gain=True`` the brightness gain between frames.
 
 from __future__ import annotations
 
+import dataclasses
 import math
+import re
 from abc import ABC, abstractmethod
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
@@ -147,6 +149,68 @@ class SearchRange:
         return float(rng.uniform(self.low, self.high))
 
 
+# A search-space key: a parameter, or one element of a tuple parameter ("eta[0]").
+_SEARCH_KEY = re.compile(r"(\w+)(?:\[(\d+)\])?")
+
+
+def check_search_space(model: str, params: type[ModelParams], ranges: Any) -> None:
+    """Check a declared search space (`LGMDModel.search_space`) against the model's
+    parameters `params`: a mapping whose keys are parameters, or every element of a tuple
+    parameter ("eta[0]", "eta[1]": indices 0 to its length - 1, the parameter not named
+    bare as well); each value a `SearchRange` whose ``times`` is a key drawn before it.
+
+    Raises:
+        ValueError: one line naming `model` and the key at fault.
+    """
+    if not isinstance(ranges, Mapping):
+        raise ValueError(f"model {model!r}: search_space must map parameters to "
+                         f"SearchRanges, got {ranges!r}")
+    defaults = {f.name: f.default for f in dataclasses.fields(params)}
+    indices: dict[str, list[int | None]] = {}
+    for i, (key, r) in enumerate(ranges.items()):
+        where = f"model {model!r}: search_space key {key!r}"
+        match = _SEARCH_KEY.fullmatch(key) if isinstance(key, str) else None
+        if match is None or match.group(1) not in defaults:
+            raise ValueError(f"{where} is no parameter (or 'parameter[i]') of the model")
+        if not isinstance(r, SearchRange):
+            raise ValueError(f"{where}: {r!r} is not a SearchRange")
+        if r.times is not None and r.times not in list(ranges)[:i]:
+            raise ValueError(f"{where}: times={r.times!r} is no key drawn before it")
+        name, index = match.group(1), match.group(2)
+        indices.setdefault(name, []).append(None if index is None else int(index))
+    for name, given in indices.items():
+        if given == [None]:
+            continue
+        size = len(defaults[name]) if isinstance(defaults[name], tuple) else 0
+        if None in given or sorted(given) != list(range(size)):
+            named = ", ".join(name if k is None else f"{name}[{k}]" for k in given)
+            want = f"{name}[0] to {name}[{size - 1}], each once" if size else (
+                f"{name} alone: its default is no tuple")
+            raise ValueError(f"model {model!r}: search_space keys {named}: name {want}")
+
+
+def draw_search(ranges: Mapping[str, SearchRange], rng: np.random.Generator
+                ) -> dict[str, Any]:
+    """One candidate's parameters from a checked search space (`check_search_space`):
+    every range drawn once, in order; a tuple parameter's elements joined, and placed
+    where its last element is drawn."""
+    drawn: dict[str, Any] = {}
+    for key, r in ranges.items():
+        value = r.draw(rng)
+        drawn[key] = value * drawn[r.times] if r.times else value
+    params: dict[str, Any] = {}
+    elements: dict[str, dict[int, Any]] = {}
+    for key, value in drawn.items():
+        name, index = _SEARCH_KEY.fullmatch(key).groups()
+        params.pop(name, None)
+        if index is None:
+            params[name] = value
+        else:
+            elements.setdefault(name, {})[int(index)] = value
+            params[name] = tuple(v for _, v in sorted(elements[name].items()))
+    return params
+
+
 # --- models -----------------------------------------------------------------------------
 
 
@@ -172,7 +236,8 @@ class LGMDModel(ABC):
       ({} for the defaults themselves); the first is the model's default preset;
     - ``search_space`` (optional; for ``lgmd-sim calibrate``): the parameters the
       calibration searches, each key a parameter ("rho") or one element of a tuple
-      parameter ("eta[0]", the tuple made of all its elements), each value a `SearchRange`.
+      parameter ("eta[0]": then every element is a key, and the tuple made of them), each
+      value a `SearchRange` (`check_search_space`).
       A candidate is the default preset with every key drawn once, in the mapping's order
       (a seed gives the same candidates while the order stays); the alarm ``threshold`` is
       searched for every model besides, at no cost. A model without one (the default {})
@@ -192,13 +257,16 @@ class LGMDModel(ABC):
       a new float array of shape (N,) (the caller keeps it: return no array the model
       writes into later), finite. ``grey`` is a C-contiguous (N, H, W) stack at the
       allocated size: uint8 in 0..255 for uint8 frames, else float32 in 0..255 (float
-      frames in 0..1, times 255); colour frames arrive as BT.601 luma. Its dtype may
+      frames in 0..1, times 255); colour frames arrive as BT.601 luma. It may be a view
+      of the caller's frames (contiguous uint8 frames are not copied), so a model copies
+      what it keeps of it (``self._prev = grey.copy()``, not ``= grey``). Its dtype may
       change from one frame to the next (uint8, then float32 after a float frame), so a
       stored previous frame follows it. ``layers`` is None, or a dict holding an
       uninitialised float32 (N, H, W) array for every name of ``layer_names``, each to be
       filled in full with that layer's map of this frame;
     - ``state_maps()`` (for the front ends; a model without it runs only with
-      ``stabilize="none"``, ``gain=False`` and no ``motion``): the `StateMap` of every
+      ``stabilize="none"``, ``gain=False`` and no ``motion``, and is refused with a
+      one-line ValueError otherwise): the `StateMap` of every
       stored map that moves with the camera: an attribute of shape (N, ..., H, W) (or of
       padded rows, see `StateMap`), warped in place. Before the warp, the base turns a
       ``fill="frame"`` map (the previous frame) into float32 by assigning the attribute
@@ -243,6 +311,9 @@ class LGMDModel(ABC):
         #: The ego-motion front end (`lgmd_sim.models.stabilize`), None without one.
         self.front_end = None
         if self.params.stabilize != "none" or self.params.gain:
+            if not self.has_state_maps():
+                raise ValueError(f"{self.name} lists no state maps (state_maps), so it runs "
+                                 "without front ends only: stabilize 'none', gain off")
             from lgmd_sim.models.stabilize import FrontEnd
 
             self.front_end = FrontEnd(self.params, self._n)
@@ -296,6 +367,9 @@ class LGMDModel(ABC):
             motion = self.front_end.motion(grey, rotation)
         elif rotation is not None:
             raise ValueError(f"{self.name}: rotation= needs stabilize='pose' or 'imu'")
+        elif motion is not None and not self.has_state_maps():
+            raise ValueError(f"{self.name} lists no state maps (state_maps), so it takes no "
+                             "motion=")
         hs, gains, horizons, grounds = (None,) * 4 if motion is None else motion.per_stream(
             self._n)
         shape = (grey.shape[1], grey.shape[2])
@@ -384,6 +458,12 @@ class LGMDModel(ABC):
             self.maps_moved()
 
     # -- hooks -------------------------------------------------------------------------
+
+    @classmethod
+    def has_state_maps(cls) -> bool:
+        """Whether the class lists its state maps (`state_maps`), so that it can be
+        motion-compensated; without them it runs without front ends only."""
+        return cls.state_maps is not LGMDModel.state_maps
 
     def state_maps(self) -> Sequence[StateMap]:
         """The stored maps (each an attribute of shape (N, ..., H, W)) that move with the

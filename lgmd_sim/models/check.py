@@ -1,6 +1,6 @@
 """Is a model sound? `check_model` runs a model through the contract of `LGMDModel`, as
 Gymnasium's ``check_env`` does for environments, and raises a `ModelCheckError` naming
-the first thing wrong.
+the first thing wrong, or returns what it checked and skipped.
 
 The checks (`CHECKS`, in the order they run; each assumes those before it passed) feed
 the model seeded synthetic frames (`looming_frames`: a dark disc looming over a textured
@@ -21,7 +21,13 @@ from typing import Any
 import numpy as np
 
 from lgmd_sim import models
-from lgmd_sim.models.base import LGMDModel, ModelParams, StateMap
+from lgmd_sim.models.base import (
+    LGMDModel,
+    ModelParams,
+    StateMap,
+    check_search_space,
+    draw_search,
+)
 from lgmd_sim.models.warp import Motion
 
 __all__ = ["CHECKS", "ModelCheckError", "check_model", "looming_frames"]
@@ -32,6 +38,8 @@ _N = 3
 _SHIFT = Motion(np.array([[1.0, 0.0, 2.0], [0.0, 1.0, 1.0], [0.0, 0.0, 1.0]]))
 _STILL = Motion(np.eye(3))
 _GAIN = 0.7
+#: Candidates the search-space check draws and builds.
+_CANDIDATES = 5
 
 
 class ModelCheckError(ValueError):
@@ -74,7 +82,7 @@ class _Run:
 def _step(model: LGMDModel, frame: np.ndarray, **kwargs: Any) -> Any:
     """One step; a zero rotation for the front ends that need one each frame."""
     if model.rotation_key is not None:
-        kwargs["rotation"] = np.zeros((model._n, 3) if model.batched else 3)
+        kwargs["rotation"] = np.zeros((len(frame), 3) if model.batched else 3)
     return model.step(frame, **kwargs)
 
 
@@ -362,17 +370,17 @@ def _frame_shaped(a: Any, size: tuple[int, int]) -> bool:
         a.shape[-2:] == size or (a.shape[-1] == size[1] + 2 and a.shape[-2] >= size[0]))
 
 
-def _front_ends(s: _Subject) -> None:
-    """the front ends warp every declared state map, the outputs follow, and no other
-    state is frame-shaped (skipped for a model without state_maps)"""
+def _front_ends(s: _Subject) -> str | None:
+    """the front ends warp every declared state map and the outputs follow; no undeclared
+    frame-shaped state changes between frames and affects later outputs (skipped for a
+    model without state_maps)"""
+    if not s.cls.has_state_maps():  # the optional hook: such a model runs without them
+        return "no state_maps"
     seq, k, size = s.single(0), len(s.frames[0]) // 2, s.size
     no_front_end = {"stabilize": "none", "gain": False}  # so that motion= may be given
     model = s.build(**no_front_end)
     _run(model, seq[:k])
-    try:
-        maps: list[StateMap] = list(model.state_maps())
-    except NotImplementedError:  # the optional hook: such a model runs without front ends
-        return
+    maps: list[StateMap] = list(model.state_maps())
     for m in maps:
         a = getattr(model, m.attr, None) if isinstance(m, StateMap) else None
         if not isinstance(a, np.ndarray):
@@ -413,6 +421,7 @@ def _front_ends(s: _Subject) -> None:
               f"read its scaled previous frame {frames[0]} (a reference from before the base "
               "made it float32? read maps through self)")
     _undeclared(s, {m.attr for m in maps}, no_front_end)
+    return None
 
 
 def _one(model: LGMDModel, frame: np.ndarray, motion: Motion) -> _Run:
@@ -453,9 +462,30 @@ def _undeclared(s: _Subject, declared: set[str], no_front_end: dict[str, Any]) -
                       "front ends cannot warp it")
 
 
+def _search_space(s: _Subject) -> str | None:
+    """the search_space names parameters, or every element of tuple ones, each a
+    SearchRange, and its candidates build (skipped for a model without one)"""
+    space = s.cls.search_space
+    if isinstance(space, Mapping) and not space:
+        return "no search_space"
+    try:
+        check_search_space(s.cls.name, s.cls.Params, space)
+    except ValueError as exc:
+        _fail(str(exc))
+    rng, start = np.random.default_rng(s.seed), next(iter(s.cls.presets.values()))
+    for _ in range(_CANDIDATES):
+        drawn = draw_search(space, rng)
+        try:
+            s.cls.Params(**{**start, **drawn})
+        except (TypeError, ValueError) as exc:
+            _fail(f"the candidate {drawn} (the default preset with the drawn values) does "
+                  f"not build: {exc}")
+    return None
+
+
 #: The checks, by name, in the order `check_model` runs them; each one's docstring says
-#: what it asserts.
-CHECKS: dict[str, Callable[[_Subject], None]] = {
+#: what it asserts, and each returns None (passed) or why it was skipped.
+CHECKS: dict[str, Callable[[_Subject], str | None]] = {
     "class": _class,
     "parameters": _parameters,
     "potentials": _potentials,
@@ -465,11 +495,12 @@ CHECKS: dict[str, Callable[[_Subject], None]] = {
     "reset": _reset,
     "frame size": _frame_size,
     "front ends": _front_ends,
+    "search space": _search_space,
 }
 
 
 def check_model(model: type[LGMDModel] | str, *, frames: int = 24,
-                size: tuple[int, int] = (24, 32), seed: int = 0) -> None:
+                size: tuple[int, int] = (24, 32), seed: int = 0) -> list[tuple[str, str]]:
     """Check that a model keeps the contract of `LGMDModel` (`CHECKS`).
 
     Args:
@@ -480,6 +511,10 @@ def check_model(model: type[LGMDModel] | str, *, frames: int = 24,
         size: (height, width) of the test frames (at least 8 x 8).
         seed: seed of the test frames.
 
+    Returns:
+        What was checked: (the check's name, "passed" or "skipped: why") of every check
+        of `CHECKS`, in order.
+
     Raises:
         ModelCheckError: on the first check that fails, one line naming the model, the
             check and what is wrong.
@@ -489,13 +524,17 @@ def check_model(model: type[LGMDModel] | str, *, frames: int = 24,
                          f"{frames} frames of {size}")
     if isinstance(model, str):
         label = model
-        try:  # the class alone first, so that a broken one is reported by the checks
-            cls = models.model_class(model.split("+")[0].partition("/")[0])
+        try:  # a bad name, preset or front end is the spec's fault, not the model's
+            name, preset = models.parse_spec(model)
         except ValueError as exc:
-            raise ModelCheckError(f"{label}: class: {exc}") from None
+            raise ModelCheckError(f"{label}: {exc}") from None
+        except Exception as exc:  # a class too broken to read its presets
+            raise ModelCheckError(f"{label}: class: reading its presets raised "
+                                  f"{type(exc).__name__}: {' '.join(str(exc).split())}"
+                                  ) from exc
+        cls = models.model_class(name)
 
         def make_params() -> ModelParams:
-            name, preset = models.parse_spec(model)
             return models.make(name, preset=preset).params
     else:
         cls = model
@@ -505,12 +544,15 @@ def check_model(model: type[LGMDModel] | str, *, frames: int = 24,
             return cls.Params(**next(iter(cls.presets.values())))
 
     subject = _Subject(cls, make_params, looming_frames(_N, frames, size, seed), seed)
+    done: list[tuple[str, str]] = []
     for title, check in CHECKS.items():
         try:
-            check(subject)
+            skipped = check(subject)
         except ModelCheckError as exc:
             raise ModelCheckError(f"{label}: {title}: {exc}") from None
         except Exception as exc:  # the model's own error: say where it came
             text = " ".join(str(exc).split())
             raise ModelCheckError(f"{label}: {title}: the model raised {type(exc).__name__}"
                                   f"{': ' + text if text else ''}") from exc
+        done.append((title, "passed" if skipped is None else f"skipped: {skipped}"))
+    return done

@@ -53,10 +53,20 @@ class EvalConfig:
         from lgmd_sim.policies import load
 
         hand_made = [c for c in controllers.available() if c != "policy"]
+
+        def hand_made_class(spec: str) -> type:
+            """A spec's class, unless it is the trained policies' (they are the POLICY
+            arguments, each its own cell)."""
+            cls = controllers.controller_class(spec)
+            if issubclass(cls, controllers.controller_class("policy")):
+                raise ValueError(f"unknown controller(s) {spec!r} (a trained policy is a "
+                                 f"POLICY argument); valid: all, {', '.join(hand_made)}")
+            return cls
+
         object.__setattr__(self, "policies", tuple(self.policies) or ("shipped",))
         object.__setattr__(self, "controllers", tuple(
             options.names(self.controllers, hand_made, "controller(s)",
-                          load=controllers.controller_class)
+                          load=hand_made_class)
             if self.controllers else ()))
         self.bench()  # the policies' configurations and every episode option, checked now
         for policy in self.policies:  # and their networks, before any run folder is made
