@@ -108,6 +108,29 @@ def test_the_reactive_controller_takes_a_spec():
         controllers.make("reactive", model="lgmd_plug:Nope")
 
 
+def test_halves_reads_a_plug_ins_last_layer_and_turns_away_from_the_changing_half():
+    """A model without an S layer: side='halves' compares its last layer's halves (Blink's
+    P), so a change on the left turns the robot right (> 0: the threat on the left)."""
+    reactive = controllers.make("reactive", model=SPEC, preset="fast", side="halves")
+    reactive.reset()
+    still = np.full((24, 32, 3), 128, np.uint8)
+    assert reactive._trigger({"frame": still}, {"time": 0.0}) is None
+    moved = still.copy()
+    moved[:, :10] = 255  # the left third brightens
+    side = reactive._trigger({"frame": moved}, {"time": 0.1})
+    assert side is not None and side > 0
+
+
+def test_halves_refuses_a_model_without_layers_in_one_line(fresh_registries):
+    class Layerless(models.model_class(SPEC)):
+        layer_names = ()
+
+    models.register("layerless", Layerless)
+    with pytest.raises(ValueError, match=r"side='halves'.*layerless has none.*side='eyes'"):
+        controllers.make("reactive", model="layerless", side="halves")
+    assert controllers.make("reactive", model="layerless", side="eyes") is not None
+
+
 def test_the_calibration_takes_a_model_that_declares_a_space(fresh_registries):
     sp = search.space(f"{SPEC}+image")
     assert (sp.model, sp.preset, list(sp.ranges), sp.front) == (SPEC, "plain", ["scale"],

@@ -142,7 +142,8 @@ class ReactiveParams(AvoidParams):
     side: str = param("halves", "design: one LGMD, as the published models are",
                       check=one_of("halves", "eyes"),
                       doc="how the threat's side is told: 'halves', one LGMD over the whole "
-                          "view and its S layer's left and right halves; 'eyes', two LGMDs "
+                          "view and its S layer's left and right halves (a model without an "
+                          "S layer: its last layer's); 'eyes', two LGMDs "
                           "over overlapping left and right parts of the view, alarming when "
                           "either does, turning away from the more excited")
     eye_overlap: float = param(0.2, "Gary2017: the eyes see 0-60% and 40-100% of the width",
@@ -172,6 +173,13 @@ class ReactiveAvoid(Avoider):
                                  overlap=p.eye_overlap, **dict(p.model_params))
         else:
             self.model = models.make(p.model, preset=p.preset, **dict(p.model_params))
+            names = type(self.model).layer_names
+            if not names:
+                raise ValueError(f"ReactiveAvoid side='halves' compares the left and right "
+                                 f"halves of a layer of the model, and {p.model} has none "
+                                 "(layer_names is empty): use side='eyes'")
+            # the S layer where there is one; a plug-in's last (nearest its potential)
+            self._side_layer = "S" if "S" in names else names[-1]
         super().__init__(**params)
 
     def reset(self) -> None:
@@ -191,6 +199,7 @@ class ReactiveAvoid(Avoider):
         self.potential = out.potential
         if not out.alarm:
             return None
-        s = np.abs(out.layers["S"])  # signed in LGMD1 (E - w I): its activity either way
+        # signed in LGMD1 (E - w I): its activity either way
+        s = np.abs(out.layers[self._side_layer])
         half = s.shape[1] // 2
         return float(s[:, :half].mean() - s[:, -half:].mean())  # > 0: more on the left
