@@ -7,7 +7,8 @@ one between the markers (or is appended), the rest of the page stays as
 
     .venv/bin/python scripts/robot_page.py --oracle-window runs/oracle-window \
         --calibration runs/calibration-robot \
-        --closed-loop runs/closed-loop-robot-j1 runs/closed-loop-robot-j1-parts
+        --closed-loop runs/closed-loop-robot runs/closed-loop-robot-j1 \
+        runs/closed-loop-robot-j1-parts
 """
 
 from __future__ import annotations
@@ -17,6 +18,7 @@ import json
 from collections.abc import Sequence
 from pathlib import Path
 
+import numpy as np
 from oracle_window import COLLISIONS, SUCCESS, horizon, window
 from results_page import FIGURES, OUT, ROOT, Figures, _command, _copier, _copy, _rows
 
@@ -192,23 +194,66 @@ def targets(rows: Sequence[dict[str, str]]) -> list[str]:
     return [*out, ""]
 
 
+def _collided(best: dict[str, str]) -> list[dict[str, str]]:
+    """The episodes of `best`'s cell that collided, from its run's episodes.csv."""
+    return [e for e in _rows(Path(best["run"]) / "episodes.csv")
+            if all(e[k] == best[k] for k in ("scenario", "jitter", "controller", "model",
+                                             "preset", "side"))
+            and e["collided"] == "True"]
+
+
+def _leads(episodes: Sequence[dict[str, str]]) -> list[float | None]:
+    return [float(e["lead_time_s"]) if e["lead_time_s"] else None for e in episodes]
+
+
 def why(best: dict[str, str]) -> str:
     """What came before each of a cell's collisions: its last alarm's lead (none, later
     than the window, in it, earlier), from the run's episodes."""
-    episodes = [e for e in _rows(Path(best["run"]) / "episodes.csv")
-                if all(e[k] == best[k] for k in ("scenario", "jitter", "controller", "model",
-                                                 "preset", "side"))
-                and e["collided"] == "True"]
-    leads = [float(e["lead_time_s"]) if e["lead_time_s"] else None for e in episodes]
+    leads = _leads(_collided(best))
     counts = [sum(v is None for v in leads),
               sum(v is not None and v < robot.TTC_LO for v in leads),
               sum(v is not None and robot.TTC_LO <= v <= robot.TTC_HI for v in leads),
               sum(v is not None and v > robot.TTC_HI for v in leads)]
-    return (f" Of its {len(episodes)} episodes with a collision, the last alarm onset before "
+    return (f" Of its {len(leads)} episodes with a collision, the last alarm onset before "
             f"the (first) collision came: none in {counts[0]}, less than {robot.TTC_LO:g} s "
             f"before it in {counts[1]}, {robot.TTC_LO:g} to {robot.TTC_HI:g} s before it "
             f"(the window's times to collision) in {counts[2]}, more than "
             f"{robot.TTC_HI:g} s before it in {counts[3]}.")
+
+
+#: Bins of the collisions figure: the last alarm's lead before the collision (s).
+LEAD_BINS = np.arange(0.0, 3.01, 0.15)
+
+
+def collisions_figure(bests: Sequence[dict[str, str]], path: Path) -> None:
+    """Per jitter level of the goal task, the best LGMD-driven cell's collided episodes by
+    the lead of their last alarm onset before the collision (none: the leftmost bar),
+    the robot objective's window shaded: what a detector did before each collision."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(1, len(bests), figsize=(4.2 * len(bests), 3.4), sharey=True,
+                             squeeze=False)
+    for ax, best in zip(axes[0], bests, strict=True):
+        leads = _leads(_collided(best))
+        timed = np.clip([v for v in leads if v is not None], 0, LEAD_BINS[-1])
+        ax.axvspan(robot.TTC_LO, robot.TTC_HI, color="tab:green", alpha=0.15,
+                   label="the window")
+        ax.bar(-0.3, sum(v is None for v in leads), width=0.25, color="tab:grey",
+               label="no alarm")
+        ax.hist(timed, bins=LEAD_BINS, color="tab:red", label="last alarm's lead")
+        ax.set_xticks([-0.3, 0, 1, 2, 3], ["none", "0", "1", "2", "3+"])
+        ax.set_xlabel("last alarm onset before the collision (s)")
+        ax.set_title(f"{best['scenario']}, jitter {float(best['jitter']):g}\n"
+                     f"{_cell(best)}: {len(leads)} collisions", fontsize=9)
+        ax.grid(alpha=0.3)
+    axes[0][0].set_ylabel("episodes")
+    axes[0][-1].legend(fontsize=8, loc="upper center")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110, format="png")
+    plt.close(fig)
 
 
 def _by(rows: Sequence[dict[str, str]]) -> dict[tuple[str, float], list[dict[str, str]]]:
@@ -263,28 +308,65 @@ def _measure(r: dict[str, str]) -> str:
     return f"{_pct(r, 'avoidance')} / {distance:.2f}"
 
 
+def _cell_id(row: dict[str, str]) -> tuple[str, ...]:
+    return tuple(row[k] or "" for k in ("scenario", "jitter", "controller", "model", "preset",
+                                         "tag", "side"))
+
+
+def _shared(run: Path, others: Sequence[Path]) -> int:
+    """How many of `run`'s episode records are byte for byte one of `others`' (episodes a
+    run took from earlier ones with the same code, seeds and options)."""
+    theirs = {p.name: p for other in others for p in (other / "records").glob("*.json")}
+    return sum(p.name in theirs and p.read_bytes() == theirs[p.name].read_bytes()
+               for p in (run / "records").glob("*.json"))
+
+
 def closed_loop_section(runs: Sequence[Path], figures: Figures) -> list[str]:
     """The closed-loop runs (the same episode seeds: their cells are compared as one
-    table), each with its command, wall time, summary and figures, then the targets and
-    which part does the work over all of their cells."""
+    table): the first with its command, wall time, summary and figures, each further one
+    with its command and the cells it adds; then the targets and which part does the work
+    over all of their cells."""
     seeds = {json.dumps(json.loads((r / "run.json").read_text())["config"]["seeds"])
              for r in runs}
     if len(seeds) > 1:
         raise SystemExit(f"robot_page.py: the closed-loop runs ran different seeds ({seeds})")
+    main, *more = runs
     lines = ["### Closed loop: the goal and the arena", "",
              "Two tasks: RoughTerrainObstacles (reach the goal 8 m ahead through obstacles) "
              "and ArenaRoam (roam a walled arena with obstacles for 30 s; collisions do not "
-             "end it), both over rough ground. " + encounters.__doc__.strip(), ""]
-    rows: list[dict[str, str]] = []
-    for k, run in enumerate(runs):
-        lines += ["```bash", _command(run), "```", "", f"Wall time {_wall(run)}.", "",
-                  (run / "summary.md").read_text().strip(), ""]
-        names = sorted(p.name for p in run.glob("*.png"))
-        for fig in _copy(run, names, f"closed-loop-robot-{k + 1}", figures):
-            lines += [f"![{fig}]({fig})", ""]
-        rows += [{**r, "run": str(run)} for r in _rows(run / "summary.csv")
-                 if k == 0 or r["controller"] == "reactive"]
+             "end it), both over rough ground. " + encounters.__doc__.strip(), "",
+             "```bash", _command(main), "```", ""]
+    shared = _shared(main, more)
+    episodes = len(list((main / "records").glob("*.json")))
+    lines += [f"Wall time {_wall(main)} for {episodes} episodes"
+              + (f", {shared} of which (identical records) it took from the runs below, whose "
+                 "wall time is theirs." if shared else ".") + " "
+              + "The figures, from its folder: collisions and successes against jitter, false "
+              "alarms against collisions, the trajectories of the first seed, the arena's "
+              "rates against jitter and where its encounters happened (avoided or not).", "",
+              (main / "summary.md").read_text().strip(), ""]
+    names = sorted(p.name for p in main.glob("*.png"))
+    for fig in _copy(main, names, "closed-loop-robot", figures):
+        lines += [f"![{fig}]({fig})", ""]
+    rows = [{**r, "run": str(main)} for r in _rows(main / "summary.csv")]
+    for run in more:
+        seen = {_cell_id(r) for r in rows}
+        added = [{**r, "run": str(run)} for r in _rows(run / "summary.csv")
+                 if r["controller"] == "reactive" and _cell_id(r) not in seen]
+        lines += ["```bash", _command(run), "```", "",
+                  f"Wall time {_wall(run)}. Its cells not in the runs above, in the tables "
+                  "below: " + ", ".join(sorted({_cell(r) for r in added})) + ".", ""]
+        rows += added
     lines += targets(rows)
+    bests = [_best_goal(rs) for (_, _), rs in sorted(_by(
+        [r for r in rows if r["controller"] == "reactive" and r["task"] == "goal"]).items())]
+    if bests:
+        target = FIGURES / "closed-loop-robot" / "collisions_lead.png"
+        figures[target] = lambda tmp: collisions_figure(bests, tmp)
+        name = f"results/closed-loop-robot/{target.name}"
+        lines += ["What came before each collision of the goal task's best LGMD-driven cell "
+                  "per jitter level (the most successes): the lead of the last alarm onset "
+                  "before the collision, the window shaded.", "", f"![{name}]({name})", ""]
     lines += attribution(rows)
     return [*lines, CONSTANTS, ""]
 
@@ -294,8 +376,8 @@ def main() -> None:
     parser.add_argument("--oracle-window", type=Path, required=True)
     parser.add_argument("--calibration", type=Path, required=True)
     parser.add_argument("--closed-loop", type=Path, nargs="+", default=[],
-                        help="closed-loop runs on the same seeds (the first one's Oracle "
-                        "and Straight are shown)")
+                        help="closed-loop runs on the same seeds: the first one shown "
+                        "whole, each further one adding its cells")
     args = parser.parse_args()
     figures: Figures = {}
     lines = [BEGIN, "", "## The robot: its own calibration, two eyes, two tasks", ""]
@@ -310,7 +392,8 @@ def main() -> None:
     text = (page[:start] + section + page[end + len(END) + 1:] if start >= 0 and end > start
             else page.rstrip() + "\n\n" + section)
     write_files({OUT: lambda tmp: tmp.write_text(text),
-                 **{target: _copier(source) for target, source in figures.items()}})
+                 **{target: _copier(source) if isinstance(source, Path) else source
+                    for target, source in figures.items()}})
     print(f"wrote {OUT.relative_to(ROOT)} and {FIGURES.relative_to(ROOT)}/")
 
 
