@@ -108,7 +108,8 @@ def test_the_zone_is_the_oracles_trigger():
 
 def test_the_zone_and_the_oracles_trigger_are_one_test():
     """The Oracle triggers exactly where an encounter is, turning by the threat's bearing."""
-    from lgmd_sim.controllers.avoid import Oracle, in_trigger_zone
+    from lgmd_sim.controllers.avoid import Oracle
+    from lgmd_sim.envs.zone import in_trigger_zone
 
     p, oracle = OracleParams(), Oracle()
     for ttc, distance, bearing in [(0.5, 2.0, 0.1), (2.0, 2.0, 0.1), (2.0, 0.2, -0.3),

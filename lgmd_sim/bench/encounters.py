@@ -28,7 +28,8 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
-from lgmd_sim.controllers.avoid import OracleParams, in_trigger_zone
+from lgmd_sim.controllers.avoid import OracleParams
+from lgmd_sim.envs.zone import in_trigger_zone
 
 __all__ = ["LEGEND", "MERGE_GAP", "Encounter", "collision_onsets", "encounters", "in_zone",
            "runs"]

@@ -15,8 +15,9 @@ import numpy as np
 from lgmd_sim import models
 from lgmd_sim.controllers.base import Controller
 from lgmd_sim.controllers.straight import DESIGN, StraightParams
+from lgmd_sim.envs.zone import TriggerZone, in_trigger_zone
 from lgmd_sim.models.sectors import Sectors, below_one
-from lgmd_sim.params import in_range, one_of, param, positive
+from lgmd_sim.params import in_range, one_of, param
 
 __all__ = [
     "AvoidParams",
@@ -25,7 +26,6 @@ __all__ = [
     "OracleParams",
     "ReactiveAvoid",
     "ReactiveParams",
-    "in_trigger_zone",
 ]
 
 _TUNED = "design: tuned so that Oracle avoids the obstacles of RoughTerrainObstacles"
@@ -87,23 +87,9 @@ class Avoider(Controller):
 
 
 @dataclass(frozen=True)
-class OracleParams(AvoidParams):
-    horizon: float = param(1.0, _TUNED, check=positive,
-                           doc="trigger when the threat's time to collision is below this (s)")
-    clearance: float = param(0.25, _TUNED, check=in_range(0.0, 10.0),
-                             doc="... or when it is nearer than this (m)")
-    ahead: float = param(90.0, _TUNED, check=in_range(0.0, 180.0),
-                         doc="... and its bearing within this many degrees of straight ahead")
-
-
-def in_trigger_zone(info: Mapping[str, Any], params: OracleParams) -> bool:
-    """Whether the frame's threat is in the Oracle's trigger zone of `params`: its time to
-    collision (``info["threat_ttc"]``) below ``horizon`` or its distance
-    (``info["threat_distance"]``) below ``clearance``, with its bearing
-    (``info["threat_bearing"]``, radians) within ``ahead`` degrees of straight ahead. The
-    benchmark's encounters are this zone too (`lgmd_sim.bench.encounters`)."""
-    near = info["threat_ttc"] < params.horizon or info["threat_distance"] < params.clearance
-    return bool(near and abs(math.degrees(info["threat_bearing"])) <= params.ahead)
+class OracleParams(TriggerZone, AvoidParams):
+    """The manoeuvre's constants and the trigger zone (`lgmd_sim.envs.zone.TriggerZone`:
+    the benchmark's encounters and the environment's proximity penalty are the same)."""
 
 
 class Oracle(Avoider):

@@ -222,7 +222,11 @@ def _validate(config: GenerateConfig) -> None:
     rates = set()
     for name in config.scenarios:
         for j in config.jitter:
-            rates.add(params_for(name, config.env_overrides(j)).fps)
+            params = params_for(name, config.env_overrides(j))
+            if params.frame == "none":  # a dataset is its videos
+                raise ValueError(f"{name}: frame='none' renders no frames to record: set "
+                                 "frame=rgb or grey")
+            rates.add(params.fps)
     if len(rates) > 1:
         raise ValueError(f"the scenarios run at different frame rates ({sorted(rates)}); a "
                          "dataset has one: set it with --set fps=...")

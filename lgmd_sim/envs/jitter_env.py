@@ -10,10 +10,13 @@ from gymnasium import spaces
 
 from lgmd_sim.envs.catalogue import params_for
 from lgmd_sim.envs.params import EnvParams
+from lgmd_sim.envs.zone import TriggerZone, in_trigger_zone
 from lgmd_sim.world.core import PROPRIO_RANGE, JitterWorld
 
 #: Observation bound of the goal distance (m).
 GOAL_RANGE = 1000.0
+#: Where ``proximity_penalty`` applies: the Oracle's trigger zone.
+PROXIMITY_ZONE = TriggerZone()
 
 
 class JitterEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
@@ -21,7 +24,9 @@ class JitterEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
 
     One step is one camera frame (1/fps s of physics).
 
-    - Observation: a Dict of ``frame`` (uint8 (H, W, 3) RGB or (H, W, 1) grey),
+    - Observation: a Dict of ``frame`` (uint8 (H, W, 3) RGB or (H, W, 1) grey; no
+      ``frame`` key when ``frame="none"``: nothing is rendered, for policies that read
+      the ground truth),
       ``proprio`` (float32 (11,): left and right wheel speeds in rad/s, 0 for carriers
       without wheels; IMU angular velocity in rad/s and specific force in m/s^2, in the
       carrier's frame; the IMU's rotation of the camera over the last frame interval,
@@ -33,7 +38,10 @@ class JitterEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
       complex values raise ValueError. A tripod ignores the action.
     - Reward: ``progress_reward`` per metre of progress towards the goal, minus
       ``collision_penalty`` on a step with a collision, minus ``effort_penalty`` times the
-      squared action norm.
+      squared action norm (``info["task_reward"]``, the task's own reward); plus the
+      shaping options, all 0 by default: ``goal_bonus`` on the step the goal is reached,
+      minus ``time_penalty`` per second, minus ``proximity_penalty`` per second while the
+      threat is in the Oracle's trigger zone (`lgmd_sim.envs.zone`).
     - Terminated on a collision (if ``terminate_on_collision``) or on reaching the goal;
       truncated after ``time_limit * fps`` steps. A step after either, without a reset,
       raises ``gymnasium.error.ResetNeeded`` (Gymnasium's `OrderEnforcing` only checks
@@ -47,13 +55,14 @@ class JitterEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
       the most threatening obstacle's (or arena wall's; one touched in the frame first)
       index, distance, bearing, closing
       speed and time to collision, collision flag and first collision frame, SSIM with
-      the previous frame, goal distance and bearing, ``goal_reached`` and its alias
+      the previous frame (NaN when ``frame="none"``), goal distance and bearing,
+      ``task_reward`` (on steps), ``goal_reached`` and its alias
       ``is_success`` (the key stable-baselines3 logs as the success rate).
 
     Args:
         scenario: a catalogue scenario name (envs/<name>.toml) or None for the defaults.
-        render_mode: None or "rgb_array" (the camera view; the chase view when
-            ``render_camera="chase"``).
+        render_mode: None or "rgb_array" (the camera view, rendered on demand when
+            ``frame="none"``; the chase view when ``render_camera="chase"``).
         **overrides: any parameter of `EnvParams` (see ``lgmd-sim envs <name>``).
     """
 
@@ -69,12 +78,12 @@ class JitterEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         self.metadata = {**self.metadata, "render_fps": self.params.fps}
         self.world = JitterWorld(self.params)
         h, w = self.params.size
-        channels = 3 if self.params.frame == "rgb" else 1
-        obs: dict[str, spaces.Space] = {
-            "frame": spaces.Box(0, 255, (h, w, channels), np.uint8),
-            "proprio": spaces.Box(-PROPRIO_RANGE.astype(np.float32),
-                                  PROPRIO_RANGE.astype(np.float32), dtype=np.float32),
-        }
+        obs: dict[str, spaces.Space] = {}
+        if self.params.frame != "none":
+            channels = 3 if self.params.frame == "rgb" else 1
+            obs["frame"] = spaces.Box(0, 255, (h, w, channels), np.uint8)
+        obs["proprio"] = spaces.Box(-PROPRIO_RANGE.astype(np.float32),
+                                    PROPRIO_RANGE.astype(np.float32), dtype=np.float32)
         self._has_goal = self.params.goal_distance > 0
         if self._has_goal:
             obs["goal"] = spaces.Box(np.array([0, -1, -1], np.float32),
@@ -133,10 +142,18 @@ class JitterEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
             reward += p.progress_reward * (self._goal_distance - truth["goal_distance"])
             self._goal_distance = truth["goal_distance"]
             reached = truth["goal_distance"] < p.goal_radius
+        task_reward = reward
+        if reached:
+            reward += p.goal_bonus
+        penalty = p.time_penalty
+        if p.proximity_penalty and in_trigger_zone(truth, PROXIMITY_ZONE):
+            penalty += p.proximity_penalty
+        reward -= penalty / p.fps  # per second: one step is one frame
         terminated = reached or (p.terminate_on_collision and truth["collision"])
         truncated = not terminated and self._steps >= p.max_steps
         self._needs_reset = terminated or truncated
-        info = {**truth, "goal_reached": reached, "is_success": reached}
+        info = {**truth, "task_reward": task_reward, "goal_reached": reached,
+                "is_success": reached}
         return self._observation(), reward, terminated, truncated, info
 
     def render(self) -> np.ndarray | None:
@@ -145,6 +162,8 @@ class JitterEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
             return None
         if self.params.render_camera == "chase":
             return self.world.render_chase()
+        if self.params.frame == "none":  # nothing rendered on the step: render now
+            return self.world.render_camera()
         return self.world.rgb.copy()
 
     def close(self) -> None:
@@ -159,9 +178,13 @@ class JitterEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
 
     def _observation(self) -> dict[str, np.ndarray]:
         w = self.world
+        obs: dict[str, np.ndarray] = {}
         # The world makes fresh frame arrays every step: no copy needed.
-        frame = w.rgb if self.params.frame == "rgb" else w.grey[:, :, None]
-        obs = {"frame": frame, "proprio": w.proprio()}
+        if self.params.frame == "rgb":
+            obs["frame"] = w.rgb
+        elif self.params.frame == "grey":
+            obs["frame"] = w.grey[:, :, None]
+        obs["proprio"] = w.proprio()
         if self._has_goal:
             bearing = w.truth["goal_bearing"]
             obs["goal"] = np.array([min(w.truth["goal_distance"], GOAL_RANGE), np.sin(bearing),

@@ -1,4 +1,5 @@
-"""Parameters of a jitter environment: the world's (`SceneParams`) plus task and reward."""
+"""Parameters of a jitter environment: the world's (`SceneParams`) plus task, reward and
+the reward's optional shaping."""
 
 from __future__ import annotations
 
@@ -20,6 +21,19 @@ class EnvParams(SceneParams):
                                      doc="penalty on the step of a collision")
     effort_penalty: float = param(0.01, DESIGN, check=non_negative,
                                   doc="penalty per step times the squared action norm")
+    # Shaping, off by default: with the task's reward alone a goal behind six obstacles is
+    # never reached by chance, and a policy that wanders earns about what one that arrives
+    # does. Each is added to the reward only; info["task_reward"] keeps the task's.
+    goal_bonus: float = param(0.0, "design: off; a reward for arriving, not only for "
+                              "approaching", check=non_negative,
+                              doc="reward added once, on the step the goal is reached")
+    time_penalty: float = param(0.0, "design: off; makes dawdling cost", check=non_negative,
+                                doc="penalty per second of the episode")
+    proximity_penalty: float = param(0.0, "design: off; warns before the collision penalty, "
+                                     "where the Oracle would start to avoid",
+                                     check=non_negative,
+                                     doc="penalty per second while the threat is in the "
+                                         "Oracle's trigger zone (lgmd_sim.envs.zone)")
     terminate_on_collision: bool = param(True, DESIGN, check=one_of(True, False),
                                          doc="end the episode at the first collision")
 

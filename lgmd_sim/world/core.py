@@ -9,6 +9,12 @@
 >>> world.render_camera()                  # a bare render of the current state
 >>> world.close()
 
+A frameless world (``frame="none"``) renders nothing on reset and step: ``rgb`` and
+``grey`` stay black, ``truth["ssim"]`` is NaN, and no GL context is opened until
+`render_camera` or `render_chase` asks for a view. Rendering draws no random numbers and
+touches nothing the physics reads, so physics and every other truth key are the same bit
+for bit as with frames.
+
 Each episode is seeded: terrain, obstacles, the mover, scenery, light and shake all come
 from ``reset(seed)``; the same seed on the same machine gives bit-identical frames and
 ground truth. The model is compiled once per world (`lgmd_sim.world.scene`); episodes
@@ -327,10 +333,12 @@ class JitterWorld:
         groups[sc.tile_geoms[:, 1]] = np.where(visible & ~fine, 0, scene_mod.HIDDEN)
 
     def _observe(self, touched: frozenset[int]) -> None:
-        # Fresh arrays each frame (np.empty is free): callers may keep them as they are.
-        self.rgb = self._render(self.scene.camera, None)
-        self.grey = cv2.cvtColor(self.rgb, cv2.COLOR_RGB2GRAY)
-        ssim = self._ssim.push(self.grey)
+        ssim = math.nan  # no frames, no similarity between them
+        if self.params.frame != "none":
+            # Fresh arrays each frame (np.empty is free): callers may keep them as they are.
+            self.rgb = self._render(self.scene.camera, None)
+            self.grey = cv2.cvtColor(self.rgb, cv2.COLOR_RGB2GRAY)
+            ssim = self._ssim.push(self.grey)
         if touched and self.first_collision_frame < 0:
             self.first_collision_frame = self.frame_index
         self.truth = self._ground_truth(touched, ssim)

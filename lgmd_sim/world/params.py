@@ -136,8 +136,10 @@ class SceneParams(CheckedParams):
         check=resolution_check, doc="preset name or [height, width]")
     fovy: float = param(55.0, "about a GoPro's linear field of view (Sec. 4.1.2's camera)",
                         check=in_range(10.0, 150.0), doc="vertical field of view (degrees)")
-    frame: str = param("rgb", DESIGN, check=one_of("rgb", "grey"),
-                       doc="observed frame: rgb (H, W, 3) or grey (H, W, 1)")
+    frame: str = param("rgb", "design; none: the privileged teacher needs no frames, and "
+                       "rendering is most of a step's cost", check=one_of("rgb", "grey", "none"),
+                       doc="observed frame: rgb (H, W, 3), grey (H, W, 1) or none (nothing "
+                           "rendered, no frame observed, info ssim NaN)")
     fps: float = param(30.0, "paper Sec. 4.1.2: 30 frames per second", check=in_range(1, 1000),
                        doc="camera frame rate; one env step per frame")
     substeps: int = param(8, "design: 4.2 ms physics steps at 30 fps",

@@ -20,11 +20,17 @@ from lgmd_sim import noise as noise_lib
 
 
 def check_frame_space(space: gym.Space) -> None:
-    """Raise ValueError unless `space` is a Dict observation space with a uint8 "frame"."""
+    """Raise a one-line ValueError unless `space` is a Dict observation space with a uint8
+    "frame"; a frameless jitter environment's (``frame="none"``) is named as such."""
+    if isinstance(space, spaces.Dict) and "frame" not in space.spaces and "proprio" in space.spaces:
+        raise ValueError("env: frameless (frame='none': nothing rendered), but the camera "
+                         "frames are needed here: make it with frame='rgb' or 'grey'")
     frame = space.spaces.get("frame") if isinstance(space, spaces.Dict) else None
     if not (isinstance(frame, spaces.Box) and frame.dtype == np.uint8):
+        got = (f"Dict with keys {', '.join(space.spaces)}" if isinstance(space, spaces.Dict)
+               else type(space).__name__)  # a space's repr spans lines
         raise ValueError("env: needs a Dict observation space with a uint8 'frame' Box "
-                         f"(a jitter environment's), got {space}")
+                         f"(a jitter environment's), got {got}")
 
 
 class NoiseObservation(gym.Wrapper, gym.utils.RecordConstructorArgs):
