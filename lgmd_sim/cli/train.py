@@ -21,8 +21,10 @@ def add(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "train", help="train an avoidance policy with stable-baselines3 (needs the rl extra)",
         description="Train a policy that reads an LGMD model's signals (--obs features: its "
-        "potential history, alarm and S-layer grid, with the proprioception and goal; an MLP) "
-        "or small stacked grey frames (--obs pixels; a CNN) to drive to the goal without "
+        "potential history, alarm and S-layer grid, with the proprioception and goal; an MLP), "
+        "small stacked grey frames (--obs pixels; a CNN) or the ground truth the Oracle "
+        "reads (--obs privileged: the threat's distance, bearing, time to collision and "
+        "closing speed; an MLP, the upper bound for the others) to drive to the goal without "
         "colliding. Vectorised environments, observation normalisation, validation on fixed "
         "held-out seeds, checkpoints, TensorBoard logs; writes DIR/policy.npz and "
         "policy.json (a policy for lgmd-sim eval), DIR/best/, DIR/learning_curve.png, "
@@ -33,7 +35,7 @@ def add(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--algo", help="ppo or sac (default ppo)")
     p.add_argument("--env", metavar="ID", help="Gymnasium id of the environment (default "
                    "lgmd_sim/RoughTerrainObstacles-v0)")
-    p.add_argument("--obs", help="features or pixels (default features)")
+    p.add_argument("--obs", help="features, pixels or privileged (default features)")
     p.add_argument("--model", help="the LGMD model of --obs features, MODEL or MODEL/PRESET "
                    "(default feedback)")
     p.add_argument("--preset", help="its preset (default: the model's default)")

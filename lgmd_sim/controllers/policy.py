@@ -35,12 +35,14 @@ class Policy(Controller):
     """A trained stable-baselines3 policy, acting deterministically.
 
     `wrap_env` applies the observation pipeline the policy was trained with (the LGMD
-    wrapper's features, or stacked small grey frames; read from its policy.json), and
-    `act` normalises the observation with the training statistics, frozen, before
-    ``predict(obs, deterministic=True)``. The environment must be the one it was trained
-    in (same id, frame size): `wrap_env` refuses another frame size. ``alarm`` is the
-    observed LGMD model's alarm on the frame (False for a pixel policy), so that the
-    benchmark's false-alarm columns describe the detector the policy reads.
+    wrapper's features, stacked small grey frames, or the threat's ground truth from
+    ``info``; read from its policy.json), and `act` normalises the observation with the
+    training statistics, frozen, before ``predict(obs, deterministic=True)``. The
+    environment must be the one it was trained in (same id, frame size; a privileged
+    policy, trained frameless, acts on a rendering one alike): `wrap_env` refuses another
+    frame size. ``alarm`` is the observed LGMD model's alarm on the frame (False for a
+    pixel or privileged policy), so that the benchmark's false-alarm columns describe the
+    detector the policy reads.
     ``manoeuvring`` stays None: the policy turns away without naming it a manoeuvre.
     """
 

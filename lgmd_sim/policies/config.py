@@ -22,8 +22,10 @@ class PolicyConfig:
     Attributes:
         algo: a key of `lgmd_sim.policies.folder.ALGOS`.
         obs: "features" (an LGMD model's potentials, alarm and S-layer grid with the
-            proprioception and goal; an MLP policy) or "pixels" (the last `frame_stack`
-            grey frames at `frame_size` with the proprioception and goal; a CNN policy).
+            proprioception and goal; an MLP policy), "pixels" (the last `frame_stack`
+            grey frames at `frame_size` with the proprioception and goal; a CNN policy)
+            or "privileged" (the threat's ground truth with the proprioception and goal;
+            an MLP policy).
         env_id: the Gymnasium id of the environment.
         resolution: the frame size the environment renders (a preset name or [H, W]).
         jitter: the jitter level it was trained at.

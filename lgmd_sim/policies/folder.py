@@ -46,8 +46,9 @@ __all__ = ["ALGOS", "MODEL_FILE", "OBS", "SB3_FILE", "LoadedPolicy", "convert", 
 
 #: The algorithms `lgmd-sim train` offers: name -> stable-baselines3 class.
 ALGOS = {"ppo": "PPO", "sac": "SAC"}
-#: What a policy observes: the LGMD wrapper's compact features, or small grey frames.
-OBS = ("features", "pixels")
+#: What a policy observes: the LGMD wrapper's compact features, small grey frames, or the
+#: ground truth the Oracle reads (`lgmd_sim.envs.wrappers.PrivilegedObservation`).
+OBS = ("features", "pixels", "privileged")
 MODEL_FILE, CONFIG_FILE = "policy.npz", "policy.json"
 #: stable-baselines3's model file, in policy folders written before `MODEL_FILE`: a pickle.
 SB3_FILE = "policy.zip"
@@ -116,7 +117,7 @@ def _read_config(folder: Path) -> tuple[Path, PolicyConfig, dict[str, Any]]:
     if config.algo not in ALGOS or config.obs not in OBS:
         raise ValueError(f"{folder / CONFIG_FILE}: a policy of {config.algo!r} on "
                          f"{config.obs!r}, not one of {', '.join(ALGOS)} on "
-                         f"{' or '.join(OBS)}")
+                         f"{', '.join(OBS)}")
     return folder, config, data
 
 

@@ -4,7 +4,9 @@
 `observe` is the pipeline both sides share: the `lgmd_sim.controllers.Policy` controller
 acts on it in the benchmark, and training (`lgmd_sim.training.envs.make_vec_env`) builds
 VecEnvs whose observations are those of `observe`'d environments, bit for bit. For
-"features" that is the LGMD wrapper's compact features; for "pixels", `PixelObservation`.
+"features" that is the LGMD wrapper's compact features; for "pixels", `PixelObservation`;
+for "privileged", `PrivilegedObservation` (the threat's ground truth, read from ``info``:
+no frames, so it acts on a rendering environment as on the frameless one it trained in).
 """
 
 from __future__ import annotations
@@ -17,7 +19,7 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from lgmd_sim.envs.wrappers import LGMDObservation
+from lgmd_sim.envs.wrappers import LGMDObservation, PrivilegedObservation
 from lgmd_sim.envs.wrappers.frames import check_frame_space
 from lgmd_sim.frames import to_grey
 from lgmd_sim.policies.config import PolicyConfig
@@ -63,9 +65,11 @@ class PixelObservation(gym.ObservationWrapper):
 
 
 def base_env(config: PolicyConfig, jitter: float | None = None) -> gym.Env:
-    """The environment of `config` (at its training jitter unless `jitter` is given)."""
+    """The environment of `config` (at its training jitter unless `jitter` is given);
+    frameless for "privileged", which reads no frame: it steps at the physics' speed."""
+    frame = {"frame": "none"} if config.obs == "privileged" else {}
     return gym.make(config.env_id, jitter=config.jitter if jitter is None else jitter,
-                    resolution=config.resolution)
+                    resolution=config.resolution, **frame)
 
 
 def observe(env: gym.Env, config: PolicyConfig) -> gym.Env:
@@ -73,4 +77,6 @@ def observe(env: gym.Env, config: PolicyConfig) -> gym.Env:
     if config.obs == "features":
         return LGMDObservation(env, config.model, preset=config.preset,
                                history=config.history, grid=config.grid, keep_frame=False)
+    if config.obs == "privileged":
+        return PrivilegedObservation(env)
     return PixelObservation(env, config.frame_size, config.frame_stack)

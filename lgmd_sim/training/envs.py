@@ -4,8 +4,8 @@
 DummyVecEnv) whose observations are those of `lgmd_sim.policies.observe`'d environments
 (what the `lgmd_sim.controllers.Policy` controller acts on), bit for bit: for "features"
 the LGMD models run batched across the environments in this process
-(`VecLGMDObservation`, identical to `LGMDObservation` per environment), for "pixels" each
-worker runs `PixelObservation`.
+(`VecLGMDObservation`, identical to `LGMDObservation` per environment), for "pixels" and
+"privileged" each worker runs `observe` (`PixelObservation`, `PrivilegedObservation`).
 
 Observation normalisation (`VecNormalize`) sits on top during training; the policy folder
 keeps its statistics and the controller applies them frozen (`Normalizer`).
@@ -29,7 +29,8 @@ def _worker_env(config: PolicyConfig) -> gym.Env:
     import lgmd_sim  # noqa: F401  (registers the scenarios in a fresh worker)
 
     env = base_env(config)
-    # features: the LGMD models run batched over the workers' frames, in the main process
+    # features: the LGMD models run batched over the workers' frames, in the main process;
+    # privileged: in the worker, whose reset gives the info a VecEnv's reset does not
     return env if config.obs == "features" else observe(env, config)
 
 

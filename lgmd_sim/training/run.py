@@ -65,10 +65,11 @@ class TrainConfig:
     Attributes:
         algo: a key of `lgmd_sim.policies.folder.ALGOS` ("ppo", "sac").
         env: the Gymnasium id of the environment.
-        obs: "features" (an LGMD model's signals with the proprioception and goal) or
-            "pixels" (small stacked grey frames).
+        obs: "features" (an LGMD model's signals with the proprioception and goal),
+            "pixels" (small stacked grey frames) or "privileged" (the threat's ground
+            truth that the Oracle reads, with the proprioception and goal).
         model, preset: the LGMD model of "features", MODEL or MODEL/PRESET (with front
-            ends), and its preset (None: the model's default); both None for "pixels".
+            ends), and its preset (None: the model's default); both None otherwise.
         resolution: the frame size the environment renders.
         jitter: the jitter level of the training episodes.
         steps: environment steps in all, over every environment and session.

@@ -1,4 +1,5 @@
-"""Wrappers for jitter environments: LGMD models watching the camera, noise, the frame alone.
+"""Wrappers for jitter environments: LGMD models watching the camera, noise, the frame alone,
+the ground truth.
 
 >>> from lgmd_sim.envs.wrappers import LGMDObservation, NoiseObservation
 >>> env = gym.make("lgmd_sim/RoughTerrainObstacles-v0", resolution="rl")
@@ -14,6 +15,8 @@
 - `FrameObservation`: the frame alone, as a Box.
 - `ResizeFrame`: the frame resized, the other keys kept (Gymnasium's `ResizeObservation`
   takes a Box only).
+- `PrivilegedObservation`: the ground truth the Oracle reads (the threat's distance,
+  bearing, time to collision and closing speed) in place of the frame.
 
 Every single-environment wrapper records its arguments
 (`gymnasium.utils.RecordConstructorArgs`), so that
@@ -30,9 +33,11 @@ from lgmd_sim.envs.wrappers.lgmd import (
     LGMDObservation,
     LGMDVectorObservation,
 )
+from lgmd_sim.envs.wrappers.privileged import PrivilegedObservation
 
 __all__ = ["KEYS", "FrameObservation", "LGMDFeatures", "LGMDObservation",
-           "LGMDVectorObservation", "NoiseObservation", "ResizeFrame", "VecLGMDObservation"]
+           "LGMDVectorObservation", "NoiseObservation", "PrivilegedObservation", "ResizeFrame",
+           "VecLGMDObservation"]
 
 
 def __getattr__(name: str) -> Any:
