@@ -13,6 +13,8 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 DOCS = [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]
+# A ```python block must run as it stands, from the wheel; ```py marks an excerpt, or code
+# that needs a module of the checkout (a test plug-in) on the path.
 PYTHON_BLOCK = re.compile(r"^```python\n(.*?)^```", re.S | re.M)
 BLOCKS = [(doc, code) for doc in DOCS for code in PYTHON_BLOCK.findall(doc.read_text())]
 
