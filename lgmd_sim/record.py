@@ -16,6 +16,7 @@ import gymnasium as gym
 
 from lgmd_sim.controllers import Straight, rollout
 from lgmd_sim.envs.catalogue import scenario
+from lgmd_sim.envs.wrappers.frames import check_frame_space
 from lgmd_sim.video import CODECS, video_writer
 
 __all__ = ["Recording", "record"]
@@ -48,6 +49,7 @@ def record(name: str, path: str | Path, *, seed: int = 0, cruise: float = 1.0,
         raise ValueError(f"cannot write video '{path}': use a suffix among {', '.join(CODECS)}")
     env = gym.make(scenario(name).env_id, **overrides)
     try:
+        check_frame_space(env.observation_space)  # frame='none': no video to write
         params = env.unwrapped.params
         fps = float(params.fps)
         collision, frames = None, 0

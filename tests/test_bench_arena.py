@@ -11,6 +11,7 @@ import pytest
 from lgmd_sim import metrics
 from lgmd_sim.bench import encounters
 from lgmd_sim.controllers.avoid import OracleParams
+from lgmd_sim.envs.zone import TriggerZone
 
 FPS = 30.0
 
@@ -91,17 +92,26 @@ def test_an_encounter_still_open_at_the_end_has_no_outcome_yet():
     assert not e.avoided
 
 
+def in_zone(threat: dict, *zone: TriggerZone) -> bool:
+    """Whether `encounters` finds an encounter with `threat` (its time to collision,
+    distance and bearing) on frames 10 to 20 of an episode, in `zone` or the default."""
+    infos = scripted(60)
+    for info in infos[10:21]:
+        info.update(threat)
+    return bool(encounters.encounters(infos, *zone))
+
+
 def test_the_zone_is_the_oracles_trigger():
     p = OracleParams()
     base = {"threat_ttc": math.inf, "threat_distance": math.inf, "threat_bearing": 0.0}
-    assert encounters.in_zone({**base, "threat_ttc": 0.99 * p.horizon})
-    assert not encounters.in_zone({**base, "threat_ttc": 1.01 * p.horizon})
-    assert encounters.in_zone({**base, "threat_distance": 0.9 * p.clearance})
-    assert not encounters.in_zone({**base, "threat_ttc": 0.5 * p.horizon,
-                                   "threat_bearing": math.radians(p.ahead + 1)})
-    wider = OracleParams(horizon=3.0)  # another zone: the definition follows the params
-    assert encounters.in_zone({**base, "threat_ttc": 2.0}, wider)
-    assert not encounters.in_zone({**base, "threat_ttc": 2.0})
+    assert in_zone({**base, "threat_ttc": 0.99 * p.horizon})
+    assert not in_zone({**base, "threat_ttc": 1.01 * p.horizon})
+    assert in_zone({**base, "threat_distance": 0.9 * p.clearance})
+    assert not in_zone({**base, "threat_ttc": 0.5 * p.horizon,
+                        "threat_bearing": math.radians(p.ahead + 1)})
+    wider = TriggerZone(horizon=3.0)  # another zone: the definition follows the params
+    assert in_zone({**base, "threat_ttc": 2.0}, wider)
+    assert not in_zone({**base, "threat_ttc": 2.0})
     assert f"time to collision < {p.horizon:g} s" in encounters.LEGEND
     assert f"nearer than {p.clearance:g} m" in encounters.LEGEND
 
@@ -116,7 +126,7 @@ def test_the_zone_and_the_oracles_trigger_are_one_test():
                                    (0.5, 2.0, math.radians(p.ahead + 1)), (math.inf, 0.1, 3.0)]:
         info = {"threat_ttc": ttc, "threat_distance": distance, "threat_bearing": bearing}
         inside = in_trigger_zone(info, p)
-        assert encounters.in_zone(info) is inside
+        assert in_zone(info) is inside
         assert oracle._trigger({}, info) == (bearing if inside else None)
 
 

@@ -82,7 +82,7 @@ def test_frame_none_render_rgb_array_renders_on_demand():
 
 def test_lgmd_wrapper_refuses_a_frameless_env():
     env = make(frame="none")
-    with pytest.raises(ValueError, match=r"env: frameless \(frame='none'") as error:
+    with pytest.raises(ValueError, match=r"has no 'frame' key \(frame='none'") as error:
         LGMDObservation(env)
     assert "\n" not in str(error.value)
     env.close()

@@ -88,3 +88,14 @@ def test_bad_option_values_are_refused_in_one_line(key, value):
         gym.make("lgmd_sim/RoughTerrainObstacles-v0", resolution="small", frame="none",
                  **{key: value})
     assert "\n" not in str(error.value)
+
+
+def test_validation_scores_the_task_reward_not_the_shaped_one():
+    pytest.importorskip("stable_baselines3")
+    from lgmd_sim.training.callbacks import _task_rewards
+
+    [(shaped, info)] = episode(1, time_penalty=1.0)
+    assert shaped != info["task_reward"]
+    # the second environment's info has no task reward: its reward counts as it is
+    summed = _task_rewards(np.array([shaped, 0.25]), [info, {}])
+    np.testing.assert_array_equal(summed, [info["task_reward"], 0.25])

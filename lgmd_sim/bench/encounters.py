@@ -2,8 +2,8 @@
 
 The definition (the arena task's "avoidance success rate", as the literature reports it):
 
-- The trigger zone is the Oracle's (`lgmd_sim.controllers.avoid.OracleParams` at its
-  defaults): a threat is in it when its time to collision is below ``horizon`` (1 s) or
+- The trigger zone is the Oracle's (`lgmd_sim.envs.zone.TriggerZone` at its defaults): a
+  threat is in it when its time to collision is below ``horizon`` (1 s) or
   it is nearer than ``clearance`` (0.25 m), with its bearing within ``ahead`` (90
   degrees) of straight ahead (``info["threat_ttc"]``, ``["threat_distance"]``,
   ``["threat_bearing"]``).
@@ -28,18 +28,16 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
-from lgmd_sim.controllers.avoid import OracleParams
-from lgmd_sim.envs.zone import in_trigger_zone
+from lgmd_sim.envs.zone import TriggerZone, in_trigger_zone
 
-__all__ = ["LEGEND", "MERGE_GAP", "Encounter", "collision_onsets", "encounters", "in_zone",
-           "runs"]
+__all__ = ["LEGEND", "MERGE_GAP", "Encounter", "collision_onsets", "encounters", "runs"]
 
 #: Zone or contact runs closer than this (s) are one: a threat's time to collision
 #: flickers across the horizon as the chassis rocks on rough ground, and a chassis
 #: scraping along a wall loses contact for a frame or two; neither is a new event.
 MERGE_GAP = 0.3
 
-_ZONE = OracleParams()
+_ZONE = TriggerZone()
 #: The definition in one line, for the summary's legend.
 LEGEND = (f"encounter: a threat entering the Oracle's trigger zone (time to collision "
           f"< {_ZONE.horizon:g} s or nearer than {_ZONE.clearance:g} m, within "
@@ -58,11 +56,6 @@ class Encounter:
     x: float
     y: float
     avoided: bool
-
-
-def in_zone(info: Mapping[str, Any], zone: OracleParams = _ZONE) -> bool:
-    """Whether the frame's threat is in the trigger zone of `zone` (the Oracle's)."""
-    return in_trigger_zone(info, zone)
 
 
 def runs(flags: Sequence[bool], times: Sequence[float], gap: float = MERGE_GAP
@@ -90,9 +83,10 @@ def collision_onsets(infos: Sequence[Mapping[str, Any]]) -> list[int]:
     return [start for start, _ in _collisions(infos)]
 
 
-def encounters(infos: Sequence[Mapping[str, Any]], zone: OracleParams = _ZONE
+def encounters(infos: Sequence[Mapping[str, Any]], zone: TriggerZone = _ZONE
                ) -> list[Encounter]:
-    """The encounters of an episode (its per-frame infos), in order of onset."""
+    """The encounters of an episode (its per-frame infos), in order of onset, of threats
+    in `zone` (by default the Oracle's)."""
     times = [i["time"] for i in infos]
     contacts = _collisions(infos)
     claimed: set[tuple[int, int]] = set()
@@ -102,7 +96,7 @@ def encounters(infos: Sequence[Mapping[str, Any]], zone: OracleParams = _ZONE
         x, y = infos[frame]["carrier_pos"][:2]
         return Encounter(frame, end, float(x), float(y), avoided)
 
-    for start, end in runs([in_zone(i, zone) for i in infos], times):
+    for start, end in runs([in_trigger_zone(i, zone) for i in infos], times):
         after = times[end] + MERGE_GAP
         hits = {c for c in contacts if times[c[0]] < after and times[c[1]] >= times[start]}
         claimed |= hits

@@ -71,9 +71,11 @@ def _frames(clip: Clip, resolution: Any
 
     from lgmd_sim.controllers import Straight, rollout
     from lgmd_sim.envs.catalogue import scenario
+    from lgmd_sim.envs.wrappers.frames import check_frame_space
 
     env = gym.make(scenario(clip.scenario).env_id, jitter=clip.jitter, resolution=resolution)
     try:
+        check_frame_space(env.observation_space)
         steps = list(rollout(env, Straight(), seed=clip.seed))
         fps = float(env.unwrapped.params.fps)
     finally:

@@ -86,9 +86,11 @@ def record_clip(spec: ClipSpec, folder: str, resolution: Any, cruise: float | No
 
     from lgmd_sim.controllers import rollout
     from lgmd_sim.envs.catalogue import scenario
+    from lgmd_sim.envs.wrappers.frames import check_frame_space
 
     env = gym.make(scenario(spec.scenario).env_id, jitter=spec.jitter, resolution=resolution)
     try:
+        check_frame_space(env.observation_space)
         driver = Straight() if cruise is None else HoldLine(cruise=cruise)
         steps = list(rollout(env, driver, seed=spec.seed))
         fps, fovy = float(env.unwrapped.params.fps), float(env.unwrapped.params.fovy)

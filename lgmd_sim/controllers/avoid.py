@@ -10,12 +10,14 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
+import gymnasium as gym
 import numpy as np
 
 from lgmd_sim import models
 from lgmd_sim.controllers.base import Controller
 from lgmd_sim.controllers.straight import DESIGN, StraightParams
-from lgmd_sim.envs.zone import TriggerZone, in_trigger_zone
+from lgmd_sim.envs.wrappers.frames import check_frame_space
+from lgmd_sim.envs.zone import ORACLE_TUNED, TriggerZone, in_trigger_zone
 from lgmd_sim.models.sectors import Sectors, below_one
 from lgmd_sim.params import in_range, one_of, param
 
@@ -28,27 +30,25 @@ __all__ = [
     "ReactiveParams",
 ]
 
-_TUNED = "design: tuned so that Oracle avoids the obstacles of RoughTerrainObstacles"
-
 
 @dataclass(frozen=True)
 class AvoidParams(StraightParams):
     """The cruise of `Straight` and the avoidance manoeuvre."""
 
-    cruise: float = param(0.6, _TUNED, check=in_range(-1.0, 1.0),
+    cruise: float = param(0.6, ORACLE_TUNED, check=in_range(-1.0, 1.0),
                           doc="forward action while cruising (fraction of max_speed)")
-    avoid_time: float = param(0.7, _TUNED, check=in_range(0.0, 10.0),
+    avoid_time: float = param(0.7, ORACLE_TUNED, check=in_range(0.0, 10.0),
                               doc="duration of the manoeuvre (s)")
-    avoid_speed: float = param(-0.1, _TUNED, check=in_range(-1.0, 1.0),
+    avoid_speed: float = param(-0.1, ORACLE_TUNED, check=in_range(-1.0, 1.0),
                                doc="forward action during the manoeuvre (brake: near 0; "
                                    "backing off a little keeps the turning chassis clear)")
-    avoid_turn: float = param(1.0, _TUNED, check=in_range(0.0, 1.0),
+    avoid_turn: float = param(1.0, ORACLE_TUNED, check=in_range(0.0, 1.0),
                               doc="turn action during the manoeuvre, away from the threat")
-    pass_time: float = param(0.8, _TUNED, check=in_range(0.0, 10.0),
+    pass_time: float = param(0.8, ORACLE_TUNED, check=in_range(0.0, 10.0),
                              doc="after the turn, drive straight on at cruise for this long "
                                  "(s) before heading for the goal again: past the obstacle, "
                                  "not back into it")
-    refractory: float = param(0.3, _TUNED, check=in_range(0.0, 10.0),
+    refractory: float = param(0.3, ORACLE_TUNED, check=in_range(0.0, 10.0),
                               doc="time after a manoeuvre during which triggers are ignored "
                                   "(s): the turn itself sweeps the view")
 
@@ -167,6 +167,11 @@ class ReactiveAvoid(Avoider):
             # the S layer where there is one; a plug-in's last (nearest its potential)
             self._side_layer = "S" if "S" in names else names[-1]
         super().__init__(**params)
+
+    def wrap_env(self, env: gym.Env) -> gym.Env:
+        # refused before the first step, in one line, rather than a KeyError on obs["frame"]
+        check_frame_space(env.observation_space)
+        return super().wrap_env(env)
 
     def reset(self) -> None:
         super().reset()

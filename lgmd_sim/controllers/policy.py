@@ -38,11 +38,12 @@ class Policy(Controller):
     wrapper's features, stacked small grey frames, or the threat's ground truth from
     ``info``; read from its policy.json), and `act` normalises the observation with the
     training statistics, frozen, before ``predict(obs, deterministic=True)``. The
-    environment must be the one it was trained in (same id, frame size; a privileged
-    policy, trained frameless, acts on a rendering one alike): `wrap_env` refuses another
-    frame size. ``alarm`` is the observed LGMD model's alarm on the frame (False for a
-    pixel or privileged policy), so that the benchmark's false-alarm columns describe the
-    detector the policy reads.
+    environment must be the one it was trained in (same id, frame size): `wrap_env`
+    refuses another frame size, but for a privileged policy, which reads no frames
+    (trained frameless, it acts on a rendering environment of any size alike). ``alarm``
+    is the observed LGMD model's alarm on the frame (False for a pixel or privileged
+    policy), so that the benchmark's false-alarm columns describe the detector the policy
+    reads.
     ``manoeuvring`` stays None: the policy turns away without naming it a manoeuvre.
     """
 
@@ -66,7 +67,7 @@ class Policy(Controller):
         res = self.policy.config.resolution
         trained = RESOLUTIONS[res] if isinstance(res, str) else (int(res[0]), int(res[1]))
         size = tuple(env.unwrapped.params.size)
-        if size != trained:
+        if size != trained and self.policy.config.obs != "privileged":
             raise ValueError(f"policy {self.policy.name} was trained on {trained[0]}x"
                              f"{trained[1]} frames, this environment renders {size[0]}x"
                              f"{size[1]}: run it at resolution {res}")

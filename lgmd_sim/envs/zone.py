@@ -15,20 +15,21 @@ from typing import Any
 
 from lgmd_sim.params import CheckedParams, in_range, param, positive
 
-__all__ = ["TriggerZone", "in_trigger_zone"]
+__all__ = ["ORACLE_TUNED", "TriggerZone", "in_trigger_zone"]
 
-_TUNED = "design: tuned so that Oracle avoids the obstacles of RoughTerrainObstacles"
+#: The rationale of the Oracle's tuned defaults (its zone's, its manoeuvre's).
+ORACLE_TUNED = "design: tuned so that Oracle avoids the obstacles of RoughTerrainObstacles"
 
 
 @dataclass(frozen=True)
 class TriggerZone(CheckedParams):
     """The zone's bounds; its defaults are the Oracle's."""
 
-    horizon: float = param(1.0, _TUNED, check=positive,
+    horizon: float = param(1.0, ORACLE_TUNED, check=positive,
                            doc="trigger when the threat's time to collision is below this (s)")
-    clearance: float = param(0.25, _TUNED, check=in_range(0.0, 10.0),
+    clearance: float = param(0.25, ORACLE_TUNED, check=in_range(0.0, 10.0),
                              doc="... or when it is nearer than this (m)")
-    ahead: float = param(90.0, _TUNED, check=in_range(0.0, 180.0),
+    ahead: float = param(90.0, ORACLE_TUNED, check=in_range(0.0, 180.0),
                          doc="... and its bearing within this many degrees of straight ahead")
 
 

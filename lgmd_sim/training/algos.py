@@ -13,6 +13,7 @@ and for SAC a replay buffer that fits in memory with frames.
 from __future__ import annotations
 
 import ast
+import copy
 import inspect
 import types
 import typing
@@ -23,38 +24,34 @@ from lgmd_sim.extras import require
 
 __all__ = ["HYPERPARAMETERS", "hyperparameters", "make_model", "parse_overrides"]
 
+_PPO_FEATURES: dict[str, Any] = {
+    "n_steps": 1024, "batch_size": 256, "n_epochs": 10, "learning_rate": 3e-4,
+    "gamma": 0.99, "gae_lambda": 0.95, "clip_range": 0.2, "ent_coef": 0.0,
+    "policy_kwargs": {"net_arch": [64, 64]},
+}
+_SAC_FEATURES: dict[str, Any] = {
+    "buffer_size": 200_000, "learning_starts": 2_000, "batch_size": 256,
+    "train_freq": 1, "gradient_steps": 1, "learning_rate": 3e-4, "gamma": 0.99,
+    "tau": 0.005, "ent_coef": "auto_0.1", "policy_kwargs": {"net_arch": [64, 64]},
+}
+
 #: (algo, obs) -> constructor keyword arguments (besides policy, env, seed).
 HYPERPARAMETERS: dict[tuple[str, str], dict[str, Any]] = {
-    ("ppo", "features"): {
-        "n_steps": 1024, "batch_size": 256, "n_epochs": 10, "learning_rate": 3e-4,
-        "gamma": 0.99, "gae_lambda": 0.95, "clip_range": 0.2, "ent_coef": 0.0,
-        "policy_kwargs": {"net_arch": [64, 64]},
-    },
+    ("ppo", "features"): _PPO_FEATURES,
     ("ppo", "pixels"): {
         "n_steps": 256, "batch_size": 128, "n_epochs": 4, "learning_rate": 2.5e-4,
         "gamma": 0.99, "gae_lambda": 0.95, "clip_range": 0.2, "ent_coef": 0.0,
     },
-    ("ppo", "privileged"): {
-        "n_steps": 2048, "batch_size": 256, "n_epochs": 10, "learning_rate": 3e-4,
-        "gamma": 0.99, "gae_lambda": 0.95, "clip_range": 0.2, "ent_coef": 0.0,
-        "policy_kwargs": {"net_arch": [64, 64]},
-    },
-    ("sac", "features"): {
-        "buffer_size": 200_000, "learning_starts": 2_000, "batch_size": 256,
-        "train_freq": 1, "gradient_steps": 1, "learning_rate": 3e-4, "gamma": 0.99,
-        "tau": 0.005, "ent_coef": "auto_0.1", "policy_kwargs": {"net_arch": [64, 64]},
-    },
+    # deep copies: no entry shares its policy_kwargs with another
+    ("ppo", "privileged"): {**copy.deepcopy(_PPO_FEATURES), "n_steps": 2048},
+    ("sac", "features"): _SAC_FEATURES,
     ("sac", "pixels"): {
         # 4 x 60 x 80 frames: 10,000 transitions (observation and next) take about 400 MB
         "buffer_size": 10_000, "learning_starts": 1_000, "batch_size": 64,
         "train_freq": 1, "gradient_steps": 1, "learning_rate": 3e-4, "gamma": 0.99,
         "tau": 0.005, "ent_coef": "auto_0.1",
     },
-    ("sac", "privileged"): {
-        "buffer_size": 200_000, "learning_starts": 2_000, "batch_size": 256,
-        "train_freq": 1, "gradient_steps": 1, "learning_rate": 3e-4, "gamma": 0.99,
-        "tau": 0.005, "ent_coef": "auto_0.1", "policy_kwargs": {"net_arch": [64, 64]},
-    },
+    ("sac", "privileged"): copy.deepcopy(_SAC_FEATURES),
 }
 
 
@@ -148,7 +145,8 @@ def parse_overrides(items: Iterable[str], algo: str) -> dict[str, Any]:
 def hyperparameters(algo: str, obs: str, overrides: Mapping[str, Any] | None = None
                     ) -> dict[str, Any]:
     """The constructor arguments of (algo, obs) with `overrides` on top."""
-    return {**HYPERPARAMETERS[(algo, obs)], **(overrides or {})}
+    # a deep copy: SAC's constructor writes use_sde into the policy_kwargs it is given
+    return copy.deepcopy({**HYPERPARAMETERS[(algo, obs)], **(overrides or {})})
 
 
 def make_model(algo: str, venv: Any, kwargs: Mapping[str, Any], seed: int) -> Any:

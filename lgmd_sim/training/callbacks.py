@@ -94,10 +94,18 @@ class EpisodeStats(BaseCallback):
         return True
 
 
+def _task_rewards(rewards: np.ndarray, infos: Sequence[dict[str, Any]]) -> np.ndarray:
+    """Each environment's step reward without the shaping terms (``info["task_reward"]``),
+    so that validation scores the task whatever the shaping; the reward where the info
+    has none (an environment without shaping)."""
+    return np.array([info.get("task_reward", reward)
+                     for reward, info in zip(rewards, infos, strict=True)], float)
+
+
 def run_episodes(model: Any, envs: VecEnvs, seeds: Sequence[int]) -> list[dict[str, Any]]:
-    """One episode per seed, the policy deterministic: return, success, collision and
-    distance travelled of each. `seeds` must be consecutive; the environments play
-    ``num_envs`` of them at a time."""
+    """One episode per seed, the policy deterministic: return (of the unshaped task reward),
+    success, collision and distance travelled of each. `seeds` must be consecutive; the
+    environments play ``num_envs`` of them at a time."""
     venv, n = envs.venv, envs.venv.num_envs
     results = []
     for start in range(0, len(seeds), n):
@@ -111,7 +119,7 @@ def run_episodes(model: Any, envs: VecEnvs, seeds: Sequence[int]) -> list[dict[s
             actions, _ = model.predict(obs, deterministic=True)
             obs, rewards, dones, infos = venv.step(actions)
             now = np.array([info["carrier_pos"][:2] for info in infos])
-            ret += np.where(playing, rewards, 0.0)
+            ret += np.where(playing, _task_rewards(rewards, infos), 0.0)
             dist += np.where(playing, np.linalg.norm(now - pos, axis=1), 0.0)
             pos = now
             for i in np.flatnonzero(playing & dones):
@@ -125,9 +133,9 @@ def run_episodes(model: Any, envs: VecEnvs, seeds: Sequence[int]) -> list[dict[s
 
 class Validation(_Every):
     """Every `every` steps and at the end, the policy on fixed held-out episode seeds:
-    logs ``eval/mean_reward``, ``eval/success_rate``, ``eval/collision_rate`` and
-    ``eval/mean_distance_m``, and hands the scores to `on_scores` (which may save the
-    best policy).
+    logs ``eval/mean_reward`` (the task's reward, without the shaping terms),
+    ``eval/success_rate``, ``eval/collision_rate`` and ``eval/mean_distance_m``, and hands
+    the scores to `on_scores` (which may save the best policy).
 
     Args:
         envs: the validation environments (a VecEnv whose VecNormalize, if any, does not

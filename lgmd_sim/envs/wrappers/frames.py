@@ -21,10 +21,11 @@ from lgmd_sim import noise as noise_lib
 
 def check_frame_space(space: gym.Space) -> None:
     """Raise a one-line ValueError unless `space` is a Dict observation space with a uint8
-    "frame"; a frameless jitter environment's (``frame="none"``) is named as such."""
-    if isinstance(space, spaces.Dict) and "frame" not in space.spaces and "proprio" in space.spaces:
-        raise ValueError("env: frameless (frame='none': nothing rendered), but the camera "
-                         "frames are needed here: make it with frame='rgb' or 'grey'")
+    "frame"; a Dict without one names the likely causes (``frame="none"``, or a wrapper)."""
+    if isinstance(space, spaces.Dict) and "frame" not in space.spaces:
+        raise ValueError("env: its observation has no 'frame' key (frame='none', or a wrapper "
+                         "such as PrivilegedObservation dropped it), but the camera frames "
+                         "are needed here: make it with frame='rgb' or 'grey'")
     frame = space.spaces.get("frame") if isinstance(space, spaces.Dict) else None
     if not (isinstance(frame, spaces.Box) and frame.dtype == np.uint8):
         got = (f"Dict with keys {', '.join(space.spaces)}" if isinstance(space, spaces.Dict)
