@@ -52,8 +52,9 @@ PAPER = [
 ]
 PAPER_MODELS = ("feedback", "lgmd1", "lgmd2", "f_on", "f_off")
 
-#: A page's figures to write beside it: target -> source.
-Figures = dict[Path, Path]
+#: A page's figures to write beside it: target -> the run's file to copy, or a function
+#: that draws the figure into the path it is given.
+Figures = dict[Path, "Path | Callable[[Path], None]"]
 
 
 @dataclass(frozen=True)
@@ -553,8 +554,11 @@ def main() -> None:
     print(f"wrote {OUT.relative_to(ROOT)} and {FIGURES.relative_to(ROOT)}/")
 
 
-def _copier(source: Path) -> Callable[[Path], None]:
-    return lambda tmp: shutil.copyfile(source, tmp)
+def _copier(source: Path | Callable[[Path], None]) -> Callable[[Path], None]:
+    """What writes a figure of `Figures` into the path it is given."""
+    if isinstance(source, Path):
+        return lambda tmp: shutil.copyfile(source, tmp)
+    return source
 
 
 if __name__ == "__main__":

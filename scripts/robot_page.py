@@ -392,8 +392,7 @@ def main() -> None:
     text = (page[:start] + section + page[end + len(END) + 1:] if start >= 0 and end > start
             else page.rstrip() + "\n\n" + section)
     write_files({OUT: lambda tmp: tmp.write_text(text),
-                 **{target: _copier(source) if isinstance(source, Path) else source
-                    for target, source in figures.items()}})
+                 **{target: _copier(source) for target, source in figures.items()}})
     print(f"wrote {OUT.relative_to(ROOT)} and {FIGURES.relative_to(ROOT)}/")
 
 
