@@ -2,8 +2,8 @@
 
 A privileged policy sees what `lgmd_sim.controllers.Oracle` triggers on (the threat's
 distance, bearing and time to collision, from ``info``) beside the proprioception and
-the goal, instead of frames: the upper bound of what the RL pipeline reaches on the task,
-and a teacher for students that see only an LGMD's features.
+the goal, instead of frames: meant as the upper bound of what the RL pipeline reaches on
+the task, and a teacher for students that see only an LGMD's features.
 
 >>> env = PrivilegedObservation(gym.make("lgmd_sim/RoughTerrainObstacles-v0"))
 >>> obs, info = env.reset(seed=0)   # obs: proprio, goal, threat (no frame)
@@ -22,7 +22,7 @@ __all__ = ["SPEED_RANGE", "THREAT_RANGE", "TTC_RANGE", "PrivilegedObservation",
            "threat_features"]
 
 # The ranges reach far beyond the Oracle's trigger zone (horizon 1 s, clearance 0.25 m:
-# lgmd_sim.controllers.avoid.OracleParams), so clipping never changes what the Oracle
+# lgmd_sim.envs.zone.TriggerZone), so clipping never changes what the Oracle
 # would decide, while "no threat" and a threat not closing (distance or time to collision
 # inf) read as far and never: finite values that observation normalisation can average.
 #: Threat distance observed (m); negative within MuJoCo's penetration depth.
