@@ -12,7 +12,20 @@ page stays as written.
         --closed-loop runs/closed-loop-eta runs/closed-loop-robot
 
 The checker section is always remade: it runs `lgmd-sim models --check` on the example
-and on tests/plugins/eta_broken.py.
+and on tests/plugins/eta_broken.py. The runs, with tests/plugins on the path (the
+calibration is the built-ins' robot calibration's task, budget and seeds; its presets,
+saved, are what the closed loop runs; the open-loop run beside is the page's
+`lgmd-sim bench open-loop --out runs/open-loop`):
+
+    export PYTHONPATH=tests/plugins
+    lgmd-sim calibrate --task robot --budget 16 --seeds 6 --save-presets \
+        --detectors eta_lgmd:EtaLGMD,eta_lgmd:EtaLGMD+imu,eta_lgmd:EtaLGMD+image \
+        --out runs/calibration-eta --workers 2 --no-progress
+    lgmd-sim bench closed-loop --scenarios RoughTerrainObstacles,ArenaRoam --jitter 1 \
+        --seeds 50 --controllers oracle,reactive --out runs/closed-loop-eta \
+        --models eta_lgmd:EtaLGMD/robot,eta_lgmd:EtaLGMD/robot-imu,eta_lgmd:EtaLGMD/robot-image
+    lgmd-sim bench open-loop --models eta_lgmd:EtaLGMD,eta_lgmd:EtaLGMD/gabbiani+image \
+        --out runs/open-loop-eta --workers 1 --no-progress
 """
 
 from __future__ import annotations
