@@ -24,6 +24,12 @@ __all__ = ["Registry"]
 _SEPARATORS = ":/+, "
 
 
+def _plain(name: Any) -> bool:
+    """Whether `name` can be a registered or entry-point name: a non-empty string without
+    any of `_SEPARATORS`."""
+    return isinstance(name, str) and bool(name) and not any(c in name for c in _SEPARATORS)
+
+
 def _is_spec(text: Any) -> bool:
     """Whether `text` reads as "package.module:attr": an absolute dotted module and an
     identifier ("mypkg.looming:Mine/fast" is a spec with a preset, not a spec)."""
@@ -62,7 +68,7 @@ class Registry:
         """Add `cls` (a class, or a "package.module:Class" string imported on first use)
         under `name`; ValueError for a name taken or not a plain name, or a class that is
         not a `base`."""
-        if not isinstance(name, str) or not name or any(c in name for c in _SEPARATORS):
+        if not _plain(name):
             raise ValueError(f"a {self.what} name is a non-empty string without any of "
                              f"{' '.join(repr(c) for c in _SEPARATORS)}, got {name!r}")
         if name in self.names():
@@ -121,7 +127,7 @@ class Registry:
             for ep in [] if self.group is None else metadata.entry_points(group=self.group):
                 dist = ep.dist.name if ep.dist else "?"
                 clash = ep.name in self.builtins or ep.name in self.registered
-                if clash or not ep.name or any(c in ep.name for c in _SEPARATORS):
+                if clash or not _plain(ep.name):
                     why = "is taken" if clash else f"holds one of {_SEPARATORS!r}"
                     warnings.warn(f"{self.what} entry point {ep.name!r} of {dist} skipped: "
                                   f"the name {why}", stacklevel=2)
