@@ -109,6 +109,31 @@ def test_the_training_vec_env_observes_as_the_controller_does(run):
     single.close()
 
 
+def test_reward_shaping_reaches_the_training_environments_only(tmp_path, monkeypatch):
+    from lgmd_sim.training import envs as training_envs
+
+    built = []
+
+    def recording(config, n_envs, overrides=None):
+        vec = make_vec_env(config, n_envs, overrides)
+        built.append({k: getattr(vec.base.get_attr("params")[0], k)
+                      for k in ("goal_bonus", "time_penalty", "collision_penalty")})
+        return vec
+
+    monkeypatch.setattr(training_envs, "make_vec_env", recording)
+    out = tmp_path / "shaped"
+    assert _train(out, "--steps", "64", "--envs", "1", "--reward", "goal_bonus=5",
+                  "--reward", "time_penalty=0.5") == 0
+    shaped, validation = built
+    assert shaped == {"goal_bonus": 5.0, "time_penalty": 0.5, "collision_penalty": 10.0}
+    assert validation == {"goal_bonus": 0.0, "time_penalty": 0.0, "collision_penalty": 10.0}
+    record = json.loads((out / "run.json").read_text())
+    assert record["config"]["reward"] == ["goal_bonus=5", "time_penalty=0.5"]
+    assert "training reward goal_bonus=5, time_penalty=0.5" in (out / "summary.md").read_text()
+    assert cli.main(["train", "--resume", str(out), "--steps", "128",
+                     "--reward", "goal_bonus=1"]) == 2  # not an option a resume changes
+
+
 def test_resume_continues_the_step_count(run, tmp_path):
     out = tmp_path / "resumed"
     shutil.copytree(run, out)
@@ -188,6 +213,9 @@ def _nan_reward_env(**overrides):
     (["--env", "lgmd_sim/Moon-v0"], "unknown environment id 'lgmd_sim/Moon-v0'"),
     (["--steps", "0"], "--steps must be a positive integer, got 0"),
     (["--hp", "warp=9"], "unknown hyperparameter 'warp'"),
+    (["--reward", "jitter=2"], "--reward 'jitter=2': not KEY=VALUE with KEY one of"),
+    (["--reward", "goal_bonus=lots"], "--reward goal_bonus=lots: 'lots' is not a number"),
+    (["--reward", "goal_bonus=-5"], "parameter goal_bonus=-5.0 must be"),
     (["--env", "lgmd_test/NanReward-v0", "--envs", "1"], "is not finite"),
 ])
 def test_bad_input_is_one_line_before_training(tmp_path, capsys, args, message):
@@ -220,3 +248,19 @@ def test_a_missing_rl_extra_is_one_line_naming_it(monkeypatch, tmp_path, capsys)
         assert cli.main(argv) == 2
         err = capsys.readouterr().err.strip()
         assert len(err.splitlines()) == 1 and "'rl' extra" in err
+
+
+def test_speed_train_reports_each_row_against_the_bare_vec_env(capsys):
+    from lgmd_sim.speed import train as speed_training
+
+    assert cli.main(["speed", "train", "--env", ENV, "--resolution", "small", "--steps", "64",
+                     "--envs", "1", "--markdown"]) == 0
+    table = [line for line in capsys.readouterr().out.splitlines() if line.startswith("| ")]
+    rows = [[c.strip() for c in line.strip("|").split("|")] for line in table[1:]]
+    assert [r[0] for r in rows] == [f"{a}/{o}" for a, o, _ in speed_training.ROWS]
+    assert rows[0][1] == "n_steps=32" and rows[3][1] == "train_freq=8, gradient_steps=8"
+    for row in rows:
+        bare, training, ratio = (float(row[i]) for i in (2, 3, 4))
+        assert bare > 0 and training > 0
+        assert ratio == pytest.approx(training / bare, abs=0.01 + 0.01 * ratio)
+        assert row[5] == "-"  # the target is for 2 environments

@@ -59,6 +59,18 @@ def add(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--hp", action="append", metavar="KEY=VALUE",
                    help="override a hyperparameter of the algorithm (repeatable), e.g. "
                    "--hp n_steps=512 --hp learning_rate=1e-4")
+    p.add_argument("--reward", action="append", metavar="KEY=VALUE",
+                   help="a reward parameter of the training environments (repeatable): "
+                   "progress_reward, collision_penalty, effort_penalty, goal_bonus, "
+                   "time_penalty or proximity_penalty (lgmd-sim envs NAME lists them; the "
+                   "shaping ones are off by default); validation and lgmd-sim eval keep the "
+                   "environment's own reward, e.g. --reward goal_bonus=5")
+    p.add_argument("--curriculum", metavar="NAME|FILE",
+                   help="go through easier versions of the task first, each stage passed "
+                   "at a success rate of its training episodes: a built-in curriculum "
+                   "(obstacles: no obstacle and the goal 4 m away, then 2 obstacles at 6 m, "
+                   "4 at 8 m, then the task) or a TOML file of stages "
+                   "(lgmd_sim.training.curriculum); validation always runs on the task")
     p.add_argument("--out", metavar="DIR", help="output folder, new or empty (default "
                    "./train-ALGO-OBS)")
     p.add_argument("--resume", metavar="DIR", help="continue the run in DIR from its last "
@@ -75,7 +87,9 @@ def config_from_args(args: argparse.Namespace) -> Any:
     given = {k: getattr(args, k) for k in names if getattr(args, k, None) is not None}
     if args.resume is None:
         return TrainConfig(**given)
-    recorded = resumable(args.resume)["config"]
+    # a run recorded before an option existed ran at its default
+    recorded = {f.name: json.loads(json.dumps(f.default)) for f in dataclasses.fields(TrainConfig)
+                if f.default is not dataclasses.MISSING} | resumable(args.resume)["config"]
     for key, value in given.items():
         if key not in RESUMABLE and json.loads(json.dumps(value)) != recorded[key]:
             raise ValueError(f"--{key.replace('_', '-')} {value} differs from the run being "

@@ -64,12 +64,14 @@ class PixelObservation(gym.ObservationWrapper):
         return {**observation, "frame": np.stack(self._frames)}
 
 
-def base_env(config: PolicyConfig, jitter: float | None = None) -> gym.Env:
-    """The environment of `config` (at its training jitter unless `jitter` is given);
-    frameless for "privileged", which reads no frame: it steps at the physics' speed."""
+def base_env(config: PolicyConfig, jitter: float | None = None, **overrides: Any) -> gym.Env:
+    """The environment of `config` (at its training jitter unless `jitter` is given, with
+    other environment parameters `overrides`); frameless for "privileged", which reads no
+    frame: it steps at the physics' speed."""
     frame = {"frame": "none"} if config.obs == "privileged" else {}
-    return gym.make(config.env_id, jitter=config.jitter if jitter is None else jitter,
-                    resolution=config.resolution, **frame)
+    return gym.make(config.env_id, **{
+        "jitter": config.jitter if jitter is None else jitter,
+        "resolution": config.resolution, **frame, **overrides})
 
 
 def observe(env: gym.Env, config: PolicyConfig) -> gym.Env:

@@ -1,5 +1,6 @@
 """Training callbacks: progress bar, collision rate, validation on fixed held-out seeds,
-checkpoints. Each runs every ``every`` environment steps (counted over all environments)."""
+checkpoints (each every ``every`` environment steps, counted over all environments), and
+the curriculum's stage."""
 
 from __future__ import annotations
 
@@ -15,9 +16,11 @@ from stable_baselines3.common.callbacks import BaseCallback
 from tqdm import tqdm
 
 from lgmd_sim.fileio import write_files, write_text_atomic
+from lgmd_sim.training.curriculum import Curriculum
 from lgmd_sim.training.envs import VecEnvs
 
-__all__ = ["Checkpoint", "EpisodeStats", "Progress", "Validation", "run_episodes"]
+__all__ = ["Checkpoint", "EpisodeStats", "Progress", "StageCallback", "Validation",
+           "run_episodes"]
 
 
 class _Every(BaseCallback):
@@ -177,25 +180,67 @@ class Checkpoint(_Every):
     """Every `every` steps, and at the end, what resuming needs in ``folder``: the model
     (``model.zip``), the VecNormalize statistics (``vecnormalize.pkl``), an off-policy
     algorithm's replay buffer (``replay_buffer.pkl``) and ``state.json`` (the step
-    count), written last, so that a checkpoint is complete once state.json names it.
+    count, and what `state` returns: the curriculum's stage), written last, so that a
+    checkpoint is complete once state.json names it.
     """
 
-    def __init__(self, folder: Path, every: int, vec_normalize: Any | None) -> None:
+    def __init__(self, folder: Path, every: int,
+                 state: Callable[[], dict[str, Any]] | None = None) -> None:
         super().__init__(every)
-        self.folder, self.vec_normalize = folder, vec_normalize
+        self.folder, self.state = folder, state
 
     def _run(self) -> None:
         self.folder.mkdir(parents=True, exist_ok=True)
         # the temporary files keep the suffix, so SB3 writes them as they are named
         writers = {self.folder / "model.zip": self.model.save}
-        if self.vec_normalize is not None:
-            writers[self.folder / "vecnormalize.pkl"] = self.vec_normalize.save
+        if (normalized := self.model.get_vec_normalize_env()) is not None:
+            writers[self.folder / "vecnormalize.pkl"] = normalized.save
         if hasattr(self.model, "replay_buffer"):
             writers[self.folder / "replay_buffer.pkl"] = self.model.save_replay_buffer
         write_files(writers)
-        write_text_atomic(self.folder / "state.json",
-                          json.dumps({"num_timesteps": self.num_timesteps}))
+        write_text_atomic(self.folder / "state.json", json.dumps(
+            {"num_timesteps": self.num_timesteps, **(self.state() if self.state else {})}))
 
     def _on_training_end(self) -> None:
         self.timed_run()
 
+
+class StageCallback(BaseCallback):
+    """Counts the current stage's training successes and stops ``learn()`` once the last
+    ``window`` episodes reach its ``advance_at`` (``ready``); the run then calls `advance`
+    and builds the environments of the next stage. On the task itself (past the last
+    stage) it only counts.
+
+    Args:
+        curriculum: the stages.
+        stage: the stage training starts at (a resumed run's).
+    """
+
+    def __init__(self, curriculum: Curriculum, stage: int) -> None:
+        super().__init__()
+        self.curriculum, self.stage = curriculum, stage
+        self.successes: deque[bool] = deque(maxlen=curriculum.window)
+        self.episodes = 0
+        self.ready = False  # learn() stopped: the stage is passed
+
+    @property
+    def on_task(self) -> bool:
+        return self.stage >= len(self.curriculum.stages)
+
+    def success_rate(self) -> float | None:
+        return sum(self.successes) / len(self.successes) if self.successes else None
+
+    def advance(self) -> None:
+        self.stage += 1
+        self.successes.clear()
+        self.episodes, self.ready = 0, False
+
+    def _on_step(self) -> bool:
+        for done, info in zip(self.locals["dones"], self.locals["infos"], strict=True):
+            if done:
+                self.successes.append(bool(info.get("is_success", False)))
+                self.episodes += 1
+        if self.on_task or len(self.successes) < self.curriculum.window:
+            return True
+        self.ready = self.success_rate() >= self.curriculum.stages[self.stage].advance_at
+        return not self.ready

@@ -35,9 +35,7 @@ import time
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
-
-import numpy as np
+from typing import TYPE_CHECKING, Any
 
 from lgmd_sim import __version__, options
 from lgmd_sim.extras import require
@@ -46,6 +44,9 @@ from lgmd_sim.policies.config import PolicyConfig
 from lgmd_sim.policies.folder import ALGOS, OBS
 from lgmd_sim.runs import RunFolder, RunResult
 
+if TYPE_CHECKING:
+    from lgmd_sim.training.curriculum import Curriculum
+
 __all__ = ["RESUMABLE", "VALIDATION_SEED", "TrainConfig", "resumable", "summary_markdown",
            "train"]
 
@@ -53,8 +54,6 @@ __all__ = ["RESUMABLE", "VALIDATION_SEED", "TrainConfig", "resumable", "summary_
 VALIDATION_SEED = 900
 #: Options a resumed run may change; the others must be as recorded.
 RESUMABLE = ("steps", "envs")
-#: Bare VecEnv steps (per environment) timed before training.
-_SPEED_STEPS = 100
 
 
 @dataclass(frozen=True)
@@ -79,6 +78,11 @@ class TrainConfig:
             `VALIDATION_SEED`).
         checkpoint_every: write a checkpoint every N steps.
         hp: hyperparameter overrides, each "KEY=VALUE" (`lgmd_sim.training.algos`).
+        reward: reward parameters of the training environments, each "KEY=VALUE"
+            (`lgmd_sim.training.envs.parse_reward`); validation keeps the environment's.
+        curriculum: a curriculum (`lgmd_sim.training.curriculum`: a built-in name or a
+            TOML file) the training environments go through before the task itself;
+            None: the task from the start.
     """
 
     algo: str = "ppo"
@@ -95,12 +99,16 @@ class TrainConfig:
     eval_seeds: int = 10
     checkpoint_every: int = 25_000
     hp: tuple[str, ...] = ()
+    reward: tuple[str, ...] = ()
+    curriculum: str | None = None
 
     def __post_init__(self) -> None:
         import gymnasium as gym
 
         from lgmd_sim import models
         from lgmd_sim.training import algos
+        from lgmd_sim.training.curriculum import load
+        from lgmd_sim.training.envs import parse_reward
 
         if self.algo not in ALGOS:
             raise ValueError(f"unknown algorithm {self.algo!r}; available: {', '.join(ALGOS)}")
@@ -130,6 +138,10 @@ class TrainConfig:
         options.check_jitter([self.jitter])
         object.__setattr__(self, "hp", tuple(self.hp))
         algos.parse_overrides(self.hp, self.algo)
+        object.__setattr__(self, "reward", tuple(self.reward))
+        parse_reward(self.reward)
+        if self.curriculum is not None:
+            load(self.curriculum, self.env)
 
     def policy(self) -> PolicyConfig:
         """The configuration of the policy it trains."""
@@ -139,6 +151,25 @@ class TrainConfig:
     def as_json(self) -> dict[str, Any]:
         """The configuration as the run folder records it."""
         return json.loads(json.dumps(dataclasses.asdict(self)))
+
+    def stages(self) -> Curriculum | None:
+        """The curriculum's stages, or None without one."""
+        from lgmd_sim.training.curriculum import load
+
+        return None if self.curriculum is None else load(self.curriculum, self.env)
+
+    def stage_overrides(self, stage: int) -> dict[str, Any]:
+        """The environment parameters of curriculum stage `stage` (none past the last)."""
+        curriculum = self.stages()
+        return (dict(curriculum.stages[stage].overrides)
+                if curriculum and stage < len(curriculum.stages) else {})
+
+    def overrides(self, stage: int) -> dict[str, Any]:
+        """The training environments' parameters at curriculum stage `stage`, the reward
+        shaping included."""
+        from lgmd_sim.training.envs import parse_reward
+
+        return {**parse_reward(self.reward), **self.stage_overrides(stage)}
 
 
 def _versions() -> dict[str, str]:
@@ -160,21 +191,6 @@ def resumable(out: str | Path) -> dict[str, Any]:
     if not (Path(out) / "checkpoints" / "state.json").is_file():
         raise ValueError(f"--resume {out}: the run has no checkpoint to resume from")
     return record
-
-
-def _bare_speed(envs: Any, env_id: str) -> float:
-    """Steps per second (over all environments) of the workers' VecEnv alone, driving
-    straight at 0.6 m/s; raise ValueError on a reward that is not finite."""
-    base = envs.base
-    base.reset()
-    actions = np.tile(np.array([0.6, 0.0], np.float32), (base.num_envs, 1))
-    start = time.perf_counter()
-    for step in range(_SPEED_STEPS):
-        _, rewards, _, _ = base.step(actions)
-        if not np.isfinite(rewards).all():
-            raise ValueError(f"{env_id}: reward {rewards.tolist()} at step {step + 1} is not "
-                             "finite: check the environment's reward parameters")
-    return _SPEED_STEPS * base.num_envs / (time.perf_counter() - start)
 
 
 def _normalize_keys(obs_space: Any, obs: str) -> list[str]:
@@ -204,26 +220,34 @@ def train(config: TrainConfig, out: str | Path, *, resume: bool = False,
     if resume and config.steps <= _checkpoint_steps(checkpoints):
         raise ValueError(f"--steps {config.steps}: the run is at "
                          f"{_checkpoint_steps(checkpoints)} steps already")
+    curriculum = config.stages()
+    stage = _checkpoint_state(checkpoints).get("stage", 0) if resume else 0
+    if curriculum and resume and recorded.get("curriculum") != curriculum.as_json():
+        raise ValueError(f"--curriculum {config.curriculum}: its stages changed since the run "
+                         "started")
     sessions = recorded["sessions"] if recorded else []
     first_seed = config.seed + sum(s["env_seeds"][1] for s in sessions)
-    if first_seed + config.envs > VALIDATION_SEED:
-        raise ValueError(f"training seeds {first_seed} to {first_seed + config.envs - 1} "
-                         f"would reach the validation seeds (from {VALIDATION_SEED}): use a "
-                         "lower --seed or fewer --envs")
+    # each stage still to come builds its environments with fresh seeds
+    last_seed = first_seed + config.envs * (1 + len(curriculum.stages) - stage
+                                            if curriculum else 1) - 1
+    if last_seed >= VALIDATION_SEED:
+        raise ValueError(f"training seeds {first_seed} to {last_seed} would reach the "
+                         f"validation seeds (from {VALIDATION_SEED}): use a lower --seed or "
+                         "fewer --envs")
     kwargs = algos.hyperparameters(config.algo, config.obs,
                                    algos.parse_overrides(config.hp, config.algo))
-    return _train(out, config, kwargs, first_seed, resume, progress, command)
+    return _train(out, config, kwargs, first_seed, stage, resume, progress, command)
 
 
 def _train(out: Path, config: TrainConfig, kwargs: dict[str, Any], first_seed: int,
-           resume: bool, progress_bar: bool | None, command: str) -> RunResult:
+           stage: int, resume: bool, progress_bar: bool | None, command: str) -> RunResult:
     import torch
     from stable_baselines3.common.logger import configure
     from stable_baselines3.common.vec_env import VecNormalize
 
     from lgmd_sim import policies
     from lgmd_sim.training import algos, callbacks, curve
-    from lgmd_sim.training.envs import make_vec_env
+    from lgmd_sim.training.envs import bare_speed, make_vec_env
 
     torch.set_num_threads(1)  # the environment workers have the other cores
     checkpoints = out / "checkpoints"
@@ -231,39 +255,40 @@ def _train(out: Path, config: TrainConfig, kwargs: dict[str, Any], first_seed: i
     folder = RunFolder(out, config.as_json(), command, resume=resume, what="training run",
                        resume_hint=f"add --resume {out} to continue it",
                        changeable=RESUMABLE, start=False)
-    envs = make_vec_env(policy, config.envs)
+    curriculum = config.stages()
+    envs = make_vec_env(policy, config.envs, config.overrides(stage))
     validation = None
     try:
-        bare = _bare_speed(envs, policy.env_id)
+        bare = bare_speed(envs, policy.env_id)
         keys = _normalize_keys(envs.venv.observation_space, policy.obs)
         earlier = len(folder.sessions) - 1
         if earlier:
             venv, model = _load_checkpoint(checkpoints, envs.venv, policy.algo)
             model.set_random_seed(config.seed + earlier)
         else:
-            venv = VecNormalize(envs.venv, norm_obs_keys=keys, gamma=kwargs.get("gamma", 0.99),
-                                norm_reward=policy.algo == "ppo")  # SAC: rewards as they are
+            venv = _normalized(envs.venv, keys, kwargs, policy.algo)
             model = algos.make_model(policy.algo, venv, kwargs, config.seed)
         folder.start()  # only now: hyperparameters the library refuses leave no run behind
         folder.session.update(versions=_versions(), env_seeds=[first_seed, config.envs])
         folder.note(policy=policy.to_json(), hyperparameters=kwargs, seeds={
             "training": "from the first of each session's env_seeds",
-            "validation": [VALIDATION_SEED, config.eval_seeds], "test": "from 1000"})
+            "validation": [VALIDATION_SEED, config.eval_seeds], "test": "from 1000"},
+            **({"curriculum": curriculum.as_json()} if curriculum else {}))
         venv.seed(first_seed)  # environment i: first_seed + i, at the reset learn() makes
         model.set_logger(configure(str(out / "logs" / f"session-{earlier}"),
                                    ["csv", "tensorboard"]))
         steps_from = model.num_timesteps
 
-        validation = make_vec_env(policy, config.envs)
+        validation = make_vec_env(policy, config.envs)  # the environment's own reward
         val_norm = VecNormalize(validation.venv, norm_obs_keys=keys, training=False,
                                 norm_reward=False)
         validation.venv = val_norm
 
         def sync() -> None:
-            val_norm.obs_rms = copy.deepcopy(venv.obs_rms)
+            val_norm.obs_rms = copy.deepcopy(model.get_vec_normalize_env().obs_rms)
 
         progress = callbacks.Progress(config.steps, progress_bar)
-        best = _Best(out / "best", policy, venv, command)
+        best = _Best(out / "best", policy, command)
 
         def on_scores(step: int, scores: dict[str, float]) -> None:
             progress.show({"val success": scores["success_rate"],
@@ -273,11 +298,36 @@ def _train(out: Path, config: TrainConfig, kwargs: dict[str, Any], first_seed: i
         validate = callbacks.Validation(
             validation, range(VALIDATION_SEED, VALIDATION_SEED + config.eval_seeds),
             config.eval_every, sync, on_scores)
-        checkpoint = callbacks.Checkpoint(checkpoints, config.checkpoint_every, venv)
-        learn_start = time.perf_counter()
-        model.learn(total_timesteps=config.steps - steps_from, reset_num_timesteps=False,
-                    callback=[progress, callbacks.EpisodeStats(), validate, checkpoint])
-        learn_s = time.perf_counter() - learn_start
+        stages = callbacks.StageCallback(curriculum, stage) if curriculum else None
+        checkpoint = callbacks.Checkpoint(
+            checkpoints, config.checkpoint_every,
+            # a checkpoint written as a stage is passed resumes at the next one
+            state=(lambda: {"stage": stages.stage + stages.ready}) if stages else None)
+        learn_s, stats = 0.0, callbacks.EpisodeStats()
+        while True:
+            learn_start, stage_from = time.perf_counter(), model.num_timesteps
+            model.learn(total_timesteps=config.steps - model.num_timesteps,
+                        reset_num_timesteps=False,
+                        callback=[progress, stats, validate, *([stages] if stages else []),
+                                  checkpoint])
+            learn_s += time.perf_counter() - learn_start
+            if stages is None:
+                break
+            folder.session.setdefault("stages", []).append(
+                {"stage": stages.stage, "overrides": config.stage_overrides(stages.stage),
+                 "steps": [stage_from, model.num_timesteps], "episodes": stages.episodes,
+                 "success_rate": stages.success_rate(), "passed": stages.ready})
+            if not stages.ready:
+                break
+            stages.advance()
+            envs.close()
+            envs = make_vec_env(policy, config.envs, config.overrides(stages.stage))
+            venv = _normalized(envs.venv, keys, kwargs, policy.algo, like=venv)
+            seeds = folder.session["env_seeds"]
+            venv.seed(seeds[0] + seeds[1])
+            folder.session["env_seeds"] = [seeds[0], seeds[1] + config.envs]
+            folder.note()  # the stage passed, on record before the next starts
+            model.set_env(venv)  # its next learn() resets the new environments
     finally:
         envs.close()
         if validation is not None:
@@ -302,6 +352,20 @@ def _train(out: Path, config: TrainConfig, kwargs: dict[str, Any], first_seed: i
     return RunResult(out, _validation_rows(out), files)
 
 
+def _normalized(venv: Any, keys: list[str], kwargs: Mapping[str, Any], algo: str,
+                like: Any | None = None) -> Any:
+    """`venv` in a training VecNormalize (PPO's rewards too; SAC's as they are), with the
+    statistics so far of `like` (the environments of the stage before)."""
+    from stable_baselines3.common.vec_env import VecNormalize
+
+    normalized = VecNormalize(venv, norm_obs_keys=keys, gamma=kwargs.get("gamma", 0.99),
+                              norm_reward=algo == "ppo")
+    if like is not None:
+        normalized.obs_rms, normalized.ret_rms = (copy.deepcopy(like.obs_rms),
+                                                  copy.deepcopy(like.ret_rms))
+    return normalized
+
+
 def _load_checkpoint(folder: Path, venv: Any, algo: str) -> tuple[Any, Any]:
     """The VecNormalize (around `venv`) and the model of the checkpoint in `folder`."""
     from stable_baselines3.common.vec_env import VecNormalize
@@ -318,16 +382,21 @@ def _load_checkpoint(folder: Path, venv: Any, algo: str) -> tuple[Any, Any]:
     return normalized, model
 
 
+def _checkpoint_state(folder: Path) -> dict[str, Any]:
+    """The checkpoint's step count ("num_timesteps") and curriculum stage ("stage")."""
+    return json.loads((folder / "state.json").read_text())
+
+
 def _checkpoint_steps(folder: Path) -> int:
-    return int(json.loads((folder / "state.json").read_text())["num_timesteps"])
+    return int(_checkpoint_state(folder)["num_timesteps"])
 
 
 class _Best:
     """Keeps ``folder`` (a policy folder) at the validation's best score so far: success
     rate minus collision rate, then return; a resumed run starts from the saved best."""
 
-    def __init__(self, folder: Path, config: PolicyConfig, venv: Any, command: str) -> None:
-        self.folder, self.config, self.venv, self.command = folder, config, venv, command
+    def __init__(self, folder: Path, config: PolicyConfig, command: str) -> None:
+        self.folder, self.config, self.command = folder, config, command
         self.last: dict[str, Any] | None = None
         try:
             saved = json.loads((folder / "policy.json").read_text())["trained"]["validation"]
@@ -345,7 +414,8 @@ class _Best:
         self.last = {"step": step, "scores": scores}
         if self._score(scores) > self.score:
             self.score = self._score(scores)
-            policies.save(self.folder, model, self.config, policies.Normalizer.of(self.venv),
+            policies.save(self.folder, model, self.config,
+                          policies.Normalizer.of(model.get_vec_normalize_env()),
                           steps=step, command=self.command, validation=self.last,
                           version=__version__)
 
@@ -355,8 +425,9 @@ def summary_markdown(folder: Path) -> str:
     record = json.loads((folder / "run.json").read_text())
     o = record["config"]
     detector = f", {o['model']}/{o['preset']}" if o["model"] else ""
+    shaped = f"; training reward {', '.join(o['reward'])}" if o.get("reward") else ""
     lines = [f"# {folder.name}: {o['algo'].upper()} on {o['obs']}{detector}, {o['env']} at "
-             f"jitter {o['jitter']:g}, {o['envs']} environments", "",
+             f"jitter {o['jitter']:g}, {o['envs']} environments{shaped}", "",
              "| session | steps | wall time (min) | training steps/s | bare VecEnv steps/s "
              "| ratio |", "|---:|---:|---:|---:|---:|---:|"]
     for i, s in enumerate(record["sessions"]):
@@ -365,6 +436,19 @@ def summary_markdown(folder: Path) -> str:
             lines.append(f"| {i} | {s['steps'][0]:,} to {s['steps'][1]:,} | "
                          f"{s['wall_time_s'] / 60:.1f} | {t['training_steps_per_s']:.0f} | "
                          f"{t['bare_vec_env_steps_per_s']:.0f} | {t['ratio']:.2f} |")
+    stages = [(i, st) for i, s in enumerate(record["sessions"]) for st in s.get("stages", [])]
+    if stages:
+        n = len(record["curriculum"]["stage"])
+        lines += ["", f"Curriculum {o['curriculum']} (a stage is passed at its success rate "
+                  f"over the last {record['curriculum']['window']} training episodes):", "",
+                  "| session | stage | environment | steps | episodes | success rate | "
+                  "passed |", "|---:|---|---|---:|---:|---:|---|"]
+        for i, st in stages:
+            env = ", ".join(f"{k}={v}" for k, v in st["overrides"].items()) or "the task's"
+            rate = "-" if st["success_rate"] is None else f"{st['success_rate']:.2f}"
+            lines.append(f"| {i} | {st['stage'] + 1 if st['stage'] < n else 'task'} | {env} | "
+                         f"{st['steps'][0]:,} to {st['steps'][1]:,} | {st['episodes']} | "
+                         f"{rate} | {'yes' if st['passed'] else 'no'} |")
     lines += ["", f"Validation ({o['eval_seeds']} held-out seeds from {VALIDATION_SEED}, "
               f"deterministic policy):", "",
               "| policy | at step | success rate | collision rate | mean distance (m) | "

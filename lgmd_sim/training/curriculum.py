@@ -1,0 +1,129 @@
+"""A curriculum for `lgmd-sim train --curriculum`: easier versions of the task first, each
+stage left once the policy succeeds often enough in its training episodes.
+
+A goal 8 m away behind six obstacles is never reached by chance, so a policy that starts
+there never sees the reward of arriving. A curriculum's stages change the environment
+(fewer obstacles, less jitter, a nearer goal: any parameter of
+`lgmd_sim.envs.params.EnvParams` but those the observation depends on), and after the last
+one the policy trains on the task as the environment defines it until the step budget is
+spent. Validation always runs on that task, so the learning curve and the best policy are
+the real task's.
+
+A stage is left when the success rate of its last ``window`` training episodes reaches
+its ``advance_at``. The training environments are then built anew with the next stage's
+parameters (the observation spaces do not change, so the model and its normalisation carry
+over) and fresh seeds (`lgmd_sim.training.callbacks.StageCallback` counts the successes).
+
+A curriculum is a built-in name (`CURRICULA`) or a TOML file::
+
+    window = 50            # training episodes a stage's success rate is taken over
+
+    [[stage]]
+    n_obstacles = 0
+    goal_distance = 4.0
+    advance_at = 0.8       # leave the stage at this success rate
+
+    [[stage]]
+    n_obstacles = 3
+    advance_at = 0.7
+"""
+
+from __future__ import annotations
+
+import tomllib
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+__all__ = ["CURRICULA", "Curriculum", "Stage", "load"]
+
+#: Parameters a stage may not change: the policy's observation depends on them.
+_FIXED = ("frame", "resolution", "fps", "carrier")
+
+
+@dataclass(frozen=True)
+class Stage:
+    """One stage: environment parameters over the task's, and the training success rate
+    (over the curriculum's window) at which the policy moves on."""
+
+    overrides: Mapping[str, Any]
+    advance_at: float
+
+    def as_json(self) -> dict[str, Any]:
+        return {**self.overrides, "advance_at": self.advance_at}
+
+
+@dataclass(frozen=True)
+class Curriculum:
+    """Stages before the task itself, and the episodes a success rate is taken over."""
+
+    stages: tuple[Stage, ...]
+    window: int = 50
+    name: str = field(default="", compare=False)
+
+    def as_json(self) -> dict[str, Any]:
+        return {"window": self.window, "stage": [s.as_json() for s in self.stages]}
+
+
+#: Built-in curricula, for RoughTerrainObstacles and the tasks like it: the goal nearer and
+#: the obstacles fewer at first, then the task (six obstacles, the goal 8 m away).
+CURRICULA: dict[str, dict[str, Any]] = {
+    "obstacles": {"window": 50, "stage": [
+        {"n_obstacles": 0, "goal_distance": 4.0, "jitter": 0.5, "advance_at": 0.8},
+        {"n_obstacles": 2, "goal_distance": 6.0, "advance_at": 0.7},
+        {"n_obstacles": 4, "goal_distance": 8.0, "advance_at": 0.6},
+    ]},
+}
+
+
+def load(spec: str, env_id: str) -> Curriculum:
+    """The curriculum `spec` (a `CURRICULA` name or a TOML file) for environment `env_id`,
+    every stage checked by building its parameters (no world is compiled).
+
+    Raises:
+        ValueError: an unknown name, an unreadable file, or a stage whose parameters the
+            environment refuses (one line naming the stage).
+    """
+    if spec in CURRICULA:
+        data = CURRICULA[spec]
+    else:
+        try:
+            data = tomllib.loads(Path(spec).read_text())
+        except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as exc:
+            raise ValueError(f"--curriculum {spec}: not a built-in curriculum "
+                             f"({', '.join(CURRICULA)}) nor a readable TOML file ({exc})"
+                             ) from None
+    return _parse(data, env_id, spec)
+
+
+def _parse(data: Mapping[str, Any], env_id: str, name: str) -> Curriculum:
+    import gymnasium as gym
+
+    from lgmd_sim.envs.catalogue import params_for
+
+    unknown = sorted(set(data) - {"window", "stage"})
+    window = data.get("window", 50)
+    raw = data.get("stage", [])
+    if unknown or not isinstance(window, int) or window < 1 or not isinstance(raw, list) \
+            or not raw:
+        raise ValueError(f"--curriculum {name}: needs a positive integer `window` and one "
+                         "or more [[stage]] tables" + (f", not {', '.join(unknown)}"
+                                                       if unknown else ""))
+    scenario = gym.spec(env_id).kwargs.get("scenario")
+    stages = []
+    for i, table in enumerate(raw, 1):
+        overrides = {k: v for k, v in table.items() if k != "advance_at"}
+        at = table.get("advance_at")
+        where = f"--curriculum {name}: stage {i}"
+        if not isinstance(at, int | float) or not 0.0 < at <= 1.0:
+            raise ValueError(f"{where}: advance_at must be a success rate in (0, 1], got {at!r}")
+        if fixed := sorted(set(overrides) & set(_FIXED)):
+            raise ValueError(f"{where}: {', '.join(fixed)} cannot change between stages (the "
+                             "observation depends on it)")
+        try:
+            params_for(scenario, overrides)
+        except ValueError as exc:
+            raise ValueError(f"{where}: {exc}") from None
+        stages.append(Stage(overrides, float(at)))
+    return Curriculum(tuple(stages), window, name)
