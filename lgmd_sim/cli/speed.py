@@ -83,6 +83,23 @@ def add(sub: argparse._SubParsersAction) -> None:
                    "is counted: enough episodes make it small)")
     b.add_argument("--markdown", action="store_true", help="print the table as Markdown")
 
+    b = speed.add_parser(
+        "train", help="training steps/s per algorithm vs the bare VecEnv (needs the rl extra)",
+        description="In one run, per algorithm and observation (PPO on features and on "
+        "privileged observations, SAC on features at three update rates): steps per second "
+        "of stable-baselines3's learn() against the same training VecEnv alone (target: "
+        "0.7 or more for PPO on 2 environments).",
+    )
+    b.add_argument("--env", default="lgmd_sim/RoughTerrainObstacles-v0", metavar="ID",
+                   help="Gymnasium id of the environment (default %(default)s)")
+    b.add_argument("--resolution", type=resolution, default="rl",
+                   help="rl (120x160, default), paper, small or HxW")
+    b.add_argument("--steps", type=positive_int, default=8192,
+                   help="environment steps timed per row (default %(default)s)")
+    b.add_argument("--envs", type=positive_int, default=2,
+                   help="environments, one worker process each (default %(default)s)")
+    b.add_argument("--markdown", action="store_true", help="print the table as Markdown")
+
 
 def _frame_size(p: argparse.ArgumentParser) -> None:
     p.add_argument("--height", type=positive_int, default=270,

@@ -8,6 +8,7 @@
 - `lgmd_sim.speed.closed_loop`: the closed loop's cost over the environment alone, and
   the benchmark's scaling with workers.
 - `lgmd_sim.speed.dataset`: dataset generation against the environment alone.
+- `lgmd_sim.speed.train`: training steps/s against the bare VecEnv it trains on.
 
 Each module's ``run(**options)`` measures and prints its tables (``lgmd-sim speed WHAT``
 passes its options by name).
