@@ -41,6 +41,12 @@ class _Every(BaseCallback):
             self.timed_run()
         return True
 
+    def run_now(self, model: Any) -> None:
+        """Run outside ``learn()`` (after a DAgger round), at `model`'s step count."""
+        self.init_callback(model)
+        self.num_timesteps = model.num_timesteps
+        self.timed_run()
+
     def timed_run(self) -> None:
         start = time.perf_counter()
         self._run()
@@ -155,6 +161,7 @@ class Validation(_Every):
         super().__init__(every)
         self.envs, self.seeds, self.sync, self.on_scores = envs, list(seeds), sync, on_scores
         self.last_step = -1
+        self.scores: dict[str, float] = {}  # the last validation's
 
     def _run(self) -> None:
         if self.sync:
@@ -168,7 +175,7 @@ class Validation(_Every):
             self.logger.record(f"eval/{key}", value)
         self.logger.record("time/total_timesteps", self.num_timesteps)
         self.logger.dump(self.num_timesteps)
-        self.last_step = self.num_timesteps
+        self.last_step, self.scores = self.num_timesteps, scores
         self.on_scores(self.num_timesteps, scores)
 
     def _on_training_end(self) -> None:

@@ -83,6 +83,11 @@ class TrainConfig:
         curriculum: a curriculum (`lgmd_sim.training.curriculum`: a built-in name or a
             TOML file) the training environments go through before the task itself;
             None: the task from the start.
+        teacher: "oracle" or a privileged policy (a folder or a shipped name) the policy
+            first learns from by DAgger (`lgmd_sim.training.dagger`), before RL; None:
+            RL from the start. PPO only.
+        imitation_steps: environment steps of the DAgger rounds (part of `steps`).
+        dagger_rounds: DAgger rounds, each ``imitation_steps / dagger_rounds`` steps.
     """
 
     algo: str = "ppo"
@@ -101,6 +106,9 @@ class TrainConfig:
     hp: tuple[str, ...] = ()
     reward: tuple[str, ...] = ()
     curriculum: str | None = None
+    teacher: str | None = None
+    imitation_steps: int = 100_000
+    dagger_rounds: int = 10
 
     def __post_init__(self) -> None:
         import gymnasium as gym
@@ -142,6 +150,19 @@ class TrainConfig:
         parse_reward(self.reward)
         if self.curriculum is not None:
             load(self.curriculum, self.env)
+        for key in ("imitation_steps", "dagger_rounds"):
+            options.check_positive(getattr(self, key), f"--{key.replace('_', '-')}",
+                                   integer=True)
+        if self.teacher is not None:
+            from lgmd_sim.training.dagger import Teacher
+
+            if self.algo != "ppo":
+                raise ValueError(f"--teacher needs --algo ppo (its policy is fitted to the "
+                                 f"teacher's actions), not {self.algo}")
+            if self.imitation_steps >= self.steps:
+                raise ValueError(f"--imitation-steps {self.imitation_steps} must be fewer "
+                                 f"than --steps {self.steps} (RL fine-tuning takes the rest)")
+            Teacher(self.teacher, 1)  # loads: a bad teacher is one line now
 
     def policy(self) -> PolicyConfig:
         """The configuration of the policy it trains."""
@@ -299,10 +320,16 @@ def _train(out: Path, config: TrainConfig, kwargs: dict[str, Any], first_seed: i
             validation, range(VALIDATION_SEED, VALIDATION_SEED + config.eval_seeds),
             config.eval_every, sync, on_scores)
         stages = callbacks.StageCallback(curriculum, stage) if curriculum else None
-        checkpoint = callbacks.Checkpoint(
-            checkpoints, config.checkpoint_every,
+
+        def state() -> dict[str, Any]:
             # a checkpoint written as a stage is passed resumes at the next one
-            state=(lambda: {"stage": stages.stage + stages.ready}) if stages else None)
+            return ({"stage": stages.stage + stages.ready} if stages else {}) | (
+                {"imitation_round": config.dagger_rounds} if config.teacher else {})
+
+        checkpoint = callbacks.Checkpoint(checkpoints, config.checkpoint_every, state)
+        imitation_s = _imitate(config, model, venv, envs, checkpoints, validate, checkpoint,
+                               folder) if config.teacher else 0.0
+        rl_from = model.num_timesteps
         learn_s, stats = 0.0, callbacks.EpisodeStats()
         while True:
             learn_start, stage_from = time.perf_counter(), model.num_timesteps
@@ -333,10 +360,11 @@ def _train(out: Path, config: TrainConfig, kwargs: dict[str, Any], first_seed: i
         if validation is not None:
             validation.close()
 
-    steps = model.num_timesteps - steps_from
+    steps = model.num_timesteps - rl_from
     training_s = learn_s - validate.seconds - checkpoint.seconds
     folder.session.update(
-        steps=[steps_from, model.num_timesteps], validation_s=round(validate.seconds), throughput={
+        steps=[steps_from, model.num_timesteps], validation_s=round(validate.seconds),
+        imitation_s=round(imitation_s), throughput={
             "bare_vec_env_steps_per_s": round(bare, 1),
             "training_steps_per_s": round(steps / training_s, 1),
             "ratio": round(steps / training_s / bare, 3)})
@@ -350,6 +378,45 @@ def _train(out: Path, config: TrainConfig, kwargs: dict[str, Any], first_seed: i
     files = ["policy.npz", "policy.json", "best/", "learning_curve.png", "summary.md",
              "run.json", "logs/", "checkpoints/"]
     return RunResult(out, _validation_rows(out), files)
+
+
+def _imitate(config: TrainConfig, model: Any, venv: Any, envs: Any, checkpoints: Path,
+             validate: Any, checkpoint: Any, folder: RunFolder) -> float:
+    """The DAgger rounds of `config` not yet done (a resumed run's checkpoint names the
+    next), each validated, checkpointed with the aggregate (``dagger.npz``) and recorded
+    in the session's ``imitation``; return the seconds they took, validation and
+    checkpoints included."""
+    from lgmd_sim.training import dagger
+
+    state = _checkpoint_state(checkpoints) if (checkpoints / "state.json").is_file() else {}
+    first = state.get("imitation_round", 0)
+    if first >= config.dagger_rounds:
+        return 0.0
+    start = time.perf_counter()
+    labels = dagger.Labels.load(checkpoints / "dagger.npz") if first else dagger.Labels()
+    teacher = dagger.Teacher(config.teacher, config.envs)
+    saved = checkpoint.state
+
+    def after_round(k: int, beta: float, loss: float) -> None:
+        for key, value in (("round", k), ("beta", beta), ("bc_loss", loss),
+                           ("labels", len(labels))):
+            model.logger.record(f"imitation/{key}", value)
+        validate.run_now(model)  # logs and dumps at the step count
+        checkpoints.mkdir(parents=True, exist_ok=True)
+        labels.save(checkpoints / "dagger.npz")
+        checkpoint.state = lambda: saved() | {"imitation_round": k + 1}
+        checkpoint.run_now(model)  # state.json last: the round is complete once it names it
+        folder.session.setdefault("imitation", []).append(
+            {"round": k, "beta": beta, "steps": model.num_timesteps, "labels": len(labels),
+             "bc_loss": loss, **{f"val_{n}": validate.scores[f"{n}_rate"]
+                                 for n in ("success", "collision")}})
+        folder.note()
+
+    dagger.imitate(model, venv, lambda: envs.base.reset_infos, teacher, labels,
+                   rounds=config.dagger_rounds, steps=config.imitation_steps,
+                   first_round=first, seed=config.seed, after_round=after_round)
+    checkpoint.state = saved
+    return time.perf_counter() - start
 
 
 def _normalized(venv: Any, keys: list[str], kwargs: Mapping[str, Any], algo: str,
@@ -449,6 +516,17 @@ def summary_markdown(folder: Path) -> str:
             lines.append(f"| {i} | {st['stage'] + 1 if st['stage'] < n else 'task'} | {env} | "
                          f"{st['steps'][0]:,} to {st['steps'][1]:,} | {st['episodes']} | "
                          f"{rate} | {'yes' if st['passed'] else 'no'} |")
+    rounds = [(i, r) for i, s in enumerate(record["sessions"]) for r in s.get("imitation", [])]
+    if rounds:
+        lines += ["", f"DAgger from {o['teacher']} ({o['imitation_steps']:,} steps in "
+                  f"{o['dagger_rounds']} rounds; beta: the share of steps the teacher "
+                  "drove; validation after each round):", "",
+                  "| session | round | beta | at step | labels | cloning loss | "
+                  "val success | val collisions |", "|---:|---:|---:|---:|---:|---:|---:|---:|"]
+        for i, r in rounds:
+            lines.append(f"| {i} | {r['round']} | {r['beta']:.2f} | {r['steps']:,} | "
+                         f"{r['labels']:,} | {r['bc_loss']:.3f} | {r['val_success']:.2f} | "
+                         f"{r['val_collision']:.2f} |")
     lines += ["", f"Validation ({o['eval_seeds']} held-out seeds from {VALIDATION_SEED}, "
               f"deterministic policy):", "",
               "| policy | at step | success rate | collision rate | mean distance (m) | "

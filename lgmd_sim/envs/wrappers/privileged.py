@@ -76,15 +76,16 @@ class PrivilegedObservation(gym.Wrapper, gym.utils.RecordConstructorArgs):
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None
               ) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
         obs, info = self.env.reset(seed=seed, options=options)
-        return self._observation(obs, info), info
+        return self.observation_of(obs, info), info
 
     def step(self, action: np.ndarray) -> tuple[dict[str, np.ndarray], float, bool, bool,
                                                  dict[str, Any]]:
         obs, reward, terminated, truncated, info = self.env.step(action)
-        return self._observation(obs, info), reward, terminated, truncated, info
+        return self.observation_of(obs, info), reward, terminated, truncated, info
 
     @staticmethod
-    def _observation(obs: Mapping[str, np.ndarray], info: Mapping[str, Any]
-                     ) -> dict[str, np.ndarray]:
+    def observation_of(obs: Mapping[str, np.ndarray], info: Mapping[str, Any]
+                       ) -> dict[str, np.ndarray]:
+        """The privileged observation of a jitter environment's `obs` and `info`."""
         return {**{k: v for k, v in obs.items() if k != "frame"},
                 "threat": threat_features(info)}

@@ -1,0 +1,165 @@
+"""DAgger (`lgmd_sim.training.dagger`, `lgmd-sim train --teacher`): the teacher labels the
+states the student visits (after auto-resets too), beta decides who drives, cloning fits
+the labels, and a run's rounds are recorded and resume where they stopped."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+pytest.importorskip("stable_baselines3")
+
+import lgmd_sim  # noqa: F401  (registers the scenarios)
+from lgmd_sim import cli, controllers
+from lgmd_sim.policies.config import PolicyConfig
+from lgmd_sim.policies.observe import base_env, observe
+from lgmd_sim.training import dagger
+from lgmd_sim.training.envs import make_vec_env
+
+ENV = "lgmd_sim/RoughTerrainObstacles-v0"
+# frameless (privileged) observations: the DAgger machinery at the physics' speed; 1 s
+# episodes, so that the workers reset during a collection
+CONFIG = PolicyConfig("ppo", "privileged", ENV, "small", 1.0, None, None)
+SHORT = {"time_limit": 1.0}
+CRUISE = np.array([0.3, 0.0], np.float32)
+
+
+def _collect(beta, steps=45, seed=5):
+    from stable_baselines3.common.vec_env import VecNormalize
+
+    envs = make_vec_env(CONFIG, 2, SHORT)
+    try:
+        venv = VecNormalize(envs.venv, norm_reward=False)
+        venv.seed(seed)
+        return dagger.collect(venv, lambda: envs.base.reset_infos,
+                              lambda norm: np.tile(CRUISE, (2, 1)), dagger.Teacher("oracle", 2),
+                              steps, beta, np.random.default_rng(0))
+    finally:
+        envs.close()
+
+
+def _replay(seed, actions):
+    """One environment driven by `actions` (auto-resetting as a VecEnv does): its raw
+    observations and a fresh Oracle's action on each."""
+    env = observe(base_env(CONFIG, **SHORT), CONFIG)
+    oracle = controllers.make("oracle")
+    obs, info = env.reset(seed=seed)
+    seen, labels = [], []
+    for action in actions:
+        seen.append(obs)
+        labels.append(oracle.act(obs, info))
+        obs, _, terminated, truncated, info = env.step(action)
+        if terminated or truncated:
+            obs, info = env.reset()
+            oracle.reset()
+    env.close()
+    return seen, np.array(labels, np.float32)
+
+
+def test_dagger_relabels_with_the_teachers_actions_on_the_students_states():
+    obs, labels, executed = _collect(beta=0.0)
+    assert np.array_equal(executed, np.tile(CRUISE, (90, 1)))  # the student drove
+    for i in range(2):  # rows are step-major: environment i at rows i, i + 2, ...
+        seen, expected = _replay(5 + i, executed[i::2])
+        for key in ("proprio", "goal", "threat"):
+            np.testing.assert_array_equal(obs[key][i::2], np.stack([o[key] for o in seen]))
+        np.testing.assert_array_equal(labels[i::2], expected)
+    assert np.abs(labels[:, 1]).max() > 0.5  # the Oracle turned away at least once
+    # the episodes of 1 s (30 steps) ended and restarted during the 45 steps
+    assert obs["goal"][0::2][30, 0] > obs["goal"][0::2][29, 0]
+
+
+def test_beta_one_drives_with_the_teacher():
+    _, labels, executed = _collect(beta=1.0)
+    np.testing.assert_array_equal(executed, labels)
+
+
+def test_beta_falls_from_the_teacher_to_the_student_by_half_the_rounds():
+    assert [dagger.beta(k, 10) for k in range(7)] == pytest.approx([1, 0.8, 0.6, 0.4, 0.2, 0, 0])
+    assert dagger.beta(0, 1) == 1.0
+
+
+def test_cloning_fits_the_labels():
+    import torch
+    from stable_baselines3 import PPO
+
+    envs = make_vec_env(CONFIG, 1, SHORT)
+    model = PPO("MultiInputPolicy", envs.venv, n_steps=64, batch_size=64, seed=0)
+    envs.close()
+    rng = np.random.default_rng(0)
+    obs = {k: rng.normal(size=(256, *s.shape)).astype(np.float32)
+           for k, s in model.observation_space.spaces.items()}
+    actions = np.tanh(obs["threat"][:, :2])  # a function of the observation
+    first = dagger.fit(model.policy, obs, actions, epochs=1, batch_size=64,
+                       learning_rate=3e-3, seed=0)
+    last = dagger.fit(model.policy, obs, actions, epochs=60, batch_size=64,
+                      learning_rate=3e-3, seed=0)
+    assert last < first - 1.0
+    with torch.no_grad():
+        mean = model.policy.predict(obs, deterministic=True)[0]
+    assert np.abs(mean - actions).mean() < 0.15
+
+
+TINY = ["train", "--obs", "privileged", "--env", ENV, "--envs", "1", "--hp", "n_steps=64",
+        "--hp", "batch_size=64", "--eval-every", "10000", "--eval-seeds", "1",
+        "--checkpoint-every", "10000", "--teacher", "oracle", "--imitation-steps", "128",
+        "--dagger-rounds", "4", "--no-progress"]
+
+
+def test_a_run_with_a_teacher_records_each_round_and_resumes_inside_them(tmp_path):
+    out = tmp_path / "student"
+    assert cli.main([*TINY, "--steps", "256", "--out", str(out)]) == 0
+    record = json.loads((out / "run.json").read_text())
+    rounds = record["sessions"][0]["imitation"]
+    assert [r["round"] for r in rounds] == [0, 1, 2, 3]
+    assert [r["beta"] for r in rounds] == [1.0, 0.5, 0.0, 0.0]
+    assert [r["labels"] for r in rounds] == [32, 64, 96, 128]
+    assert [r["steps"] for r in rounds] == [32, 64, 96, 128]  # on the run's step count
+    assert record["sessions"][0]["steps"] == [0, 256]  # the rest by RL
+    assert json.loads((out / "checkpoints" / "state.json").read_text())["imitation_round"] == 4
+    assert "DAgger from oracle" in (out / "summary.md").read_text()
+
+
+
+def test_a_run_stopped_inside_the_rounds_resumes_at_the_next(tmp_path, monkeypatch):
+    fit, fitted = dagger.fit, []
+
+    def fails_in_round_2(*args, **kwargs):
+        if len(fitted) == 2:
+            raise RuntimeError("killed")
+        fitted.append(1)
+        return fit(*args, **kwargs)
+
+    monkeypatch.setattr(dagger, "fit", fails_in_round_2)
+    out = tmp_path / "stopped"
+    with pytest.raises(RuntimeError, match="killed"):
+        cli.main([*TINY, "--steps", "256", "--out", str(out)])
+    state = json.loads((out / "checkpoints" / "state.json").read_text())
+    assert state == {"num_timesteps": 64, "imitation_round": 2}
+    before = dagger.Labels.load(out / "checkpoints" / "dagger.npz")
+    assert len(before) == 64
+
+    monkeypatch.setattr(dagger, "fit", fit)
+    assert cli.main(["train", "--resume", str(out), "--no-progress"]) == 0
+    record = json.loads((out / "run.json").read_text())
+    assert [[r["round"] for r in s.get("imitation", [])] for s in record["sessions"]] == [
+        [0, 1], [2, 3]]
+    after = dagger.Labels.load(out / "checkpoints" / "dagger.npz")
+    assert len(after) == 128  # rounds 0 and 1's, kept, and rounds 2 and 3's
+    np.testing.assert_array_equal(after.actions[:64], before.actions)
+    assert record["sessions"][1]["steps"] == [64, 256]
+
+
+@pytest.mark.parametrize(("args", "message"), [
+    (["--algo", "sac"], "--teacher needs --algo ppo"),
+    (["--imitation-steps", "256"], "--imitation-steps 256 must be fewer than --steps 256"),
+    (["--teacher", "nowhere"], "nowhere"),
+])
+def test_a_bad_teacher_is_one_line_before_training(tmp_path, capsys, args, message):
+    out = tmp_path / "never"
+    assert cli.main([*TINY, "--steps", "256", *args, "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and message in err, err
+    assert not out.exists()
