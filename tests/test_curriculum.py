@@ -12,7 +12,7 @@ pytest.importorskip("stable_baselines3")
 
 import lgmd_sim  # noqa: F401  (registers the scenarios)
 from lgmd_sim import cli
-from lgmd_sim.training import curriculum
+from lgmd_sim.training import curriculum, curve
 from lgmd_sim.training import envs as training_envs
 
 # Frameless (privileged) episodes of the goal task: steps of well under a millisecond.
@@ -67,6 +67,8 @@ def test_the_curriculum_advances_and_each_stage_is_recorded(tmp_path, built):
     assert rows[0]["overrides"] == {**first, "jitter": 0.5} and rows[2]["overrides"] == {}
     assert rows[0]["steps"][1] == rows[1]["steps"][0] < rows[1]["steps"][1] == rows[2]["steps"][0]
     assert session["env_seeds"] == [0, 3]  # fresh seeds for each stage's environment
+    assert curve.phase_changes(out) == [(rows[0]["steps"][1], "stage 1 passed"),
+                                        (rows[1]["steps"][1], "stage 2 passed")]
     assert json.loads((out / "checkpoints" / "state.json").read_text())["stage"] == 2
     summary = (out / "summary.md").read_text()
     assert f"Curriculum {stages}" in summary and "| 0 | task | the task's |" in summary

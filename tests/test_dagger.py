@@ -15,7 +15,7 @@ import lgmd_sim  # noqa: F401  (registers the scenarios)
 from lgmd_sim import cli, controllers
 from lgmd_sim.policies.config import PolicyConfig
 from lgmd_sim.policies.observe import base_env, observe
-from lgmd_sim.training import dagger
+from lgmd_sim.training import curve, dagger
 from lgmd_sim.training.envs import make_vec_env
 
 ENV = "lgmd_sim/RoughTerrainObstacles-v0"
@@ -120,6 +120,7 @@ def test_a_run_with_a_teacher_records_each_round_and_resumes_inside_them(tmp_pat
     assert record["sessions"][0]["steps"] == [0, 256]  # the rest by RL
     assert json.loads((out / "checkpoints" / "state.json").read_text())["imitation_round"] == 4
     assert "DAgger from oracle" in (out / "summary.md").read_text()
+    assert curve.phase_changes(out) == [(128, "DAgger ends")]  # the learning curve's line
 
 
 

@@ -4,6 +4,7 @@ stable-baselines3's CSV log, one per training session)."""
 from __future__ import annotations
 
 import csv
+import json
 import math
 from pathlib import Path
 
@@ -12,7 +13,7 @@ import numpy as np
 from lgmd_sim.fileio import write_files
 from lgmd_sim.plots import figure
 
-__all__ = ["PANELS", "learning_curve", "read_logs"]
+__all__ = ["PANELS", "learning_curve", "phase_changes", "read_logs"]
 
 #: Panel title -> (training key: the last 100 training episodes, validation key).
 PANELS = {
@@ -47,11 +48,26 @@ def _number(text: str | None) -> float | None:
     return value if value is not None and math.isfinite(value) else None
 
 
+def phase_changes(folder: Path) -> list[tuple[float, str]]:
+    """(step, label) where the run of `folder` changed what it trained on: the end of its
+    DAgger rounds (RL from there) and each curriculum stage passed (from its run.json)."""
+    sessions = json.loads((folder / "run.json").read_text()).get("sessions", [])
+    changes = []
+    rounds = [r for s in sessions for r in s.get("imitation", [])]
+    if rounds:
+        changes.append((rounds[-1]["steps"], "DAgger ends"))
+    changes += [(st["steps"][1], f"stage {st['stage'] + 1} passed")
+                for s in sessions for st in s.get("stages", []) if st["passed"]]
+    return changes
+
+
 def learning_curve(folder: Path, title: str = "") -> Path:
     """Draw ``folder/learning_curve.png``: episode return, success rate and collision rate
     against environment steps, of the training episodes (a running mean over the last
-    100) and of the validation episodes (fixed held-out seeds, deterministic policy)."""
+    100) and of the validation episodes (fixed held-out seeds, deterministic policy),
+    with a dotted line where DAgger ended or a curriculum stage was passed."""
     logs = read_logs(folder)
+    changes = phase_changes(folder)
     fig = figure(figsize=(12, 3.6))
     for ax, (name, (train_key, eval_key)) in zip(fig.subplots(1, 3), PANELS.items(),
                                                    strict=True):
@@ -60,6 +76,10 @@ def learning_curve(folder: Path, title: str = "") -> Path:
         if eval_key in logs:
             ax.plot(*logs[eval_key].T, color="C3", marker="o", ms=4, lw=1.4,
                     label="validation (held-out seeds)")
+        for step, label in changes:
+            ax.axvline(step, color="0.3", ls=":", lw=1)
+            ax.annotate(label, (step, 1), xycoords=("data", "axes fraction"), rotation=90,
+                        va="top", ha="right", fontsize="x-small", color="0.3")
         if "rate" in name:
             ax.set_ylim(-0.03, 1.03)
         ax.set_xlabel("environment steps")
