@@ -102,6 +102,8 @@ def test_the_built_in_curriculum_fits_the_main_task():
     ("[[stage]]\nwarp = 1\nadvance_at = 0.5\n", "stage 1: unknown parameter(s) warp"),
     ("[[stage]]\nn_obstacles = 1\n", "stage 1: advance_at must be a success rate"),
     ("[[stage]]\nresolution = 'paper'\nadvance_at = 0.5\n", "resolution cannot change"),
+    ("[[stage]]\nmax_speed = 2.0\nadvance_at = 0.5\n", "max_speed cannot change"),
+    ("[[stage]]\ngoal_bonus = 2.0\nadvance_at = 0.5\n", "set it for every stage with --reward"),
     ("[[stage]]\nn_obstacles = -1\nadvance_at = 0.5\n", "stage 1: EnvParams: parameter n_obs"),
     ("window = 0\n[[stage]]\nadvance_at = 0.5\n", "needs a positive integer `window`"),
     ("[[stage\n", "nor a readable TOML file"),

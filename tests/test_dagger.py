@@ -34,8 +34,9 @@ def _collect(beta, steps=45, seed=5):
         venv = VecNormalize(envs.venv, norm_reward=False)
         venv.seed(seed)
         return dagger.collect(venv, lambda: envs.base.reset_infos,
-                              lambda norm: np.tile(CRUISE, (2, 1)), dagger.Teacher("oracle", 2),
-                              steps, beta, np.random.default_rng(0))
+                              lambda norm: np.tile(CRUISE, (2, 1)),
+                              dagger.Teacher("oracle", 2, ENV), steps, beta,
+                              np.random.default_rng(0))
     finally:
         envs.close()
 
@@ -121,6 +122,21 @@ def test_a_run_with_a_teacher_records_each_round_and_resumes_inside_them(tmp_pat
     assert json.loads((out / "checkpoints" / "state.json").read_text())["imitation_round"] == 4
     assert "DAgger from oracle" in (out / "summary.md").read_text()
     assert curve.phase_changes(out) == [(128, "DAgger ends")]  # the learning curve's line
+    assert record["sessions"][0]["throughput"]["training_steps_per_s"] > 0  # RL's alone
+
+    # the run, a privileged policy, teaches a student on LGMD features: it sees the
+    # student's proprioception and goal and the ground truth, not the student's features
+    teacher = dagger.Teacher(str(out), 1, ENV)
+    features = PolicyConfig("ppo", "features", ENV, "small", 1.0, "feedback", None)
+    student_env = observe(base_env(features), features)
+    privileged_env = observe(base_env(CONFIG), CONFIG)
+    obs, info = student_env.reset(seed=3)
+    truth, truth_info = privileged_env.reset(seed=3)
+    assert "lgmd_potential" in obs
+    expected = controllers.make("policy", path=str(out)).act(truth, truth_info)
+    np.testing.assert_array_equal(teacher.act(0, obs, info), expected)
+    student_env.close()
+    privileged_env.close()
 
 
 
@@ -138,9 +154,16 @@ def test_a_run_stopped_inside_the_rounds_resumes_at_the_next(tmp_path, monkeypat
     with pytest.raises(RuntimeError, match="killed"):
         cli.main([*TINY, "--steps", "256", "--out", str(out)])
     state = json.loads((out / "checkpoints" / "state.json").read_text())
-    assert state == {"num_timesteps": 64, "imitation_round": 2}
+    assert state == {"num_timesteps": 64, "imitation_round": 2, "labels": 64}
     before = dagger.Labels.load(out / "checkpoints" / "dagger.npz")
     assert len(before) == 64
+
+    # saved frozen between rounds, the normalisation learns again once loaded for RL
+    from lgmd_sim.training.run import _load_checkpoint
+
+    envs = make_vec_env(CONFIG, 1)
+    assert _load_checkpoint(out / "checkpoints", envs.venv, "ppo")[0].training
+    envs.close()
 
     monkeypatch.setattr(dagger, "fit", fit)
     assert cli.main(["train", "--resume", str(out), "--no-progress"]) == 0
@@ -157,6 +180,7 @@ def test_a_run_stopped_inside_the_rounds_resumes_at_the_next(tmp_path, monkeypat
     (["--algo", "sac"], "--teacher needs --algo ppo"),
     (["--imitation-steps", "256"], "--imitation-steps 256 must be fewer than --steps 256"),
     (["--teacher", "nowhere"], "nowhere"),
+    (["--dagger-rounds", "200"], "--imitation-steps 128 must be at least"),
 ])
 def test_a_bad_teacher_is_one_line_before_training(tmp_path, capsys, args, message):
     out = tmp_path / "never"

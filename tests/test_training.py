@@ -216,6 +216,8 @@ def _nan_reward_env(**overrides):
     (["--reward", "jitter=2"], "--reward 'jitter=2': not KEY=VALUE with KEY one of"),
     (["--reward", "goal_bonus=lots"], "--reward goal_bonus=lots: 'lots' is not a number"),
     (["--reward", "goal_bonus=-5"], "parameter goal_bonus=-5.0 must be"),
+    (["--reward", "goal_bonus=1", "--reward", "goal_bonus=2"], "--reward goal_bonus is given "
+     "twice"),
     (["--env", "lgmd_test/NanReward-v0", "--envs", "1"], "is not finite"),
 ])
 def test_bad_input_is_one_line_before_training(tmp_path, capsys, args, message):

@@ -56,10 +56,9 @@ def measure_row(algo: str, obs: str, overrides: dict[str, Any], *, env: str,
                 resolution: str | tuple[int, int], steps: int, envs: int) -> dict[str, Any]:
     """One row: the bare VecEnv's and training's steps per second, and their ratio."""
     import torch
-    from stable_baselines3.common.vec_env import VecNormalize
 
     from lgmd_sim.training import algos
-    from lgmd_sim.training.envs import bare_speed, make_vec_env
+    from lgmd_sim.training.envs import bare_speed, make_vec_env, normalized
     from lgmd_sim.training.run import TrainConfig
 
     torch.set_num_threads(1)  # as a training run: the workers have the other cores
@@ -69,8 +68,7 @@ def measure_row(algo: str, obs: str, overrides: dict[str, Any], *, env: str,
     vec = make_vec_env(policy, envs)
     try:
         bare = bare_speed(vec, policy.env_id)
-        keys = [k for k in vec.venv.observation_space.spaces if k != "frame"]
-        venv = VecNormalize(vec.venv, norm_obs_keys=keys, norm_reward=algo == "ppo")
+        venv = normalized(vec.venv, obs, algo, kwargs)
         model = algos.make_model(algo, venv, kwargs, seed=0)
         start = time.perf_counter()
         model.learn(total_timesteps=steps)

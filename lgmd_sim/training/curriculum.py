@@ -3,8 +3,9 @@ stage left once the policy succeeds often enough in its training episodes.
 
 A goal 8 m away behind six obstacles is never reached by chance, so a policy that starts
 there never sees the reward of arriving. A curriculum's stages change the environment
-(fewer obstacles, less jitter, a nearer goal: any parameter of
-`lgmd_sim.envs.params.EnvParams` but those the observation depends on), and after the last
+(fewer obstacles, less jitter, a nearer goal: a parameter of
+`lgmd_sim.envs.params.EnvParams`, but neither what the policy observes or what its actions
+mean, nor the reward, which ``--reward`` sets for every stage), and after the last
 one the policy trains on the task as the environment defines it until the step budget is
 spent. Validation always runs on that task, so the learning curve and the best policy are
 the real task's.
@@ -38,8 +39,10 @@ from typing import Any
 
 __all__ = ["CURRICULA", "Curriculum", "Stage", "load"]
 
-#: Parameters a stage may not change: the policy's observation depends on them.
-_FIXED = ("frame", "resolution", "fps", "carrier")
+#: Parameters a stage may not change: what the policy observes (the frames, their rate,
+#: the camera) and what its actions mean (the carrier and its speed limits).
+_FIXED = ("frame", "resolution", "fps", "carrier", "camera_height", "fovy", "max_speed",
+          "max_turn")
 
 
 @dataclass(frozen=True)
@@ -101,6 +104,7 @@ def _parse(data: Mapping[str, Any], env_id: str, name: str) -> Curriculum:
     import gymnasium as gym
 
     from lgmd_sim.envs.catalogue import params_for
+    from lgmd_sim.training.envs import REWARD_KEYS
 
     unknown = sorted(set(data) - {"window", "stage"})
     window = data.get("window", 50)
@@ -119,8 +123,11 @@ def _parse(data: Mapping[str, Any], env_id: str, name: str) -> Curriculum:
         if not isinstance(at, int | float) or not 0.0 < at <= 1.0:
             raise ValueError(f"{where}: advance_at must be a success rate in (0, 1], got {at!r}")
         if fixed := sorted(set(overrides) & set(_FIXED)):
-            raise ValueError(f"{where}: {', '.join(fixed)} cannot change between stages (the "
-                             "observation depends on it)")
+            raise ValueError(f"{where}: {', '.join(fixed)} cannot change between stages (what "
+                             "the policy observes or what its actions mean)")
+        if reward := sorted(set(overrides) & set(REWARD_KEYS)):
+            raise ValueError(f"{where}: {', '.join(reward)} is the reward's: set it for every "
+                             "stage with --reward")
         try:
             params_for(scenario, overrides)
         except ValueError as exc:

@@ -46,9 +46,10 @@ class Teacher:
     Args:
         spec: "oracle" or the policy.
         n_envs: environments it labels.
+        env_id: the student's environment, which a teacher policy must have trained in.
     """
 
-    def __init__(self, spec: str, n_envs: int) -> None:
+    def __init__(self, spec: str, n_envs: int, env_id: str) -> None:
         from lgmd_sim import controllers
 
         self.spec = spec
@@ -60,11 +61,23 @@ class Teacher:
             from lgmd_sim.envs.wrappers import PrivilegedObservation
 
             self.controllers = [controllers.make("policy", path=spec) for _ in range(n_envs)]
-            obs_kind = self.controllers[0].policy.config.obs
-            if obs_kind != "privileged":
+            trained = self.controllers[0].policy
+            if trained.config.obs != "privileged":
                 raise ValueError(f"--teacher {spec}: a teacher policy must see privileged "
-                                 f"observations (lgmd-sim train --obs privileged), not {obs_kind}")
-            self._observe = PrivilegedObservation.observation_of
+                                 "observations (lgmd-sim train --obs privileged), not "
+                                 f"{trained.config.obs}")
+            if trained.config.env_id != env_id:
+                raise ValueError(f"--teacher {spec}: trained in {trained.config.env_id}, not "
+                                 f"the student's {env_id}")
+            keys = list(trained.network.observation_space.spaces)
+
+            def observe(obs: Mapping[str, np.ndarray], info: Mapping[str, Any]
+                        ) -> dict[str, np.ndarray]:
+                # the student's own keys (an LGMD's features) are not the teacher's
+                seen = PrivilegedObservation.observation_of(obs, info)
+                return {k: seen[k] for k in keys}
+
+            self._observe = observe
 
     def reset(self, i: int) -> None:
         """Environment `i` starts a new episode."""
@@ -99,6 +112,10 @@ class Labels:
         self.obs = {k: np.concatenate([self.obs[k], v]) if self.obs else v
                     for k, v in obs.items()}
         self.actions = np.concatenate([self.actions, actions])
+
+    def first(self, n: int) -> Labels:
+        """The first `n` labels."""
+        return Labels({k: v[:n] for k, v in self.obs.items()}, self.actions[:n])
 
     def save(self, path: Path) -> None:
         arrays = {f"obs.{k}": v for k, v in self.obs.items()} | {"actions": self.actions}
@@ -151,10 +168,13 @@ def collect(venv: Any, reset_infos: Callable[[], Sequence[Mapping[str, Any]]],
 
 
 def fit(policy: Any, obs: Mapping[str, np.ndarray], actions: np.ndarray, *, epochs: int,
-        batch_size: int, learning_rate: float, seed: int) -> float:
+        batch_size: int, learning_rate: float, seed: int,
+        normalize: Callable[[dict[str, np.ndarray]], dict[str, np.ndarray]] = dict) -> float:
     """Fit a stable-baselines3 actor-critic policy's action distribution to `actions` on
-    `obs` (normalised, per key) by minibatch Adam on the negative log-likelihood minus
-    `ENT_WEIGHT` times the entropy; return the last epoch's mean loss."""
+    `obs` (raw, per key; `normalize` makes a minibatch what the policy sees, so that no
+    normalised copy of the whole aggregate is made) by minibatch Adam on the negative
+    log-likelihood minus `ENT_WEIGHT` times the entropy; return the last epoch's mean
+    loss."""
     import torch
 
     optimizer = torch.optim.Adam(policy.parameters(), lr=learning_rate)
@@ -167,7 +187,8 @@ def fit(policy: Any, obs: Mapping[str, np.ndarray], actions: np.ndarray, *, epoc
         loss_sum, batches = 0.0, 0
         for start in range(0, len(order), batch_size):
             rows = order[start:start + batch_size]
-            batch = {k: torch.as_tensor(v[rows], dtype=torch.float32) for k, v in obs.items()}
+            batch = {k: torch.as_tensor(v, dtype=torch.float32)
+                     for k, v in normalize({k: v[rows] for k, v in obs.items()}).items()}
             _, log_prob, entropy = policy.evaluate_actions(batch, target[rows])
             loss = -log_prob.mean() - ENT_WEIGHT * entropy.mean()
             optimizer.zero_grad()
@@ -194,7 +215,7 @@ def imitate(model: Any, venv: Any, reset_infos: Callable[[], Sequence[Mapping[st
     observation statistics are those after round 0 (the teacher driving) in every fit.
     After each round, `model.num_timesteps` counts its steps and ``after_round(round,
     beta, loss)`` runs (validation, checkpoint, record)."""
-    vector_steps = max(1, steps // rounds // venv.num_envs)
+    vector_steps = steps // rounds // venv.num_envs  # at least 1: TrainConfig checks
     rng = np.random.default_rng([seed, first_round])
     for k in range(first_round, rounds):
         venv.training = k == 0  # the normalisation learns from round 0 only
@@ -205,9 +226,9 @@ def imitate(model: Any, venv: Any, reset_infos: Callable[[], Sequence[Mapping[st
         obs, actions, _ = collect(venv, reset_infos, student, teacher, vector_steps,
                                   beta(k, rounds), rng)
         labels.extend(obs, actions)
-        loss = fit(model.policy, venv.normalize_obs(labels.obs), labels.actions,
-                   epochs=FIT_EPOCHS, batch_size=FIT_BATCH, learning_rate=FIT_LEARNING_RATE,
-                   seed=seed + k)
+        loss = fit(model.policy, labels.obs, labels.actions, epochs=FIT_EPOCHS,
+                   batch_size=FIT_BATCH, learning_rate=FIT_LEARNING_RATE, seed=seed + k,
+                   normalize=venv.normalize_obs)
         model.num_timesteps += vector_steps * venv.num_envs
         after_round(k, beta(k, rounds), loss)
     venv.training = True

@@ -17,6 +17,7 @@ the environment's own reward and success.
 
 from __future__ import annotations
 
+import copy
 import functools
 import time
 from collections.abc import Iterable, Mapping
@@ -28,7 +29,8 @@ import numpy as np
 from lgmd_sim.policies.config import PolicyConfig
 from lgmd_sim.policies.observe import base_env, observe
 
-__all__ = ["REWARD_KEYS", "VecEnvs", "bare_speed", "make_vec_env", "parse_reward"]
+__all__ = ["REWARD_KEYS", "VecEnvs", "bare_speed", "make_vec_env", "normalized",
+           "normalized_keys", "parse_reward"]
 
 #: The environment parameters ``--reward`` may change (`lgmd_sim.envs.params.EnvParams`).
 REWARD_KEYS = ("progress_reward", "collision_penalty", "effort_penalty", "goal_bonus",
@@ -51,6 +53,8 @@ def parse_reward(items: Iterable[str]) -> dict[str, float]:
         if not sep or key not in REWARD_KEYS:
             raise ValueError(f"--reward {item!r}: not KEY=VALUE with KEY one of "
                              f"{', '.join(REWARD_KEYS)}")
+        if key in out:
+            raise ValueError(f"--reward {key} is given twice")
         try:
             out[key] = float(text)
         except ValueError:
@@ -116,3 +120,23 @@ def bare_speed(envs: VecEnvs, env_id: str, steps: int = 100) -> float:
             raise ValueError(f"{env_id}: reward {rewards.tolist()} at step {step + 1} is not "
                              "finite: check the environment's reward parameters")
     return steps * base.num_envs / (time.perf_counter() - start)
+
+
+def normalized_keys(venv: Any, obs: str) -> list[str]:
+    """The observation keys `VecNormalize` normalises: all, but a pixel policy's frames,
+    which go to the CNN as they are (scaled to [0, 1] by the policy)."""
+    return [k for k in venv.observation_space.spaces if not (obs == "pixels" and k == "frame")]
+
+
+def normalized(venv: Any, obs: str, algo: str, kwargs: Mapping[str, Any],
+               like: Any | None = None) -> Any:
+    """`venv` in a training VecNormalize (PPO's rewards too, SAC's as they are) with the
+    algorithm's discount (`kwargs`), starting from the statistics of `like` (the
+    environments of the curriculum stage before), if given."""
+    from stable_baselines3.common.vec_env import VecNormalize
+
+    out = VecNormalize(venv, norm_obs_keys=normalized_keys(venv, obs),
+                       gamma=kwargs.get("gamma", 0.99), norm_reward=algo == "ppo")
+    if like is not None:
+        out.obs_rms, out.ret_rms = copy.deepcopy(like.obs_rms), copy.deepcopy(like.ret_rms)
+    return out

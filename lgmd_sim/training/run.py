@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import copy
 import dataclasses
+import functools
 import json
 import math
 import platform
@@ -115,7 +116,6 @@ class TrainConfig:
 
         from lgmd_sim import models
         from lgmd_sim.training import algos
-        from lgmd_sim.training.curriculum import load
         from lgmd_sim.training.envs import parse_reward
 
         if self.algo not in ALGOS:
@@ -148,8 +148,7 @@ class TrainConfig:
         algos.parse_overrides(self.hp, self.algo)
         object.__setattr__(self, "reward", tuple(self.reward))
         parse_reward(self.reward)
-        if self.curriculum is not None:
-            load(self.curriculum, self.env)
+        self.stages  # noqa: B018  (loads the curriculum once: a bad one is one line now)
         for key in ("imitation_steps", "dagger_rounds"):
             options.check_positive(getattr(self, key), f"--{key.replace('_', '-')}",
                                    integer=True)
@@ -162,7 +161,11 @@ class TrainConfig:
             if self.imitation_steps >= self.steps:
                 raise ValueError(f"--imitation-steps {self.imitation_steps} must be fewer "
                                  f"than --steps {self.steps} (RL fine-tuning takes the rest)")
-            Teacher(self.teacher, 1)  # loads: a bad teacher is one line now
+            if self.imitation_steps < self.dagger_rounds * self.envs:
+                raise ValueError(f"--imitation-steps {self.imitation_steps} must be at least "
+                                 f"--dagger-rounds x --envs ({self.dagger_rounds * self.envs}): "
+                                 "a step per environment and round")
+            Teacher(self.teacher, 1, self.env)  # loads: a bad teacher is one line now
 
     def policy(self) -> PolicyConfig:
         """The configuration of the policy it trains."""
@@ -173,15 +176,17 @@ class TrainConfig:
         """The configuration as the run folder records it."""
         return json.loads(json.dumps(dataclasses.asdict(self)))
 
+    @functools.cached_property
     def stages(self) -> Curriculum | None:
-        """The curriculum's stages, or None without one."""
+        """The curriculum's stages (read once: a file changed during the run changes
+        nothing), or None without one."""
         from lgmd_sim.training.curriculum import load
 
         return None if self.curriculum is None else load(self.curriculum, self.env)
 
     def stage_overrides(self, stage: int) -> dict[str, Any]:
         """The environment parameters of curriculum stage `stage` (none past the last)."""
-        curriculum = self.stages()
+        curriculum = self.stages
         return (dict(curriculum.stages[stage].overrides)
                 if curriculum and stage < len(curriculum.stages) else {})
 
@@ -214,11 +219,6 @@ def resumable(out: str | Path) -> dict[str, Any]:
     return record
 
 
-def _normalize_keys(obs_space: Any, obs: str) -> list[str]:
-    # frames go to the CNN as they are (scaled to [0, 1] by the policy)
-    return [k for k in obs_space.spaces if not (obs == "pixels" and k == "frame")]
-
-
 def train(config: TrainConfig, out: str | Path, *, resume: bool = False,
           progress: bool | None = None, command: str = "") -> RunResult:
     """Train the policy of `config` in folder `out`, or (with `resume`) continue the run
@@ -241,7 +241,7 @@ def train(config: TrainConfig, out: str | Path, *, resume: bool = False,
     if resume and config.steps <= _checkpoint_steps(checkpoints):
         raise ValueError(f"--steps {config.steps}: the run is at "
                          f"{_checkpoint_steps(checkpoints)} steps already")
-    curriculum = config.stages()
+    curriculum = config.stages
     stage = _checkpoint_state(checkpoints).get("stage", 0) if resume else 0
     if curriculum and resume and recorded.get("curriculum") != curriculum.as_json():
         raise ValueError(f"--curriculum {config.curriculum}: its stages changed since the run "
@@ -268,7 +268,7 @@ def _train(out: Path, config: TrainConfig, kwargs: dict[str, Any], first_seed: i
 
     from lgmd_sim import policies
     from lgmd_sim.training import algos, callbacks, curve
-    from lgmd_sim.training.envs import bare_speed, make_vec_env
+    from lgmd_sim.training.envs import bare_speed, make_vec_env, normalized, normalized_keys
 
     torch.set_num_threads(1)  # the environment workers have the other cores
     checkpoints = out / "checkpoints"
@@ -276,18 +276,17 @@ def _train(out: Path, config: TrainConfig, kwargs: dict[str, Any], first_seed: i
     folder = RunFolder(out, config.as_json(), command, resume=resume, what="training run",
                        resume_hint=f"add --resume {out} to continue it",
                        changeable=RESUMABLE, start=False)
-    curriculum = config.stages()
+    curriculum = config.stages
     envs = make_vec_env(policy, config.envs, config.overrides(stage))
     validation = None
     try:
         bare = bare_speed(envs, policy.env_id)
-        keys = _normalize_keys(envs.venv.observation_space, policy.obs)
         earlier = len(folder.sessions) - 1
         if earlier:
             venv, model = _load_checkpoint(checkpoints, envs.venv, policy.algo)
             model.set_random_seed(config.seed + earlier)
         else:
-            venv = _normalized(envs.venv, keys, kwargs, policy.algo)
+            venv = normalized(envs.venv, policy.obs, policy.algo, kwargs)
             model = algos.make_model(policy.algo, venv, kwargs, config.seed)
         folder.start()  # only now: hyperparameters the library refuses leave no run behind
         folder.session.update(versions=_versions(), env_seeds=[first_seed, config.envs])
@@ -301,8 +300,8 @@ def _train(out: Path, config: TrainConfig, kwargs: dict[str, Any], first_seed: i
         steps_from = model.num_timesteps
 
         validation = make_vec_env(policy, config.envs)  # the environment's own reward
-        val_norm = VecNormalize(validation.venv, norm_obs_keys=keys, training=False,
-                                norm_reward=False)
+        val_norm = VecNormalize(validation.venv, training=False, norm_reward=False,
+                                norm_obs_keys=normalized_keys(validation.venv, policy.obs))
         validation.venv = val_norm
 
         def sync() -> None:
@@ -321,15 +320,19 @@ def _train(out: Path, config: TrainConfig, kwargs: dict[str, Any], first_seed: i
             config.eval_every, sync, on_scores)
         stages = callbacks.StageCallback(curriculum, stage) if curriculum else None
 
+        # where a resumed run continues, besides the step count: DAgger's round and labels
+        # (`_imitate` keeps them), the curriculum's stage
+        resume_at: dict[str, Any] = {}
+
         def state() -> dict[str, Any]:
             # a checkpoint written as a stage is passed resumes at the next one
-            return ({"stage": stages.stage + stages.ready} if stages else {}) | (
-                {"imitation_round": config.dagger_rounds} if config.teacher else {})
+            return resume_at | ({"stage": stages.stage + stages.ready} if stages else {})
 
         checkpoint = callbacks.Checkpoint(checkpoints, config.checkpoint_every, state)
         imitation_s = _imitate(config, model, venv, envs, checkpoints, validate, checkpoint,
-                               folder) if config.teacher else 0.0
-        rl_from = model.num_timesteps
+                               folder, resume_at) if config.teacher else 0.0
+        # the RL phase's own time: validations and checkpoints of the rounds are not in it
+        rl_from, rl_other_s = model.num_timesteps, validate.seconds + checkpoint.seconds
         learn_s, stats = 0.0, callbacks.EpisodeStats()
         while True:
             learn_start, stage_from = time.perf_counter(), model.num_timesteps
@@ -344,12 +347,12 @@ def _train(out: Path, config: TrainConfig, kwargs: dict[str, Any], first_seed: i
                 {"stage": stages.stage, "overrides": config.stage_overrides(stages.stage),
                  "steps": [stage_from, model.num_timesteps], "episodes": stages.episodes,
                  "success_rate": stages.success_rate(), "passed": stages.ready})
-            if not stages.ready:
+            if not stages.ready or model.num_timesteps >= config.steps:
                 break
             stages.advance()
             envs.close()
             envs = make_vec_env(policy, config.envs, config.overrides(stages.stage))
-            venv = _normalized(envs.venv, keys, kwargs, policy.algo, like=venv)
+            venv = normalized(envs.venv, policy.obs, policy.algo, kwargs, like=venv)
             seeds = folder.session["env_seeds"]
             venv.seed(seeds[0] + seeds[1])
             folder.session["env_seeds"] = [seeds[0], seeds[1] + config.envs]
@@ -361,7 +364,7 @@ def _train(out: Path, config: TrainConfig, kwargs: dict[str, Any], first_seed: i
             validation.close()
 
     steps = model.num_timesteps - rl_from
-    training_s = learn_s - validate.seconds - checkpoint.seconds
+    training_s = learn_s - (validate.seconds + checkpoint.seconds - rl_other_s)
     folder.session.update(
         steps=[steps_from, model.num_timesteps], validation_s=round(validate.seconds),
         imitation_s=round(imitation_s), throughput={
@@ -381,21 +384,26 @@ def _train(out: Path, config: TrainConfig, kwargs: dict[str, Any], first_seed: i
 
 
 def _imitate(config: TrainConfig, model: Any, venv: Any, envs: Any, checkpoints: Path,
-             validate: Any, checkpoint: Any, folder: RunFolder) -> float:
+             validate: Any, checkpoint: Any, folder: RunFolder,
+             resume_at: dict[str, Any]) -> float:
     """The DAgger rounds of `config` not yet done (a resumed run's checkpoint names the
-    next), each validated, checkpointed with the aggregate (``dagger.npz``) and recorded
-    in the session's ``imitation``; return the seconds they took, validation and
-    checkpoints included."""
+    next, and how many labels were kept), each validated, checkpointed with the aggregate
+    (``dagger.npz``) and recorded in the session's ``imitation``; `resume_at` (what
+    checkpoints name) follows. Return the seconds they took, validation and checkpoints
+    included."""
     from lgmd_sim.training import dagger
 
     state = _checkpoint_state(checkpoints) if (checkpoints / "state.json").is_file() else {}
     first = state.get("imitation_round", 0)
+    resume_at.update(imitation_round=first, labels=state.get("labels", 0))
     if first >= config.dagger_rounds:
         return 0.0
     start = time.perf_counter()
-    labels = dagger.Labels.load(checkpoints / "dagger.npz") if first else dagger.Labels()
-    teacher = dagger.Teacher(config.teacher, config.envs)
-    saved = checkpoint.state
+    # a run stopped between saving the aggregate and naming it in state.json: the
+    # labels beyond the count state.json names are a round that did not complete
+    labels = (dagger.Labels.load(checkpoints / "dagger.npz").first(resume_at["labels"])
+              if first else dagger.Labels())
+    teacher = dagger.Teacher(config.teacher, config.envs, config.env)
 
     def after_round(k: int, beta: float, loss: float) -> None:
         for key, value in (("round", k), ("beta", beta), ("bc_loss", loss),
@@ -404,7 +412,7 @@ def _imitate(config: TrainConfig, model: Any, venv: Any, envs: Any, checkpoints:
         validate.run_now(model)  # logs and dumps at the step count
         checkpoints.mkdir(parents=True, exist_ok=True)
         labels.save(checkpoints / "dagger.npz")
-        checkpoint.state = lambda: saved() | {"imitation_round": k + 1}
+        resume_at.update(imitation_round=k + 1, labels=len(labels))
         checkpoint.run_now(model)  # state.json last: the round is complete once it names it
         folder.session.setdefault("imitation", []).append(
             {"round": k, "beta": beta, "steps": model.num_timesteps, "labels": len(labels),
@@ -415,22 +423,7 @@ def _imitate(config: TrainConfig, model: Any, venv: Any, envs: Any, checkpoints:
     dagger.imitate(model, venv, lambda: envs.base.reset_infos, teacher, labels,
                    rounds=config.dagger_rounds, steps=config.imitation_steps,
                    first_round=first, seed=config.seed, after_round=after_round)
-    checkpoint.state = saved
     return time.perf_counter() - start
-
-
-def _normalized(venv: Any, keys: list[str], kwargs: Mapping[str, Any], algo: str,
-                like: Any | None = None) -> Any:
-    """`venv` in a training VecNormalize (PPO's rewards too; SAC's as they are), with the
-    statistics so far of `like` (the environments of the stage before)."""
-    from stable_baselines3.common.vec_env import VecNormalize
-
-    normalized = VecNormalize(venv, norm_obs_keys=keys, gamma=kwargs.get("gamma", 0.99),
-                              norm_reward=algo == "ppo")
-    if like is not None:
-        normalized.obs_rms, normalized.ret_rms = (copy.deepcopy(like.obs_rms),
-                                                  copy.deepcopy(like.ret_rms))
-    return normalized
 
 
 def _load_checkpoint(folder: Path, venv: Any, algo: str) -> tuple[Any, Any]:
@@ -441,6 +434,7 @@ def _load_checkpoint(folder: Path, venv: Any, algo: str) -> tuple[Any, Any]:
     try:
         normalized = VecNormalize.load(str(folder / "vecnormalize.pkl"), venv)
         model = cls.load(folder / "model.zip", env=normalized, device="cpu")
+        normalized.training = True  # saved frozen between DAgger rounds
     except (AssertionError, ValueError) as exc:  # SB3 asserts that the spaces match
         raise ValueError(f"the checkpoint in {folder} does not fit the environment as it is "
                          f"now (it changed since the run started?): {exc}") from None
