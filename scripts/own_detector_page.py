@@ -14,10 +14,10 @@ page stays as written.
 The checker section is always remade: it runs `lgmd-sim models --check` on the example
 and on tests/plugins/eta_broken.py. The runs, with tests/plugins on the path (the
 calibration is the built-ins' robot calibration's task, budget and seeds; its presets,
-saved, are what the closed loop runs; the open-loop run beside is the page's
-`lgmd-sim bench open-loop --out runs/open-loop`):
+saved, are what the closed loop runs; the open-loop run beside is docs/results.md's, all
+the built-ins at their default presets):
 
-    export PYTHONPATH=tests/plugins
+    export PYTHONPATH=tests/plugins LGMD_SIM_DATA_DIR=runs/eta-presets  # presets saved there
     lgmd-sim calibrate --task robot --budget 16 --seeds 6 --save-presets \
         --detectors eta_lgmd:EtaLGMD,eta_lgmd:EtaLGMD+imu,eta_lgmd:EtaLGMD+image \
         --out runs/calibration-eta --workers 2 --no-progress
@@ -25,7 +25,8 @@ saved, are what the closed loop runs; the open-loop run beside is the page's
         --seeds 50 --controllers oracle,reactive --out runs/closed-loop-eta \
         --models eta_lgmd:EtaLGMD/robot,eta_lgmd:EtaLGMD/robot-imu,eta_lgmd:EtaLGMD/robot-image
     lgmd-sim bench open-loop --models eta_lgmd:EtaLGMD,eta_lgmd:EtaLGMD/gabbiani+image \
-        --out runs/open-loop-eta --workers 1 --no-progress
+        --out runs/open-loop-eta --workers 2 --no-progress
+    lgmd-sim bench open-loop --out runs/open-loop --workers 2 --no-progress
 """
 
 from __future__ import annotations
@@ -133,7 +134,7 @@ def calibration_section(run: Path, beside: Path | None = None) -> list[str]:
     with `beside` (the built-ins' calibration of the same task, budget and seeds) their
     rows below the example's, in bold, in one table."""
     record = _record(run)
-    lines = ["The example's calibration:", "", "```bash", _command(run), "```"]
+    lines = ["The example's calibration:", "", "```bash", *_session_commands(run), "```"]
     if beside is not None:
         ours, theirs = _config(run, ["detectors"]), _config(beside, ["detectors"])
         differ = sorted(k for k in ours.keys() | theirs.keys() if ours.get(k) != theirs.get(k))
@@ -141,7 +142,7 @@ def calibration_section(run: Path, beside: Path | None = None) -> list[str]:
             _fail(f"{run} and {beside} are not calibrations of the same clips and budget "
                   f"(they differ in {', '.join(differ)})")
         lines += ["", "beside the built-ins' calibration of the same task, budget and seeds:",
-                  "", "```bash", _command(beside), "```"]
+                  "", "```bash", *_session_commands(beside), "```"]
     config = record["config"]
     search, held = config["search_seeds"], config["heldout_seeds"]
     lines += ["", f"Wall time {_wall(run)} for {record.get('candidates', '?')} candidates on "
@@ -186,10 +187,21 @@ def _same(runs: Sequence[Path], bench: str) -> None:
             _fail(f"{run} lacks {key} {', '.join(map(str, lacks))} of {runs[0]}")
 
 
+def _session_commands(run: Path) -> list[str]:
+    """The commands of the run's sessions that did more than resume the one before (the
+    calibration's second session saved its presets), in order."""
+    out: list[str] = []
+    for session in _record(run).get("sessions") or [{"command": _command(run)}]:
+        command = session["command"]
+        if not out or command.replace(" --resume", "") != out[-1].replace(" --resume", ""):
+            out.append(command)
+    return out
+
+
 def _commands(runs: Sequence[Path]) -> list[str]:
     lines = []
     for run in runs:
-        lines += ["```bash", _command(run), "```", "", f"Wall time {_wall(run)}.", ""]
+        lines += ["```bash", *_session_commands(run), "```", "", f"Wall time {_wall(run)}.", ""]
     return lines
 
 
