@@ -182,6 +182,15 @@ def model_names(spec: str | Sequence[str]) -> list[str]:
     return names(given, models.available(), "model(s)", load=models.model_class)
 
 
+def controller_names(spec: str | Sequence[str], what: str = "controller(s)") -> list[str]:
+    """Controller names from "all", a comma-separated list, or a sequence, each a name of
+    `lgmd_sim.controllers.available()` or a "package.module:Class" spec; unknown names and
+    bad specs fail."""
+    from lgmd_sim import controllers
+
+    return names(spec, controllers.available(), what, load=controllers.controller_class)
+
+
 def detectors(models_text: str | Sequence[str], presets_text: str | None = None
               ) -> tuple[tuple[str, str], ...]:
     """(model, preset) pairs from a list of detectors ("all", or each MODEL or

@@ -88,14 +88,13 @@ def test_the_declared_spaces_draw_the_candidates_of_before():
 
 
 def test_names_take_specs_and_refuse_bad_ones():
-    known = controllers.available()
-    load = controllers.controller_class
-    assert options.names(f"straight,{DRIVE}", known, "controller(s)", load=load) == [
-        "straight", DRIVE]
+    assert options.controller_names(f"straight,{DRIVE}") == ["straight", DRIVE]
     with pytest.raises(ValueError, match=re.escape(f"unknown controller(s) '{DRIVE}'")):
-        options.names(DRIVE, known, "controller(s)")  # no load: no spec
+        options.names(DRIVE, controllers.available(), "controller(s)")  # no load: no spec
     with pytest.raises(ValueError, match="has no 'Nope'"):
-        options.names("lgmd_plug:Nope", known, "controller(s)", load=load)
+        options.controller_names("lgmd_plug:Nope")
+    with pytest.raises(ValueError, match=re.escape("unknown controller 'drive'")):
+        options.controller_names("drive", "controller")
     assert options.model_names(f"lgmd1,{SPEC}") == ["lgmd1", SPEC]
     with pytest.raises(ValueError, match="cannot import module 'nowhere'"):
         options.model_names("nowhere:Blink")

@@ -70,7 +70,6 @@ class ClosedLoopConfig:
     sides: tuple[str, ...] = (DEFAULT_SIDE,)
 
     def __post_init__(self) -> None:
-        from lgmd_sim import controllers
         from lgmd_sim.envs.catalogue import scenarios
 
         def set_(name: str, value: Any) -> None:
@@ -78,9 +77,7 @@ class ClosedLoopConfig:
 
         set_("scenarios", tuple(options.names(self.scenarios, list(scenarios()),
                                               "scenario(s)")))
-        set_("controllers", tuple(options.names(self.controllers, controllers.available(),
-                                                "controller(s)",
-                                                load=controllers.controller_class)
+        set_("controllers", tuple(options.controller_names(self.controllers)
                                   if self.controllers else ()))
         set_("jitter", tuple(float(j) for j in self.jitter))
         options.check_jitter(self.jitter)

@@ -193,7 +193,7 @@ class Summary:
 def _validate(config: GenerateConfig) -> None:
     """Check every option before any episode runs; a bad one raises a one-line ValueError
     naming it."""
-    from lgmd_sim import controllers, noise
+    from lgmd_sim import noise
     from lgmd_sim.envs.catalogue import params_for, scenarios
 
     if not config.scenarios:
@@ -204,8 +204,7 @@ def _validate(config: GenerateConfig) -> None:
     options.check_jitter(config.jitter)
     options.check_positive(config.episodes, "--episodes", integer=True)
     options.check_seed(config.seed, "--seed")
-    options.names([config.controller], controllers.available(), "controller",
-                  load=controllers.controller_class)
+    options.controller_names([config.controller], "controller")
     if config.models:
         options.model_names(list(config.models))
     for variant in config.noise:
