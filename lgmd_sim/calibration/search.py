@@ -98,9 +98,11 @@ def detector_list(given: str | Sequence[str] | None = None) -> list[str]:
     if listed in (None, ["all"]):
         return _with_fronts([n for n in named if models.model_class(
             CONTROLS.get(n, (n,))[0]).search_space])
-    chosen = options.names(listed, _with_fronts(named), "detector(s)", load=space)
+    valid = _with_fronts(named)
+    chosen = options.names(listed, valid, "detector(s)", load=space)  # checks the specs
     for d in chosen:
-        space(d)  # a model named without a search space fails here
+        if d in valid:
+            space(d)  # a model named without a search space fails here
     return chosen
 
 
