@@ -238,8 +238,33 @@ def closed_loop_section(runs: Sequence[Path]) -> list[str]:
                          f"{float(r['distance_vs_oracle']):.2f}" if r["distance_vs_oracle"]
                          else "-"])
             lines.append(f"| {name} | {r['episodes']} | " + " | ".join(measures) + " |")
-        lines.append("")
+        lines += ["", _closed_loop_reading(group, mine, goal), ""]
     return lines
+
+
+def _closed_loop_reading(group: list[dict[str, str]], mine: set[tuple[str, ...]],
+                         goal: bool) -> str:
+    """The example's best cell against the Oracle and the best built-in ReactiveAvoid
+    cell of the table, in one sentence: on the goal task by successes (then fewer
+    collisions), in the arena by encounters avoided."""
+    def score(r: dict[str, str]) -> tuple[float, ...]:
+        return ((float(r["success_rate"]), -float(r["collision_rate"])) if goal
+                else (float(r["avoidance_rate"]),))
+
+    def said(r: dict[str, str]) -> str:
+        return (f"{_pct(r, 'success')} success and {_pct(r, 'collision')} collisions" if goal
+                else f"{_pct(r, 'avoidance')} of its encounters avoided")
+
+    ours = max((r for r in group if _cell_id(r) in mine), key=score)
+    builtin = max((r for r in group if _cell_id(r) not in mine and r["controller"] == "reactive"),
+                  key=score, default=None)
+    oracle = next((r for r in group if r["controller"] == "oracle"), None)
+    text = f"The example's best cell, {_cell(ours)}: {said(ours)}"
+    if builtin is not None:
+        text += f"; the best built-in, {_cell(builtin)}: {said(builtin)}"
+    if oracle is not None:
+        text += f"; the Oracle: {said(oracle)}"
+    return text + "."
 
 
 def _cells(row: str) -> list[str]:
@@ -274,7 +299,31 @@ def open_loop_section(runs: Sequence[Path]) -> list[str]:
     return ["### Open loop", "", "The example (in bold) beside the built-ins on the same "
             "clips (the measures of docs/results.md's open-loop tables; the noisy variants "
             "left out):", "", *_commands(runs), *head,
-            *(_bold(r, at["detector"]) if k == 0 else r for k, r in clean), ""]
+            *(_bold(r, at["detector"]) if k == 0 else r for k, r in clean), "",
+            _open_loop_reading([(k, get(r, "jitter"), get(r, "detector"), get(r, "ROC AUC"))
+                                for k, r in clean]), ""]
+
+
+def _open_loop_reading(rows: list[tuple[int, str, str, str]]) -> str:
+    """Per jitter level, the ROC AUC over the scenarios that have one, of the example's
+    best detector and of the best built-in: mean and range."""
+    parts = []
+    for jitter in sorted({j for _, j, _, _ in rows}, key=float):
+        best = {}
+        for mine in (0, 1):
+            aucs: dict[str, list[float]] = {}
+            for k, j, detector, auc in rows:
+                if k == mine and j == jitter and auc != "-":
+                    aucs.setdefault(detector, []).append(float(auc))
+            if not aucs:
+                best[mine] = "-"
+                continue
+            name, values = max(aucs.items(), key=lambda kv: sum(kv[1]) / len(kv[1]))
+            best[mine] = (f"{name} {sum(values) / len(values):.2f} ({min(values):.2f} to "
+                          f"{max(values):.2f} over {len(values)} scenarios)")
+        parts.append(f"at jitter {float(jitter):g}, the example's best {best[0]}, the best "
+                     f"built-in {best[1]}")
+    return "ROC AUC, mean over the scenarios that have one: " + "; ".join(parts) + "."
 
 
 def main() -> None:

@@ -104,6 +104,10 @@ def test_the_closed_loop_rows_beside_the_built_ins(page, tmp_path):
     assert table == ["| **eta_lgmd:EtaLGMD/robot** | 50 | 50% [40, 60] | 10% [5, 20] |",
                      "| oracle | 50 | 50% [40, 60] | 10% [5, 20] |",
                      "| lgmd1/robot | 50 | 50% [40, 60] | 10% [5, 20] |"]
+    assert lines[-2] == ("The example's best cell, eta_lgmd:EtaLGMD/robot: 50% [40, 60] success "
+                         "and 10% [5, 20] collisions; the best built-in, lgmd1/robot: 50% "
+                         "[40, 60] success and 10% [5, 20] collisions; the Oracle: 50% [40, "
+                         "60] success and 10% [5, 20] collisions.")
     other = _closed(tmp_path / "other", [("reactive", "lgmd1", "robot", "1.0")],
                     seeds=(0, 50))
     with pytest.raises(SystemExit, match=r"the closed-loop runs ran different seeds"):
@@ -113,8 +117,8 @@ def test_the_closed_loop_rows_beside_the_built_ins(page, tmp_path):
         page.closed_loop_section([ours, fewer])
 
 
-OPEN_HEAD = ("| scenario | jitter | noise | detector | clips | SI |\n"
-             "|---|---:|---|---|---:|---:|\n")
+OPEN_HEAD = ("| scenario | jitter | noise | detector | clips | SI | ROC AUC |\n"
+             "|---|---:|---|---|---:|---:|---:|\n")
 
 
 def _open(folder: Path, rows: str, clips=("HandheldApproach-j1-s0",)) -> Path:
@@ -125,19 +129,25 @@ def _open(folder: Path, rows: str, clips=("HandheldApproach-j1-s0",)) -> Path:
 
 
 def test_the_open_loop_rows_beside_the_built_ins(page, tmp_path):
-    ours = _open(tmp_path / "eta", "| B | 1 | - | eta_lgmd:EtaLGMD/gabbiani | 8 | 0.5 |\n"
-                                   "| A | 0 | - | eta_lgmd:EtaLGMD/gabbiani | 8 | 0.4 |\n")
-    theirs = _open(tmp_path / "built", "| A | 0 | - | lgmd1/published | 8 | 0.3 |\n"
-                                       "| A | 0 | gauss 0.001 | lgmd1/published | 8 | 0.2 |\n"
-                                       "| B | 1 | - | lgmd1/published | 8 | 0.1 |\n"
-                                       "| C | 1 | - | lgmd1/published | 8 | 0.1 |\n")
+    ours = _open(tmp_path / "eta", "| B | 1 | - | eta_lgmd:EtaLGMD/gabbiani | 8 | 0.5 | 0.6 |\n"
+                                   "| A | 0 | - | eta_lgmd:EtaLGMD/gabbiani | 8 | 0.4 | - |\n")
+    theirs = _open(tmp_path / "built", "| A | 0 | - | lgmd1/published | 8 | 0.3 | 0.9 |\n"
+                                       "| A | 0 | gauss 0.001 | lgmd1/published | 8 | 0.2 | 0.1 |\n"
+                                       "| B | 1 | - | lgmd1/published | 8 | 0.1 | 0.5 |\n"
+                                       "| C | 1 | - | lgmd1/published | 8 | 0.1 | 0.2 |\n")
     lines = page.open_loop_section([ours, theirs])
     assert "lgmd-sim bench open-loop --out eta" in lines
     assert [line for line in lines if line.startswith("| ")][1:] == [
-        "| A | 0 | - | **eta_lgmd:EtaLGMD/gabbiani** | 8 | 0.4 |",
-        "| A | 0 | - | lgmd1/published | 8 | 0.3 |",
-        "| B | 1 | - | **eta_lgmd:EtaLGMD/gabbiani** | 8 | 0.5 |",
-        "| B | 1 | - | lgmd1/published | 8 | 0.1 |"]
+        "| A | 0 | - | **eta_lgmd:EtaLGMD/gabbiani** | 8 | 0.4 | - |",
+        "| A | 0 | - | lgmd1/published | 8 | 0.3 | 0.9 |",
+        "| B | 1 | - | **eta_lgmd:EtaLGMD/gabbiani** | 8 | 0.5 | 0.6 |",
+        "| B | 1 | - | lgmd1/published | 8 | 0.1 | 0.5 |"]
+    # per jitter level, each side's best mean over the scenarios it has one for
+    assert lines[-2] == (
+        "ROC AUC, mean over the scenarios that have one: at jitter 0, the example's best -, "
+        "the best built-in lgmd1/published 0.90 (0.90 to 0.90 over 1 scenarios); at jitter "
+        "1, the example's best eta_lgmd:EtaLGMD/gabbiani 0.60 (0.60 to 0.60 over 1 "
+        "scenarios), the best built-in lgmd1/published 0.50 (0.50 to 0.50 over 1 scenarios).")
     other = _open(tmp_path / "other", "", clips=("HandheldApproach-j1-s8",))
     with pytest.raises(SystemExit, match="other lacks clips HandheldApproach-j1-s0 of"):
         page.open_loop_section([ours, other])

@@ -30,13 +30,13 @@ from __future__ import annotations
 
 from typing import Any
 
-from lgmd_sim.models.base import LGMDModel, LGMDOutput, ModelParams
+from lgmd_sim.models.base import LGMDModel, LGMDOutput, ModelParams, SearchRange, StateMap
 from lgmd_sim.models.check import ModelCheckError, check_model
 from lgmd_sim.registry import Registry
 
 __all__ = ["ENTRY_POINTS", "FRONT_END_SUFFIXES", "LGMDModel", "LGMDOutput", "ModelCheckError",
-           "ModelParams", "available", "check_model", "make", "model_class", "origin",
-           "parse_spec", "presets_of", "register"]
+           "ModelParams", "SearchRange", "StateMap", "available", "check_model", "make",
+           "model_class", "origin", "parse_spec", "presets_of", "register"]
 
 #: The entry-point group through which an installed distribution adds models.
 ENTRY_POINTS = "lgmd_sim.models"
