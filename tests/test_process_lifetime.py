@@ -94,7 +94,7 @@ def _start(args: list[str], tmp: Path) -> subprocess.Popen:
 def _as_a_shell() -> None:
     # A run started from a terminal takes Ctrl-C; an ignored SIGINT is inherited across
     # exec, and a test that ran earlier in this process may have left it ignored (the
-    # full suite did: the Ctrl-C runs went on to the end, alone they passed).
+    # full suite, it seems: its Ctrl-C runs went on to the end, alone they passed).
     signal.signal(signal.SIGINT, signal.SIG_DFL)
 
 
