@@ -29,7 +29,7 @@ TESTS = Path(__file__).resolve().parent
 LGMD_SIM = [sys.executable, "-m", "lgmd_sim.cli"]
 # Tiny runs that take a few seconds, so that a signal can land in any phase: start-up,
 # spawning the workers, mid-episode, storing a result.
-# 24 episodes: on a quiet machine 8 of them were over within the signal's 1.5 s window
+# 24 episodes: several seconds of work, so a signal in its first 1.5 s finds it busy
 DATASET = ["dataset", "generate", "--scenarios", "StationaryApproach", "--jitter", "0",
            "--episodes", "24", "--resolution", "32x48", "--no-progress"]
 BENCH = ["bench", "closed-loop", "--scenarios", "StationaryApproach", "--jitter", "0",
