@@ -238,11 +238,13 @@ def train(config: TrainConfig, out: str | Path, *, resume: bool = False,
     out = Path(out)
     checkpoints = out / "checkpoints"
     recorded = resumable(out) if resume else None
-    if resume and config.steps <= _checkpoint_steps(checkpoints):
+    # where the run continues: its step count, curriculum stage, DAgger round and labels
+    resumed = _checkpoint_state(checkpoints) if resume else {}
+    if resume and config.steps <= resumed["num_timesteps"]:
         raise ValueError(f"--steps {config.steps}: the run is at "
-                         f"{_checkpoint_steps(checkpoints)} steps already")
+                         f"{resumed['num_timesteps']} steps already")
     curriculum = config.stages
-    stage = _checkpoint_state(checkpoints).get("stage", 0) if resume else 0
+    stage = resumed.get("stage", 0)
     if curriculum and resume and recorded.get("curriculum") != curriculum.as_json():
         raise ValueError(f"--curriculum {config.curriculum}: its stages changed since the run "
                          "started")
@@ -257,11 +259,12 @@ def train(config: TrainConfig, out: str | Path, *, resume: bool = False,
                          "fewer --envs")
     kwargs = algos.hyperparameters(config.algo, config.obs,
                                    algos.parse_overrides(config.hp, config.algo))
-    return _train(out, config, kwargs, first_seed, stage, resume, progress, command)
+    return _train(out, config, kwargs, first_seed, resumed, resume, progress, command)
 
 
 def _train(out: Path, config: TrainConfig, kwargs: dict[str, Any], first_seed: int,
-           stage: int, resume: bool, progress_bar: bool | None, command: str) -> RunResult:
+           resumed: dict[str, Any], resume: bool, progress_bar: bool | None, command: str
+           ) -> RunResult:
     import torch
     from stable_baselines3.common.logger import configure
     from stable_baselines3.common.vec_env import VecNormalize
@@ -276,7 +279,7 @@ def _train(out: Path, config: TrainConfig, kwargs: dict[str, Any], first_seed: i
     folder = RunFolder(out, config.as_json(), command, resume=resume, what="training run",
                        resume_hint=f"add --resume {out} to continue it",
                        changeable=RESUMABLE, start=False)
-    curriculum = config.stages
+    curriculum, stage = config.stages, resumed.get("stage", 0)
     envs = make_vec_env(policy, config.envs, config.overrides(stage))
     validation = None
     try:
@@ -320,9 +323,10 @@ def _train(out: Path, config: TrainConfig, kwargs: dict[str, Any], first_seed: i
             config.eval_every, sync, on_scores)
         stages = callbacks.StageCallback(curriculum, stage) if curriculum else None
 
-        # where a resumed run continues, besides the step count: DAgger's round and labels
+        # what checkpoints name, besides the step count: DAgger's round and labels
         # (`_imitate` keeps them), the curriculum's stage
-        resume_at: dict[str, Any] = {}
+        resume_at = {key: resumed.get(key, 0) for key in ("imitation_round", "labels")
+                     } if config.teacher else {}
 
         def state() -> dict[str, Any]:
             # a checkpoint written as a stage is passed resumes at the next one
@@ -386,16 +390,13 @@ def _train(out: Path, config: TrainConfig, kwargs: dict[str, Any], first_seed: i
 def _imitate(config: TrainConfig, model: Any, venv: Any, envs: Any, checkpoints: Path,
              validate: Any, checkpoint: Any, folder: RunFolder,
              resume_at: dict[str, Any]) -> float:
-    """The DAgger rounds of `config` not yet done (a resumed run's checkpoint names the
-    next, and how many labels were kept), each validated, checkpointed with the aggregate
-    (``dagger.npz``) and recorded in the session's ``imitation``; `resume_at` (what
-    checkpoints name) follows. Return the seconds they took, validation and checkpoints
-    included."""
+    """The DAgger rounds of `config` not yet done (`resume_at`, what checkpoints name,
+    holds the next round and how many labels were kept), each validated, checkpointed with
+    the aggregate (``dagger.npz``) and recorded in the session's ``imitation``; `resume_at`
+    follows. Return the seconds they took, validation and checkpoints included."""
     from lgmd_sim.training import dagger
 
-    state = _checkpoint_state(checkpoints) if (checkpoints / "state.json").is_file() else {}
-    first = state.get("imitation_round", 0)
-    resume_at.update(imitation_round=first, labels=state.get("labels", 0))
+    first = resume_at["imitation_round"]
     if first >= config.dagger_rounds:
         return 0.0
     start = time.perf_counter()
@@ -446,10 +447,6 @@ def _load_checkpoint(folder: Path, venv: Any, algo: str) -> tuple[Any, Any]:
 def _checkpoint_state(folder: Path) -> dict[str, Any]:
     """The checkpoint's step count ("num_timesteps") and curriculum stage ("stage")."""
     return json.loads((folder / "state.json").read_text())
-
-
-def _checkpoint_steps(folder: Path) -> int:
-    return int(_checkpoint_state(folder)["num_timesteps"])
 
 
 class _Best:
