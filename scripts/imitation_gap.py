@@ -27,6 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from lgmd_sim.controllers.avoid import OracleParams
+from lgmd_sim.metrics import roc_auc
 
 #: "The Oracle starts its manoeuvre within": this step or the next 6 (0.2 s at the task's
 #: 30 frames per second), about the time the detector's potential takes to rise (design).
@@ -53,13 +54,6 @@ class Gap:
     alarm_otherwise: float | None
 
 
-def _auc(score: np.ndarray, positive: np.ndarray) -> float:
-    ranks = np.empty(len(score))
-    ranks[np.argsort(score, kind="stable")] = np.arange(1, len(score) + 1)
-    p = int(positive.sum())
-    return float((ranks[positive].sum() - p * (p + 1) / 2) / (p * (len(score) - p)))
-
-
 def _held_out_auc(x: np.ndarray, y: np.ndarray, train: np.ndarray, test: np.ndarray) -> float:
     import torch
 
@@ -80,7 +74,11 @@ def _held_out_auc(x: np.ndarray, y: np.ndarray, train: np.ndarray, test: np.ndar
             loss.backward()
             optimizer.step()
     with torch.no_grad():
-        return _auc(net(x[test])[:, 0].numpy(), y[test])
+        auc = roc_auc(net(x[test])[:, 0].numpy(), y[test])
+    if auc is None:
+        raise SystemExit("imitation_gap.py: a fold without an onset of the Oracle's manoeuvre "
+                         "(too few labels)")
+    return auc
 
 
 def gap(run: Path) -> Gap:
