@@ -28,6 +28,7 @@ import numpy as np
 
 from lgmd_sim.controllers.avoid import OracleParams
 from lgmd_sim.metrics import roc_auc
+from lgmd_sim.training.dagger import Labels
 
 #: "The Oracle starts its manoeuvre within": this step or the next 6 (0.2 s at the task's
 #: 30 frames per second), about the time the detector's potential takes to rise (design).
@@ -88,9 +89,9 @@ def gap(run: Path) -> Gap:
     if config.get("teacher") != "oracle" or config.get("obs") != "features":
         raise SystemExit(f"imitation_gap.py: {run} is not a run on features with "
                          "--teacher oracle")
-    with np.load(run / "checkpoints" / "dagger.npz", allow_pickle=False) as f:
-        obs = {k[4:]: f[k].reshape(len(f[k]), -1) for k in f.files if k.startswith("obs.")}
-        actions = f["actions"]
+    labels = Labels.load(run / "checkpoints" / "dagger.npz")
+    obs = {k: v.reshape(len(v), -1) for k, v in labels.obs.items()}
+    actions = labels.actions
     p, envs = OracleParams(), config["envs"]
     turning = np.isclose(actions[:, 0], p.avoid_speed) & np.isclose(np.abs(actions[:, 1]),
                                                                     p.avoid_turn)
