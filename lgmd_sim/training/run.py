@@ -259,12 +259,13 @@ def train(config: TrainConfig, out: str | Path, *, resume: bool = False,
                          "fewer --envs")
     kwargs = algos.hyperparameters(config.algo, config.obs,
                                    algos.parse_overrides(config.hp, config.algo))
-    return _train(out, config, kwargs, first_seed, resumed, resume, progress, command)
+    return _train(out, config, kwargs, first_seed, resumed, progress, command)
 
 
 def _train(out: Path, config: TrainConfig, kwargs: dict[str, Any], first_seed: int,
-           resumed: dict[str, Any], resume: bool, progress_bar: bool | None, command: str
+           resumed: dict[str, Any], progress_bar: bool | None, command: str
            ) -> RunResult:
+    # `resumed` is the checkpoint's state.json, empty for a new run
     import torch
     from stable_baselines3.common.logger import configure
     from stable_baselines3.common.vec_env import VecNormalize
@@ -276,7 +277,8 @@ def _train(out: Path, config: TrainConfig, kwargs: dict[str, Any], first_seed: i
     torch.set_num_threads(1)  # the environment workers have the other cores
     checkpoints = out / "checkpoints"
     policy = config.policy()
-    folder = RunFolder(out, config.as_json(), command, resume=resume, what="training run",
+    folder = RunFolder(out, config.as_json(), command, resume=bool(resumed),
+                       what="training run",
                        resume_hint=f"add --resume {out} to continue it",
                        changeable=RESUMABLE, start=False)
     curriculum, stage = config.stages, resumed.get("stage", 0)
