@@ -35,7 +35,7 @@ def _collect(beta, steps=45, seed=5):
         venv.seed(seed)
         return dagger.collect(venv, lambda: envs.base.reset_infos,
                               lambda norm: np.tile(CRUISE, (2, 1)),
-                              dagger.Teacher("oracle", 2, ENV), steps, beta,
+                              dagger.Teacher("oracle", 2, CONFIG), steps, beta,
                               np.random.default_rng(0))
     finally:
         envs.close()
@@ -126,8 +126,8 @@ def test_a_run_with_a_teacher_records_each_round_and_resumes_inside_them(tmp_pat
 
     # the run, a privileged policy, teaches a student on LGMD features: it sees the
     # student's proprioception and goal and the ground truth, not the student's features
-    teacher = dagger.Teacher(str(out), 1, ENV)
     features = PolicyConfig("ppo", "features", ENV, "small", 1.0, "feedback", None)
+    teacher = dagger.Teacher(str(out), 1, features)
     student_env = observe(base_env(features), features)
     privileged_env = observe(base_env(CONFIG), CONFIG)
     obs, info = student_env.reset(seed=3)
@@ -138,6 +138,33 @@ def test_a_run_with_a_teacher_records_each_round_and_resumes_inside_them(tmp_pat
     student_env.close()
     privileged_env.close()
 
+
+def test_the_reactive_teacher_manoeuvres_on_the_students_own_alarm_away_from_its_busier_side():
+    features = PolicyConfig("ppo", "features", ENV, "small", 1.0, "lgmd1", None)
+    teacher = dagger.Teacher("reactive", 2, features)
+    quiet = {"lgmd_alarm": np.zeros(1, np.float32), "lgmd_grid": np.full(3, 1 / 3, np.float32)}
+    left = {"lgmd_alarm": np.ones(1, np.float32),
+            "lgmd_grid": np.array([0.6, 0.3, 0.1], np.float32)}
+    right = {**left, "lgmd_grid": left["lgmd_grid"][::-1].copy()}
+    p = teacher.controllers[0].params
+    for i in range(2):
+        teacher.reset(i)
+    # no alarm: towards the goal (bearing 0.1 rad, to the left), as Straight does
+    cruise = teacher.act(0, quiet, {"time": 0.0, "goal_bearing": 0.1})
+    np.testing.assert_allclose(cruise, [p.cruise, min(1.0, p.heading_gain * 0.1)])
+    # an alarm with more of the S layer on the left: brake and turn right, and the
+    # manoeuvre lasts its avoid_time whatever the alarm does next
+    np.testing.assert_allclose(teacher.act(0, left, {"time": 0.1, "goal_bearing": 0.1}),
+                               [p.avoid_speed, -p.avoid_turn])
+    np.testing.assert_allclose(teacher.act(0, quiet, {"time": 0.5, "goal_bearing": 0.1}),
+                               [p.avoid_speed, -p.avoid_turn])
+    np.testing.assert_allclose(teacher.act(1, right, {"time": 0.1, "goal_bearing": 0.1}),
+                               [p.avoid_speed, p.avoid_turn])  # each environment its own
+
+
+def test_the_reactive_teacher_needs_the_students_features():
+    with pytest.raises(ValueError, match=r"--teacher reactive .* needs --obs features"):
+        dagger.Teacher("reactive", 1, CONFIG)
 
 
 def test_a_run_stopped_inside_the_rounds_resumes_at_the_next(tmp_path, monkeypatch):
@@ -180,6 +207,7 @@ def test_a_run_stopped_inside_the_rounds_resumes_at_the_next(tmp_path, monkeypat
     (["--algo", "sac"], "--teacher needs --algo ppo"),
     (["--imitation-steps", "256"], "--imitation-steps 256 must be fewer than --steps 256"),
     (["--teacher", "nowhere"], "nowhere"),
+    (["--teacher", "reactive"], "needs --obs features, not privileged"),
     (["--dagger-rounds", "200"], "--imitation-steps 128 must be at least"),
 ])
 def test_a_bad_teacher_is_one_line_before_training(tmp_path, capsys, args, message):

@@ -71,11 +71,12 @@ def add(sub: argparse._SubParsersAction) -> None:
                    "(obstacles: no obstacle and the goal 4 m away, then 2 obstacles at 6 m, "
                    "4 at 8 m, then the task) or a TOML file of stages "
                    "(lgmd_sim.training.curriculum); validation always runs on the task")
-    p.add_argument("--teacher", metavar="oracle|POLICY",
-                   help="learn from a teacher first, by DAgger: the Oracle controller, or a "
-                   "privileged policy (a folder trained with --obs privileged) labels the "
-                   "states the policy visits, the policy is fitted to the labels, then RL "
-                   "fine-tunes it (PPO only)")
+    p.add_argument("--teacher", metavar="oracle|reactive|POLICY",
+                   help="learn from a teacher first, by DAgger: the Oracle controller, "
+                   "ReactiveAvoid's manoeuvre on the policy's own LGMD alarm (reactive, "
+                   "--obs features), or a privileged policy (a folder trained with --obs "
+                   "privileged) labels the states the policy visits, the policy is fitted "
+                   "to the labels, then RL fine-tunes it (PPO only)")
     p.add_argument("--imitation-steps", type=int, metavar="N",
                    help="environment steps of the DAgger rounds, part of --steps (default "
                    "100000)")

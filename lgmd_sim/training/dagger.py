@@ -12,7 +12,12 @@ student's own mistakes lead to, which plain cloning never shows it.
 The teacher (`Teacher`) is a controller per environment acting on what the student's
 environment gives: the Oracle reads the ground truth in ``info``; a privileged policy
 (``lgmd-sim train --obs privileged``) gets its observation built from the student's
-proprioception and goal and the threat's ground truth in ``info``.
+proprioception and goal and the threat's ground truth in ``info``; ``reactive``
+(`AlarmAvoid`) is ReactiveAvoid's manoeuvre triggered by the student's own LGMD alarm. The
+first two know what the student's observation may not show (the truth), so a student
+can only clone what its features foretell of their decisions
+(``scripts/imitation_gap.py`` measures how much); the third decides on nothing the
+student does not see, which makes it learnable whole, and bounded by its detector.
 
 Why our own loop and not HumanCompatibleAI's ``imitation``: its last release (1.0.1)
 requires gymnasium ~=0.29 and stable-baselines3 ~=2.2.1, below our floors (gymnasium 1.x,
@@ -30,33 +35,68 @@ from typing import Any
 
 import numpy as np
 
+from lgmd_sim.controllers.avoid import Avoider, AvoidParams
 from lgmd_sim.fileio import write_files
+from lgmd_sim.policies.config import PolicyConfig
 
-__all__ = ["ENT_WEIGHT", "FIT_BATCH", "FIT_EPOCHS", "FIT_LEARNING_RATE", "Labels", "Teacher",
-           "beta", "collect", "fit", "imitate"]
+__all__ = ["ENT_WEIGHT", "FIT_BATCH", "FIT_EPOCHS", "FIT_LEARNING_RATE", "AlarmAvoid", "Labels",
+           "Teacher", "beta", "collect", "fit", "imitate"]
 
 #: Weight of the entropy bonus in the cloning loss (imitation's default).
 ENT_WEIGHT = 1e-3
 
 
+class AlarmAvoid(Avoider):
+    """ReactiveAvoid's manoeuvre (`lgmd_sim.controllers.avoid`) on an LGMD features
+    observation (`lgmd_sim.envs.wrappers.LGMDFeatures`, one model): triggered by its alarm
+    (``lgmd_alarm``), turning away from the busier side of its S-layer grid
+    (``lgmd_grid``: the left half of its columns against the right; ReactiveAvoid's
+    ``side="halves"`` compares the layer's pixel halves, which the grid summarises).
+
+    Args:
+        columns: the grid's columns (its rows x columns cells, row-major).
+        **params: the manoeuvre's constants (`AvoidParams`).
+    """
+
+    Params = AvoidParams
+
+    def __init__(self, columns: int, **params: Any) -> None:
+        self.columns = columns
+        super().__init__(**params)
+
+    def _trigger(self, obs: Mapping[str, np.ndarray], info: Mapping[str, Any]) -> float | None:
+        if not obs["lgmd_alarm"][0]:
+            return None
+        grid = np.asarray(obs["lgmd_grid"]).reshape(-1, self.columns)
+        half = self.columns // 2
+        return float(grid[:, :half].sum() - grid[:, -half:].sum())  # > 0: more on the left
+
+
 class Teacher:
-    """One teacher controller per environment: the Oracle (``"oracle"``) or a privileged
+    """One teacher controller per environment: the Oracle (``"oracle"``), ReactiveAvoid's
+    rule on the student's own features (``"reactive"``, `AlarmAvoid`) or a privileged
     policy (a policy folder trained with ``--obs privileged``, or a shipped one's name).
 
     Args:
-        spec: "oracle" or the policy.
+        spec: "oracle", "reactive" or the policy.
         n_envs: environments it labels.
-        env_id: the student's environment, which a teacher policy must have trained in.
+        student: the student's policy configuration: a teacher policy must have trained
+            in its environment; "reactive" needs its features (one LGMD model).
     """
 
-    def __init__(self, spec: str, n_envs: int, env_id: str) -> None:
+    def __init__(self, spec: str, n_envs: int, student: PolicyConfig) -> None:
         from lgmd_sim import controllers
 
         self.spec = spec
+        self._observe: Callable[[Mapping[str, np.ndarray], Mapping[str, Any]],
+                                Mapping[str, np.ndarray]] = lambda obs, info: obs
         if spec == "oracle":
             self.controllers = [controllers.make("oracle") for _ in range(n_envs)]
-            self._observe: Callable[[Mapping[str, np.ndarray], Mapping[str, Any]],
-                                    Mapping[str, np.ndarray]] = lambda obs, info: obs
+        elif spec == "reactive":
+            if student.obs != "features":
+                raise ValueError("--teacher reactive acts on the student's LGMD alarm: it "
+                                 f"needs --obs features, not {student.obs}")
+            self.controllers = [AlarmAvoid(student.grid[1]) for _ in range(n_envs)]
         else:
             from lgmd_sim.envs.wrappers import PrivilegedObservation
 
@@ -66,9 +106,9 @@ class Teacher:
                 raise ValueError(f"--teacher {spec}: a teacher policy must see privileged "
                                  "observations (lgmd-sim train --obs privileged), not "
                                  f"{trained.config.obs}")
-            if trained.config.env_id != env_id:
+            if trained.config.env_id != student.env_id:
                 raise ValueError(f"--teacher {spec}: trained in {trained.config.env_id}, not "
-                                 f"the student's {env_id}")
+                                 f"the student's {student.env_id}")
             keys = list(trained.network.observation_space.spaces)
 
             def observe(obs: Mapping[str, np.ndarray], info: Mapping[str, Any]

@@ -84,7 +84,8 @@ class TrainConfig:
         curriculum: a curriculum (`lgmd_sim.training.curriculum`: a built-in name or a
             TOML file) the training environments go through before the task itself;
             None: the task from the start.
-        teacher: "oracle" or a privileged policy (a folder or a shipped name) the policy
+        teacher: "oracle", "reactive" (ReactiveAvoid's rule on the policy's own LGMD
+            features) or a privileged policy (a folder or a shipped name) the policy
             first learns from by DAgger (`lgmd_sim.training.dagger`), before RL; None:
             RL from the start. PPO only.
         imitation_steps: environment steps of the DAgger rounds (part of `steps`).
@@ -165,7 +166,7 @@ class TrainConfig:
                 raise ValueError(f"--imitation-steps {self.imitation_steps} must be at least "
                                  f"--dagger-rounds x --envs ({self.dagger_rounds * self.envs}): "
                                  "a step per environment and round")
-            Teacher(self.teacher, 1, self.env)  # loads: a bad teacher is one line now
+            Teacher(self.teacher, 1, self.policy())  # loads: a bad teacher is one line now
 
     def policy(self) -> PolicyConfig:
         """The configuration of the policy it trains."""
@@ -406,7 +407,7 @@ def _imitate(config: TrainConfig, model: Any, venv: Any, envs: Any, checkpoints:
     # labels beyond the count state.json names are a round that did not complete
     labels = (dagger.Labels.load(checkpoints / "dagger.npz").first(resume_at["labels"])
               if first else dagger.Labels())
-    teacher = dagger.Teacher(config.teacher, config.envs, config.env)
+    teacher = dagger.Teacher(config.teacher, config.envs, config.policy())
 
     def after_round(k: int, beta: float, loss: float) -> None:
         for key, value in (("round", k), ("beta", beta), ("bc_loss", loss),
