@@ -8,7 +8,16 @@
   rotation about the centre, a translation on each axis and a brightness gain, their
   standard deviations L times `SHAKE_ROTATION_SD` (degrees), `SHAKE_SHIFT_SD` (pixels)
   and `SHAKE_GAIN_SD` (log gain); borders replicated. The synthetic stimuli shake with it
-  too (`lgmd_sim.stimuli.jittered`).
+  too (`lgmd_sim.stimuli.jittered`);
+- ``exposure:L``: a real camera's auto-exposure, a global brightness gain that drifts
+  smoothly: its log is a sum of `EXPOSURE_WAVES` sines of random frequency (in
+  `EXPOSURE_CYCLES` per frame) and phase, drawn once per stream, with a standard deviation
+  of L times `EXPOSURE_SD`;
+- ``sensor:L``: a camera sensor's noise, signal-dependent (Poisson-Gaussian, Foi et al.
+  2008): on the [0, 1] scale, x + sqrt(a x + b) N(0, 1) with a = L^2 `SENSOR_SHOT` (the
+  photon shot noise) and b = (L `SENSOR_READ`)^2 (the read noise), clipped;
+- ``jpeg:Q``: compression artefacts, each frame encoded and decoded as a JPEG of quality
+  Q (1 to 100; OpenCV's libjpeg, 4:2:0 chroma for colour frames).
 
 >>> from lgmd_sim import noise
 >>> noises = noise.parse("gaussian:0.005,saltpepper:0.005")
@@ -28,7 +37,12 @@ import cv2
 import numpy as np
 
 __all__ = [
+    "EXPOSURE_CYCLES",
+    "EXPOSURE_SD",
+    "EXPOSURE_WAVES",
     "KINDS",
+    "SENSOR_READ",
+    "SENSOR_SHOT",
     "SHAKE_GAIN_SD",
     "SHAKE_ROTATION_SD",
     "SHAKE_SHIFT_SD",
@@ -44,6 +58,9 @@ KINDS: dict[str, tuple[float, float]] = {
     "gaussian": (0.0, 1.0),    # variance on the [0, 1] scale
     "saltpepper": (0.0, 1.0),  # fraction of pixels
     "shake": (0.0, 10.0),      # level: a multiple of the SHAKE_* standard deviations
+    "exposure": (0.0, 10.0),   # level: a multiple of EXPOSURE_SD
+    "sensor": (0.0, 10.0),     # level: a multiple of the SENSOR_* noise
+    "jpeg": (1.0, 100.0),      # JPEG quality: lower is coarser
 }
 
 #: Shake at level 1, standard deviations per frame: rotation about the image centre
@@ -54,6 +71,22 @@ KINDS: dict[str, tuple[float, float]] = {
 SHAKE_ROTATION_SD = 1.0
 SHAKE_SHIFT_SD = 2.0
 SHAKE_GAIN_SD = 0.05
+
+#: Auto-exposure at level 1: the standard deviation of the log gain (about 10% either
+#: way), the sines it sums and their frequency range in cycles per frame (0.33 to 3 Hz at
+#: 30 frames/s: an exposure loop settles in a fraction of a second to a few seconds).
+#: Round values, not fitted to a camera. At level 1 the gain changes by a few percent a
+#: frame, at most 15% (three sines at the top frequency in phase: 3 x 2 pi f x amplitude).
+EXPOSURE_SD = 0.1
+EXPOSURE_WAVES = 3
+EXPOSURE_CYCLES = (1 / 90, 1 / 10)
+
+#: Sensor noise at level 1, on the [0, 1] scale: the shot-noise variance per unit of
+#: signal (a standard deviation of 0.014 at mid-grey) and the read noise's standard
+#: deviation. Round values of a small camera in daylight, not fitted to one (Foi et al.
+#: 2008, IEEE TIP 17(10), fit such pairs to raw data).
+SENSOR_SHOT = 4e-4
+SENSOR_READ = 4e-3
 
 
 @dataclass(frozen=True)
@@ -74,10 +107,21 @@ class Noise:
     def __str__(self) -> str:
         return f"{self.kind}:{self.level:g}"
 
-    def apply(self, frame: np.ndarray, rng: np.random.Generator) -> np.ndarray:
-        """This corruption of one uint8 frame, drawn from `rng`."""
+    def apply(self, frame: np.ndarray, rng: np.random.Generator, seed: int = 0,
+              index: int = 0) -> np.ndarray:
+        """This corruption of one uint8 frame, frame `index` of the stream seeded `seed`,
+        drawn from `rng` (the frame's own generator; `rng_for`)."""
         if self.level == 0:
             return frame
+        if self.kind == "exposure":
+            return _gain(frame, self.level * EXPOSURE_SD * _drift(seed, index))
+        if self.kind == "sensor":
+            x = frame / 255.0
+            sd = self.level * np.sqrt(SENSOR_SHOT * x + SENSOR_READ ** 2)
+            return np.rint(np.clip(x + sd * rng.standard_normal(frame.shape), 0.0, 1.0)
+                           * 255.0).astype(np.uint8)
+        if self.kind == "jpeg":
+            return _jpeg(frame, round(self.level))
         if self.kind == "gaussian":
             noisy = frame / 255.0 + rng.normal(0.0, np.sqrt(self.level), frame.shape)
             return np.rint(np.clip(noisy, 0.0, 1.0) * 255.0).astype(np.uint8)
@@ -94,7 +138,35 @@ class Noise:
         m[:, 2] += (dx, dy)
         moved = cv2.warpAffine(frame, m, (w, h), flags=cv2.INTER_LINEAR,
                                borderMode=cv2.BORDER_REPLICATE)
-        return np.clip(np.rint(moved * np.exp(log_gain)), 0, 255).astype(np.uint8)
+        return _gain(moved, log_gain)
+
+
+def _gain(frame: np.ndarray, log_gain: float) -> np.ndarray:
+    return np.clip(np.rint(frame * np.exp(log_gain)), 0, 255).astype(np.uint8)
+
+
+def _drift(seed: int, index: int) -> float:
+    """The auto-exposure's log gain at frame `index` of stream `seed`, in units of its
+    standard deviation: the stream's sines (drawn from the seed alone, so that any frame's
+    gain is made alone) at that frame."""
+    rng = np.random.default_rng(np.random.SeedSequence([int(seed), zlib.crc32(b"exposure")]))
+    cycles = rng.uniform(*EXPOSURE_CYCLES, EXPOSURE_WAVES)
+    phases = rng.uniform(0.0, 2 * np.pi, EXPOSURE_WAVES)
+    # a sine of random phase has variance 1/2: the sum of n, n/2
+    return float(np.sqrt(2 / EXPOSURE_WAVES)
+                 * np.sin(2 * np.pi * cycles * index + phases).sum())
+
+
+def _jpeg(frame: np.ndarray, quality: int) -> np.ndarray:
+    """`frame` encoded and decoded as a JPEG of `quality` (RGB: OpenCV's order is BGR, and
+    the encoder's colour transform depends on it)."""
+    colour = frame.ndim == 3 and frame.shape[2] == 3
+    ok, data = cv2.imencode(".jpg", frame[..., ::-1] if colour else frame,
+                            [cv2.IMWRITE_JPEG_QUALITY, quality])
+    if not ok:
+        raise ValueError(f"noise jpeg: OpenCV could not encode a {frame.shape} frame")
+    out = cv2.imdecode(data, cv2.IMREAD_COLOR if colour else cv2.IMREAD_GRAYSCALE)
+    return (out[..., ::-1] if colour else out).reshape(frame.shape)
 
 
 def parse(spec: str | Sequence[Noise] | None) -> list[Noise]:
@@ -133,7 +205,7 @@ def apply(frame: np.ndarray, noises: Sequence[Noise], seed: int, index: int) -> 
         return frame
     rng = rng_for(noises, seed, index)
     for n in noises:
-        frame = n.apply(frame, rng)
+        frame = n.apply(frame, rng, seed, index)
     return frame
 
 

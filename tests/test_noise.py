@@ -48,12 +48,63 @@ def test_the_same_seed_and_index_give_the_same_noise_in_any_order():
     assert stream[0].shape == (20, 30, 3) and stream[0].dtype == np.uint8
 
 
+def test_exposure_is_one_gain_per_frame_that_drifts_smoothly_with_the_asked_spread():
+    flat = [np.full((8, 8), 100, np.uint8)] * 3000
+    out = np.array([f.mean() for f in noise.corrupt(flat, noise.parse("exposure:1"), seed=4)])
+    log_gain = np.log(out / 100)
+    assert np.std(log_gain) == pytest.approx(noise.EXPOSURE_SD, rel=0.35)
+    steps = np.abs(np.diff(log_gain))
+    assert steps.max() < 0.16 and steps.mean() < 0.3 * np.std(log_gain)  # smooth
+    (one,) = noise.corrupt(_frames(1), noise.parse("exposure:2"), seed=4)
+    ratio = one / _frames(1)[0].astype(float)
+    assert np.ptp(ratio[_frames(1)[0] > 100]) < 0.02  # global: one gain for every pixel
+
+
+def test_sensor_noise_grows_with_the_signal():
+    dark, bright = np.full((300, 300), 20, np.uint8), np.full((300, 300), 230, np.uint8)
+    spread = []
+    for frame in (dark, bright):
+        (out,) = noise.corrupt([frame], noise.parse("sensor:2"), seed=5)
+        x = frame[0, 0] / 255.0
+        expected = 4 * (noise.SENSOR_SHOT * x + noise.SENSOR_READ ** 2)  # level 2: x 4
+        assert np.var(out / 255.0) == pytest.approx(expected, rel=0.15)
+        spread.append(np.var(out / 255.0))
+    assert spread[1] > 3 * spread[0]
+
+
+def test_jpeg_is_coarser_at_lower_quality_and_keeps_the_frames_shape():
+    rng = np.random.default_rng(1)
+    smooth = np.kron(rng.integers(0, 255, (8, 10, 3)), np.ones((8, 8, 1))).astype(np.uint8)
+    error = {q: np.abs(noise.apply(smooth, noise.parse(f"jpeg:{q}"), 0, 0).astype(int)
+                       - smooth).mean() for q in (10, 50, 95)}
+    assert error[10] > error[50] > error[95] > 0
+    for shape in ((64, 80), (64, 80, 1), (64, 80, 3)):
+        assert noise.apply(np.zeros(shape, np.uint8), noise.parse("jpeg:50"), 0, 0
+                           ).shape == shape
+
+
+@pytest.mark.parametrize("spec", ["exposure:1", "sensor:1", "jpeg:40",
+                                  "shake:1,exposure:1,sensor:1,jpeg:60"])
+def test_each_camera_noise_is_seeded_and_any_frame_is_made_alone(spec):
+    frames = _frames(6, (24, 32, 3))
+    noises = noise.parse(spec)
+    stream = list(noise.corrupt(frames, noises, seed=9))
+    assert all(np.array_equal(a, b) for a, b in
+               zip(stream, noise.corrupt(frames, noises, seed=9), strict=True))
+    assert np.array_equal(noise.apply(frames[4], noises, seed=9, index=4), stream[4])
+    if spec != "jpeg:40":  # compression draws nothing: the same for every seed
+        other = list(noise.corrupt(frames, noises, seed=10))
+        assert not all(np.array_equal(a, b) for a, b in zip(stream, other, strict=True))
+
+
 @pytest.mark.parametrize(("spec", "message"), [
     ("gauss:0.1", "unknown noise 'gauss'"),
     ("gaussian", "write kind:level"),
     ("gaussian:abc", "write kind:level"),
     ("saltpepper:1.5", r"level must be a number in \[0, 1\]"),
     ("shake:-1", "shake: level"),
+    ("jpeg:0", r"jpeg: level must be a number in \[1, 100\]"),
+    ("exposure:11", "exposure: level"),
 ])
 def test_bad_specs_are_one_line_errors(spec, message):
     with pytest.raises(ValueError, match=message):

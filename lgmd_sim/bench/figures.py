@@ -119,7 +119,8 @@ def _legend(fig, styles: dict[str, dict[str, Any]], note: str, lines: bool) -> N
 
 
 def _save(fig, path: Path) -> None:
-    write_files({path: lambda tmp: fig.savefig(tmp, format="png", dpi=110)})
+    # tight: an equal-aspect panel beside an outside legend otherwise clips its y label
+    write_files({path: lambda tmp: fig.savefig(tmp, format="png", dpi=110, bbox_inches="tight")})
 
 
 def _is_goal(row: dict[str, Any]) -> bool:

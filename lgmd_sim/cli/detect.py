@@ -63,8 +63,11 @@ def add(sub: argparse._SubParsersAction) -> None:
                    help="corrupt every frame before the models and the SSIM see it, as the "
                    "paper's noisy streams: comma-separated kind:level of gaussian (variance "
                    "on the [0, 1] scale, the paper's 0.001 to 0.009), saltpepper (density, "
-                   "0.001 to 0.009) and shake (extra rotation, translation and brightness "
-                   "gain, level 1: about 1 degree and 2 pixels), e.g. "
+                   "0.001 to 0.009), shake (extra rotation, translation and brightness "
+                   "gain, level 1: about 1 degree and 2 pixels), and a real camera's: "
+                   "exposure (a smoothly drifting gain, level 1: about 10%%), sensor "
+                   "(signal-dependent noise) and jpeg (compression at quality 1 to 100), "
+                   "e.g. "
                    "gaussian:0.005,saltpepper:0.005; recorded in the JSON summary")
     p.add_argument("--noise-seed", type=non_negative_int, default=0, metavar="N",
                    help="seed of --noise (default: 0); frame t's noise depends only on the "
