@@ -93,9 +93,11 @@ def _best_reactive(benches: list[Path]) -> dict[float, str]:
     return {j: label for j, (_, label) in best.items()}
 
 
-def table(eval_run: Path, benches: list[Path]) -> tuple[list[str], dict, dict[float, str]]:
+def table(eval_run: Path, benches: list[Path], about: dict[str, str] | None = None
+          ) -> tuple[list[str], dict, dict[float, str]]:
     """The evaluation's cells and the benches' best reactive cell on the same seeds: the
-    Markdown table, the cells, and the best cell's label per jitter level."""
+    Markdown table, the cells, and the best cell's label per jitter level. `about` adds a
+    note to a policy's row (by its label)."""
     rows = _episodes(eval_run)
     seeds, jitters = {r["seed"] for r in rows}, {float(r["jitter"]) for r in rows}
     best = {j: cell for j, cell in _best_reactive(benches).items() if j in jitters}
@@ -110,6 +112,7 @@ def table(eval_run: Path, benches: list[Path]) -> tuple[list[str], dict, dict[fl
              "|---:|---|---:|---:|---:|---:|---:|"]
     for (jitter, label), c in sorted(cells.items()):
         mark = " (best detector)" if best.get(jitter) == label else ""
+        mark += f" ({(about or {})[label]})" if label in (about or {}) else ""
         lines.append(f"| {jitter:g} | {label}{mark} | {c['n']} | "
                      f"{_rate(c['collided'], c['n'])} | {_rate(c['reached'], c['n'])} | "
                      f"{c['distance']:.2f} | {c['progress']:.2f} |")
@@ -160,11 +163,21 @@ STUDENT_SUCCESS = {1.0: 0.60, 2.0: 0.50}
 STUDENT_COLLISIONS = {1.0: 0.10}
 
 
+def about(config: dict) -> str:
+    """What a training run's policy sees and who taught it, from its recorded options."""
+    sees = (f"{config['model']}/{config['preset']} features" if config["obs"] == "features"
+            else config["obs"])
+    return sees + (f", DAgger from {Path(config['teacher']).name}" if config.get("teacher")
+                   else "")
+
+
 def targets(cells: dict, obs: dict[str, str]) -> list[str]:
     """Each policy against its target (`PRIVILEGED_SUCCESS` for one on privileged
-    observations, the `STUDENT_*` ones for one on an LGMD's features), met or not;
-    `obs` maps a policy's name to its observation kind."""
-    out = []
+    observations, the `STUDENT_*` ones for one on an LGMD's features), met or not, and
+    each kind of policy the evaluation lacks; `obs` maps a policy's name to its
+    observation kind."""
+    out = [f"- No policy on {kind} is in this evaluation." for kind in
+           ("privileged", "features", "pixels") if kind not in obs.values()]
     for name, kind in obs.items():
         success = PRIVILEGED_SUCCESS if kind == "privileged" else STUDENT_SUCCESS
         collisions = {} if kind == "privileged" else STUDENT_COLLISIONS
@@ -290,7 +303,10 @@ def main() -> None:
         curve = _copy(run / "learning_curve.png", f"learning_curve_{run.name}.png", figures)
         lines += ["```bash", *(s["command"] for s in record["sessions"]), "```", "",
                   run_summary(run), "", f"![learning curve of {run.name}]({curve})", ""]
-    rows, cells, best = table(args.eval, args.bench)
+    configs = {name: record.get("config") or record["options"]
+               for name, record in records.items()}
+    rows, cells, best = table(args.eval, args.bench, {
+        f"policy: {name}": about(config) for name, config in configs.items()})
     names = [c["tag"] for c in evaluation["config"]["extra"]]
     policies = list(dict.fromkeys(names))
     lines += ["### Evaluation on held-out seeds", "", "```bash", evaluation["command"]]
@@ -302,8 +318,8 @@ def main() -> None:
               "closed-loop benchmark's seeds at that jitter level, shown here on the "
               "evaluation's seeds.", "", *rows, "",
               *reading(cells, best, policies, trained_at), "", "### Targets", "",
-              *targets(cells, {name: (records[name].get("config") or records[name]["options"])
-                               ["obs"] for name in policies if name in records}), ""]
+              *targets(cells, {name: configs[name]["obs"] for name in policies
+                               if name in configs}), ""]
     for fig in ("collisions_vs_jitter.png", "trajectories.png"):
         lines += [f"![{fig}]({_copy(args.eval / fig, fig, figures)})", ""]
     text = PAGE.read_text()
