@@ -1,4 +1,5 @@
-"""Seeded frame corruptions: the paper's noisy streams (its dataset d) and extra shake.
+"""Seeded frame corruptions: the paper's noisy streams (its dataset d), extra shake and a
+real camera's exposure, sensor noise and compression.
 
 - ``gaussian:V``: additive Gaussian noise of variance V on the [0, 1] grey scale, clipped
   (the paper uses V = 0.001 to 0.009, as MATLAB's ``imnoise(I, 'gaussian', 0, V)``);
@@ -107,8 +108,8 @@ class Noise:
     def __str__(self) -> str:
         return f"{self.kind}:{self.level:g}"
 
-    def apply(self, frame: np.ndarray, rng: np.random.Generator, seed: int = 0,
-              index: int = 0) -> np.ndarray:
+    def apply(self, frame: np.ndarray, rng: np.random.Generator, *, seed: int,
+              index: int) -> np.ndarray:
         """This corruption of one uint8 frame, frame `index` of the stream seeded `seed`,
         drawn from `rng` (the frame's own generator; `rng_for`)."""
         if self.level == 0:
@@ -148,7 +149,8 @@ def _gain(frame: np.ndarray, log_gain: float) -> np.ndarray:
 def _drift(seed: int, index: int) -> float:
     """The auto-exposure's log gain at frame `index` of stream `seed`, in units of its
     standard deviation: the stream's sines (drawn from the seed alone, so that any frame's
-    gain is made alone) at that frame."""
+    gain is made alone) at that frame. One camera, one exposure loop: two ``exposure``
+    entries in a list drift together (``exposure:1,exposure:1`` is ``exposure:2``)."""
     rng = np.random.default_rng(np.random.SeedSequence([int(seed), zlib.crc32(b"exposure")]))
     cycles = rng.uniform(*EXPOSURE_CYCLES, EXPOSURE_WAVES)
     phases = rng.uniform(0.0, 2 * np.pi, EXPOSURE_WAVES)
@@ -205,7 +207,7 @@ def apply(frame: np.ndarray, noises: Sequence[Noise], seed: int, index: int) -> 
         return frame
     rng = rng_for(noises, seed, index)
     for n in noises:
-        frame = n.apply(frame, rng, seed, index)
+        frame = n.apply(frame, rng, seed=seed, index=index)
     return frame
 
 

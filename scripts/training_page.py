@@ -93,10 +93,10 @@ def _best_reactive(benches: list[Path]) -> dict[float, str]:
     return {j: label for j, (_, label) in best.items()}
 
 
-def table(eval_run: Path, benches: list[Path], about: dict[str, str] | None = None
+def table(eval_run: Path, benches: list[Path], notes: dict[str, str] | None = None
           ) -> tuple[list[str], dict, dict[float, str]]:
     """The evaluation's cells and the benches' best reactive cell on the same seeds: the
-    Markdown table, the cells, and the best cell's label per jitter level. `about` adds a
+    Markdown table, the cells, and the best cell's label per jitter level. `notes` adds a
     note to a policy's row (by its label)."""
     rows = _episodes(eval_run)
     seeds, jitters = {r["seed"] for r in rows}, {float(r["jitter"]) for r in rows}
@@ -112,7 +112,7 @@ def table(eval_run: Path, benches: list[Path], about: dict[str, str] | None = No
              "|---:|---|---:|---:|---:|---:|---:|"]
     for (jitter, label), c in sorted(cells.items()):
         mark = " (best detector)" if best.get(jitter) == label else ""
-        mark += f" ({(about or {})[label]})" if label in (about or {}) else ""
+        mark += f" ({notes[label]})" if label in (notes or {}) else ""
         lines.append(f"| {jitter:g} | {label}{mark} | {c['n']} | "
                      f"{_rate(c['collided'], c['n'])} | {_rate(c['reached'], c['n'])} | "
                      f"{c['distance']:.2f} | {c['progress']:.2f} |")
@@ -165,8 +165,8 @@ STUDENT_COLLISIONS = {1.0: 0.10}
 
 def about(config: dict) -> str:
     """What a training run's policy sees and who taught it, from its recorded options."""
-    sees = (f"{config['model']}/{config['preset']} features" if config["obs"] == "features"
-            else config["obs"])
+    model = "/".join(v for v in (config["model"], config["preset"]) if v)
+    sees = f"{model} features" if config["obs"] == "features" else config["obs"]
     return sees + (f", DAgger from {Path(config['teacher']).name}" if config.get("teacher")
                    else "")
 
@@ -174,11 +174,14 @@ def about(config: dict) -> str:
 def targets(cells: dict, obs: dict[str, str]) -> list[str]:
     """Each policy against its target (`PRIVILEGED_SUCCESS` for one on privileged
     observations, the `STUDENT_*` ones for one on an LGMD's features), met or not, and
-    each kind of policy the evaluation lacks; `obs` maps a policy's name to its
-    observation kind."""
+    each kind of policy the evaluation lacks; `obs` maps each evaluated policy's name to
+    its observation kind."""
     out = [f"- No policy on {kind} is in this evaluation." for kind in
            ("privileged", "features", "pixels") if kind not in obs.values()]
     for name, kind in obs.items():
+        if kind not in ("privileged", "features"):
+            out.append(f"- {name} ({kind}): no target of its own.")
+            continue
         success = PRIVILEGED_SUCCESS if kind == "privileged" else STUDENT_SUCCESS
         collisions = {} if kind == "privileged" else STUDENT_COLLISIONS
         for jitter, least in success.items():
@@ -279,6 +282,17 @@ def seeds(evaluation: dict, train: list[dict]) -> str:
     return text + ", none of them the evaluation's."
 
 
+def _policy_obs(evaluation: dict, name: str, configs: dict[str, dict]) -> str:
+    """What an evaluated policy observes: its training run's record where the page has
+    it, else its policy folder's policy.json (a shipped policy); "unknown" when neither
+    is here."""
+    if name in configs:
+        return configs[name]["obs"]
+    path = next(Path(c["params"]["path"]) for c in evaluation["config"]["extra"]
+                if c["tag"] == name) / "policy.json"
+    return json.loads(path.read_text())["config"]["obs"] if path.is_file() else "unknown"
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--train", type=Path, nargs="+", required=True)
@@ -318,8 +332,8 @@ def main() -> None:
               "closed-loop benchmark's seeds at that jitter level, shown here on the "
               "evaluation's seeds.", "", *rows, "",
               *reading(cells, best, policies, trained_at), "", "### Targets", "",
-              *targets(cells, {name: configs[name]["obs"] for name in policies
-                               if name in configs}), ""]
+              *targets(cells, {name: _policy_obs(evaluation, name, configs)
+                               for name in policies}), ""]
     for fig in ("collisions_vs_jitter.png", "trajectories.png"):
         lines += [f"![{fig}]({_copy(args.eval / fig, fig, figures)})", ""]
     text = PAGE.read_text()

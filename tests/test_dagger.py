@@ -165,6 +165,12 @@ def test_the_reactive_teacher_manoeuvres_on_the_students_own_alarm_away_from_its
 def test_the_reactive_teacher_needs_the_students_features():
     with pytest.raises(ValueError, match=r"--teacher reactive .* needs --obs features"):
         dagger.Teacher("reactive", 1, CONFIG)
+    with pytest.raises(ValueError, match="needs 2 columns or more, got 3 x 1"):
+        dagger.AlarmAvoid((3, 1))
+    two_models = {"lgmd_alarm": np.array([0.0, 1.0], np.float32),
+                  "lgmd_grid": np.full(6, 1 / 3, np.float32)}
+    with pytest.raises(ValueError, match="one model's features: got 2 alarms and 6 grid"):
+        dagger.AlarmAvoid((1, 3)).act(two_models, {"time": 0.0, "goal_bearing": 0.0})
 
 
 def test_a_run_stopped_inside_the_rounds_resumes_at_the_next(tmp_path, monkeypatch):

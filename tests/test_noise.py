@@ -1,4 +1,5 @@
-"""lgmd_sim.noise: the paper's Gaussian and salt-and-pepper noise, extra shake, seeding."""
+"""lgmd_sim.noise: the paper's Gaussian and salt-and-pepper noise, extra shake, a real
+camera's exposure, sensor noise and compression, seeding."""
 
 from __future__ import annotations
 

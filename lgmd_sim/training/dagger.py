@@ -48,28 +48,37 @@ ENT_WEIGHT = 1e-3
 
 class AlarmAvoid(Avoider):
     """ReactiveAvoid's manoeuvre (`lgmd_sim.controllers.avoid`) on an LGMD features
-    observation (`lgmd_sim.envs.wrappers.LGMDFeatures`, one model): triggered by its alarm
-    (``lgmd_alarm``), turning away from the busier side of its S-layer grid
-    (``lgmd_grid``: the left half of its columns against the right; ReactiveAvoid's
-    ``side="halves"`` compares the layer's pixel halves, which the grid summarises).
+    observation of one model (`lgmd_sim.envs.wrappers.LGMDFeatures`): triggered by its
+    alarm (``lgmd_alarm``), turning away from the busier side of its S-layer grid
+    (``lgmd_grid``: the cells of the left half of its columns against those of the right
+    half, a middle column in neither). ReactiveAvoid's ``side="halves"`` compares the
+    halves of the layer itself, |S| where the grid sums [S]+: the same for models whose S
+    is not signed, close for LGMD1's.
 
     Args:
-        columns: the grid's columns (its rows x columns cells, row-major).
+        grid: the observation's (rows, columns) of cells, row-major; two columns or more.
         **params: the manoeuvre's constants (`AvoidParams`).
     """
 
     Params = AvoidParams
 
-    def __init__(self, columns: int, **params: Any) -> None:
-        self.columns = columns
+    def __init__(self, grid: tuple[int, int], **params: Any) -> None:
+        if grid[1] < 2:
+            raise ValueError(f"AlarmAvoid tells left from right: the grid needs 2 columns "
+                             f"or more, got {grid[0]} x {grid[1]}")
+        self.grid = grid
         super().__init__(**params)
 
     def _trigger(self, obs: Mapping[str, np.ndarray], info: Mapping[str, Any]) -> float | None:
-        if not obs["lgmd_alarm"][0]:
+        alarm, cells = np.asarray(obs["lgmd_alarm"]), np.asarray(obs["lgmd_grid"])
+        rows, cols = self.grid
+        if alarm.size != 1 or cells.size != rows * cols:
+            raise ValueError(f"AlarmAvoid reads one model's features: got {alarm.size} "
+                             f"alarms and {cells.size} grid cells for a {rows} x {cols} grid")
+        if not alarm[0]:
             return None
-        grid = np.asarray(obs["lgmd_grid"]).reshape(-1, self.columns)
-        half = self.columns // 2
-        return float(grid[:, :half].sum() - grid[:, -half:].sum())  # > 0: more on the left
+        cells, half = cells.reshape(rows, cols), cols // 2
+        return float(cells[:, :half].sum() - cells[:, cols - half:].sum())  # > 0: left
 
 
 class Teacher:
@@ -96,7 +105,7 @@ class Teacher:
             if student.obs != "features":
                 raise ValueError("--teacher reactive acts on the student's LGMD alarm: it "
                                  f"needs --obs features, not {student.obs}")
-            self.controllers = [AlarmAvoid(student.grid[1]) for _ in range(n_envs)]
+            self.controllers = [AlarmAvoid(student.grid) for _ in range(n_envs)]
         else:
             from lgmd_sim.envs.wrappers import PrivilegedObservation
 

@@ -42,8 +42,9 @@ class NoiseObservation(gym.Wrapper, gym.utils.RecordConstructorArgs):
     reset's seed; a reset without one draws it from a generator seeded by the last seed
     given (from fresh entropy before any), so episodes differ and a seeded run repeats
     exactly. The generator is the wrapper's own: the wrapped environment's episodes are
-    the same with and without the noise. RGB frames get the noise in each channel, as
-    MATLAB's ``imnoise`` gives it to a colour image.
+    the same with and without the noise. RGB frames get the paper's noises in each
+    channel, as MATLAB's ``imnoise`` gives them to a colour image (exposure is one gain
+    for every channel; jpeg compresses the colour image).
 
     To have an LGMD see the noisy frames, put this inside `LGMDObservation`:
     ``LGMDObservation(NoiseObservation(env, "gaussian:0.005"))``.
