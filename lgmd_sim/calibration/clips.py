@@ -1,31 +1,41 @@
 """The calibration's clips: recorded once, then replayed to every candidate model.
 
 A clip set is scenarios x jitter levels x seeds. Search and held-out sets use disjoint
-seeds. Each clip is stored as ``<key>.npz``: its grey frames (uint8, what the models
-see), and every per-frame number of the ground truth (time to collision, camera pose,
-rotations...), so that front ends fed by the ground truth can replay it too.
+seeds. A scenario is an environment's (driven straight ahead) or a synthetic stimulus of
+`STIMULI` (its shake: `lgmd_sim.stimuli.jittered` at the jitter level). A task may add a
+camera's noise (`lgmd_sim.noise`) to every frame, seeded by the clip's seed. Each clip is
+stored as ``<key>.npz``: its grey frames (uint8, what the models see), every per-frame
+number of the ground truth (time to collision, camera pose, rotations...), so that front
+ends fed by the ground truth can replay it too, and per front end the motions the model
+would compute (`clip_motions`).
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+import zlib
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from lgmd_sim import noise as noise_mod
+from lgmd_sim import stimuli
 from lgmd_sim.calibration.objective import WALKER, ClipLabel
 from lgmd_sim.controllers import Straight
 from lgmd_sim.fileio import atomic_output
 
-__all__ = ["DEFAULT_GROUPS", "FRONT_ENDS", "LOOKAHEAD", "ROBOT_GROUPS", "ClipSpec", "HoldLine",
-           "clip_motions", "label", "load_clip", "load_truth", "record_clip", "specs"]
+__all__ = ["DEFAULT_GROUPS", "FRONT_ENDS", "LOOKAHEAD", "ROBOT_GROUPS", "STIMULI",
+           "VIDEO_FOVY", "VIDEO_FOVY_RANGE", "VIDEO_GROUPS", "VIDEO_NOISE", "ClipSpec",
+           "HoldLine", "clip_motions", "label", "load_clip", "load_gains", "load_truth",
+           "record_clip", "specs"]
 
-#: The front ends the calibration also tunes every detector with (see
-#: `lgmd_sim.models.stabilize`): the rotation fitted from the frames, or the IMU's.
-FRONT_ENDS = ("image", "imu")
+#: The front ends a calibrated detector may have (see `lgmd_sim.models.stabilize`): the
+#: rotation fitted from the frames, or the IMU's, and the fitted rotation with the
+#: brightness gain (the video task's: a video has neither pose nor IMU).
+FRONT_ENDS = ("image", "imu", "image+gain")
 
 #: The clips of the calibration, by kind: (scenario, jitter levels). The jitter clips are
 #: the paper's jitter streams (ISI 0.69 to 0.76 at these levels), the stationary ones its
@@ -41,6 +51,57 @@ DEFAULT_GROUPS: dict[str, list[tuple[str, tuple[float, ...]]]] = {
 ROBOT_GROUPS: dict[str, list[tuple[str, tuple[float, ...]]]] = {
     "approach": [("RobotApproach", (0.0, 1.0, 2.0)), ("RobotWallAhead", (0.0, 1.0, 2.0))],
     "clear": [("RobotOpenGround", (0.0, 1.0, 2.0)), ("RobotPassBy", (0.0, 1.0, 2.0))],
+}
+
+
+#: The video task's clips (`lgmd_sim.calibration.run`, "video"): the walker's kinds, with
+#: synthetic looming among the collisions, and a fourth kind that must stay silent:
+#: stimuli that move, flicker or drift without looming (`STIMULI`).
+VIDEO_GROUPS: dict[str, list[tuple[str, tuple[float, ...]]]] = {
+    "jitter": [("HandheldApproach", (1.0, 1.5)), ("MutualApproach", (1.0,)),
+               ("Looming", (1.0, 2.0))],
+    "stationary": [("StationaryApproach", (0.0,)), ("Looming", (0.0,))],
+    "near_miss": [("PassBy", (0.0, 1.0))],
+    "non_looming": [("Receding", (0.0, 1.0)), ("Translating", (0.0, 1.0)),
+                    ("Grating", (0.0, 1.0)), ("Flicker", (0.0, 1.0))],
+}
+#: What a real, unstabilised camera adds to every video-task frame, on top of each clip's
+#: shake: white shake at video rate, auto-exposure, sensor noise and compression
+#: (`lgmd_sim.noise`; level 1 of each, JPEG quality 70, a web video's).
+VIDEO_NOISE = "shake:0.5,exposure:1,sensor:1,jpeg:70"
+#: The vertical field of view (degrees) the video presets' front end assumes, the middle
+#: of real cameras' `VIDEO_FOVY_RANGE`, over which the video task's scenario clips draw
+#: their camera's: the calibration sees the fit made with the wrong focal length.
+VIDEO_FOVY = 60.0
+VIDEO_FOVY_RANGE = (40.0, 90.0)
+
+
+def _look(rng: np.random.Generator, seed: int) -> stimuli.Look:
+    return stimuli.Look(polarity=str(rng.choice(["dark", "light"])),
+                        form=str(rng.choice(["square", "disc"])),
+                        contrast=float(rng.uniform(0.3, 0.8)), background="texture",
+                        seed=seed)
+
+
+#: Synthetic stimuli as clip scenarios (`lgmd_sim.stimuli`), each drawn per clip from its
+#: seed (the object's polarity, form and contrast on a seeded texture; speeds, periods and
+#: frequencies): a looming object (to collision), and four that do not loom: an object
+#: receding or crossing the view, a drifting grating, the whole field dimming and
+#: lightening.
+STIMULI: dict[str, Callable[[tuple[int, int], np.random.Generator, int], stimuli.Stimulus]] = {
+    "Looming": lambda shape, rng, seed: stimuli.approaching(
+        shape, speed=float(rng.uniform(1.5, 3.0)), look=_look(rng, seed)),
+    "Receding": lambda shape, rng, seed: stimuli.receding(
+        shape, speed=float(rng.uniform(1.0, 3.0)), look=_look(rng, seed)),
+    "Translating": lambda shape, rng, seed: stimuli.translating(
+        shape, speed=float(rng.uniform(0.5, 2.0)), look=_look(rng, seed)),
+    "Grating": lambda shape, rng, seed: stimuli.grating(
+        shape, period=float(rng.uniform(10, 40)), speed=float(rng.uniform(20, 120)),
+        orientation=float(rng.uniform(0, 360)), contrast=float(rng.uniform(0.2, 0.8)),
+        n_frames=90),
+    "Flicker": lambda shape, rng, seed: stimuli.flicker(
+        shape, frequency=float(rng.uniform(0.5, 3.0)), depth=float(rng.uniform(0.1, 0.5)),
+        background="texture", n_frames=90, seed=seed),
 }
 
 
@@ -76,56 +137,102 @@ class ClipSpec:
         return f"{self.scenario}-j{self.jitter:g}-s{self.seed}"
 
 
-def record_clip(spec: ClipSpec, folder: str, resolution: Any, cruise: float | None = None
-                ) -> dict[str, Any]:
-    """Record one clip into ``folder/<key>.npz`` (a job); return its label. The carrier is
-    driven by `Straight` (the walker's clips), or with `cruise` by `HoldLine` at that
-    forward action (the robot's)."""
+def record_clip(spec: ClipSpec, folder: str, resolution: Any, cruise: float | None = None,
+                fronts: Sequence[str] = ("image", "imu"), noise: str = "",
+                fovy: float | None = None) -> dict[str, Any]:
+    """Record one clip into ``folder/<key>.npz`` (a job); return its label. An
+    environment's carrier is driven by `Straight` (the walker's clips), or with `cruise`
+    by `HoldLine` at that forward action (the robot's); a stimulus of `STIMULI` is drawn.
+    `noise` (`lgmd_sim.noise`) corrupts every frame, seeded by the clip's seed. The motions
+    of each front end of `fronts` are kept, fitted with the camera's field of view, or
+    with `fovy` (degrees) where given: the one a preset's front end will assume; a clip
+    with `fovy` draws its camera's from `VIDEO_FOVY_RANGE`."""
     import cv2
+
+    from lgmd_sim.world.params import frame_size
+
+    if spec.scenario in STIMULI:
+        rng = np.random.default_rng([spec.seed, zlib.crc32(spec.scenario.encode())])
+        shape = frame_size(resolution)
+        clip = stimuli.jittered(STIMULI[spec.scenario](shape, rng, spec.seed), spec.jitter,
+                                spec.seed)
+        frames, truth, camera_fovy = list(clip.frames), {}, None
+        hit, fps = clip.collision_frame, clip.fps
+    else:
+        frames, truth, camera_fovy, hit, fps = _scenario_clip(spec, resolution, cruise,
+                                                              fovy is not None)
+    noises = noise_mod.parse(noise)
+    frames = [noise_mod.apply(f, noises, spec.seed, t) for t, f in enumerate(frames)]
+    grey = np.stack([f if f.ndim == 2 else cv2.cvtColor(f, cv2.COLOR_RGB2GRAY)
+                     for f in frames])
+    motions = {}
+    for front in fronts:
+        hs, grids = clip_motions(grey, truth, front, fovy or camera_fovy)
+        motions[f"motion_{front}"] = hs
+        if grids is not None:
+            motions[f"gains_{front}"] = grids
+    with atomic_output(Path(folder) / f"{spec.key}.npz") as tmp, open(tmp, "wb") as f:
+        np.savez(f, frames=grey, fps=fps, camera_fovy=np.nan if camera_fovy is None
+                 else camera_fovy, **motions, **{f"truth_{k}": v for k, v in truth.items()})
+    return {"kind": spec.kind, "frames": len(grey),
+            "collision_frame": None if hit is None or hit < 0 else int(hit)}
+
+
+def _scenario_clip(spec: ClipSpec, resolution: Any, cruise: float | None, any_fovy: bool
+                   ) -> tuple[list[np.ndarray], dict[str, np.ndarray], float, int, float]:
+    """An environment's clip: its RGB frames, per-frame ground truth, camera's vertical
+    field of view, first collision frame (-1 for none) and frames per second."""
     import gymnasium as gym
 
     from lgmd_sim.controllers import rollout
     from lgmd_sim.envs.catalogue import scenario
     from lgmd_sim.envs.wrappers.frames import check_frame_space
 
-    env = gym.make(scenario(spec.scenario).env_id, jitter=spec.jitter, resolution=resolution)
+    camera = {}
+    if any_fovy:  # drawn from the seed alone: the same clip whatever else the set holds
+        rng = np.random.default_rng([spec.seed, zlib.crc32(b"fovy")])
+        camera = {"fovy": float(rng.uniform(*VIDEO_FOVY_RANGE))}
+    env = gym.make(scenario(spec.scenario).env_id, jitter=spec.jitter, resolution=resolution,
+                   **camera)
     try:
         check_frame_space(env.observation_space)
         driver = Straight() if cruise is None else HoldLine(cruise=cruise)
         steps = list(rollout(env, driver, seed=spec.seed))
-        fps, fovy = float(env.unwrapped.params.fps), float(env.unwrapped.params.fovy)
+        fovy, fps = float(env.unwrapped.params.fovy), float(env.unwrapped.params.fps)
     finally:
         env.close()
-    grey = np.stack([cv2.cvtColor(s.obs["frame"], cv2.COLOR_RGB2GRAY) for s in steps])
     truth = {}
     for name, value in steps[0].info.items():
         value = np.asarray(value)
         if value.dtype.kind in "fiub" and value.size <= 16:  # per-frame numbers only
             truth[name] = np.stack([np.asarray(s.info[name], np.float64) for s in steps])
-    hit = int(steps[-1].info["first_collision_frame"])
-    motions = {f"motion_{front}": clip_motions(grey, truth, front, fovy)
-               for front in FRONT_ENDS}
-    with atomic_output(Path(folder) / f"{spec.key}.npz") as tmp, open(tmp, "wb") as f:
-        np.savez(f, frames=grey, fps=fps, **motions,
-                 **{f"truth_{k}": v for k, v in truth.items()})
-    return {"kind": spec.kind, "frames": len(steps),
-            "collision_frame": hit if hit >= 0 else None}
+    return ([s.obs["frame"] for s in steps], truth, fovy,
+            int(steps[-1].info["first_collision_frame"]), fps)
 
 
 def clip_motions(grey: np.ndarray, truth: dict[str, np.ndarray], front: str, fovy: float
-                 ) -> np.ndarray:
+                 ) -> tuple[np.ndarray, np.ndarray | None]:
     """Each frame's homography (T, 3, 3) from the front end `front` ("image": fitted from
-    the frames; "imu": from the IMU's rotations), exactly as a model with that front end
-    computes it: a candidate then runs the plain model with ``motion=`` and gets the
-    potentials of the stabilized one, without fitting the same clip again."""
+    the frames; "imu": from the IMU's rotations; "image+gain": fitted, with the brightness
+    gain), exactly as a model with that front end computes it, and with a gain its
+    `lgmd_sim.models.stabilize.gain_grid` per frame (T, rows, cols), else None: a
+    candidate then runs the plain model with ``motion=`` and gets the potentials of the
+    stabilized one, without fitting the same clip again."""
     from types import SimpleNamespace
 
     from lgmd_sim.models.stabilize import FrontEnd
 
-    front_end = FrontEnd(SimpleNamespace(stabilize=front, fovy=fovy, gain=False), 1)
-    rotations = truth.get(f"{front}_rotation")
-    return np.stack([front_end.motion(g[None], None if rotations is None else rotations[t])
-                     .homography[0] for t, g in enumerate(grey)])
+    stabilize, _, gain = front.partition("+")
+    rotations = truth.get(f"{stabilize}_rotation")
+    if stabilize == "imu" and rotations is None:
+        raise ValueError("front end imu: the clip has no IMU (a synthetic stimulus?)")
+    front_end = FrontEnd(SimpleNamespace(stabilize=stabilize, fovy=fovy, gain=bool(gain)), 1)
+    hs, grids = [], []
+    for t, g in enumerate(grey):
+        hs.append(front_end.motion(g[None], None if rotations is None else rotations[t])
+                  .homography[0])
+        grids.append(front_end.gain_grids[0].copy())
+    return np.stack(hs), np.stack(grids) if gain else None
 
 
 def load_clip(folder: str | Path, key: str, front: str | None = None
@@ -133,6 +240,13 @@ def load_clip(folder: str | Path, key: str, front: str | None = None
     """A recorded clip: its grey frames (T, H, W), and with `front` its homographies."""
     with np.load(Path(folder) / f"{key}.npz") as z:
         return z["frames"], (z[f"motion_{front}"] if front else None)
+
+
+def load_gains(folder: str | Path, key: str, front: str) -> np.ndarray | None:
+    """A recorded clip's gain grids of front end `front` (T, rows, cols), None for a front
+    end without a gain."""
+    with np.load(Path(folder) / f"{key}.npz") as z:
+        return z[f"gains_{front}"] if f"gains_{front}" in z.files else None
 
 
 def load_truth(folder: str | Path, key: str, names: Sequence[str]) -> dict[str, np.ndarray]:

@@ -1,8 +1,10 @@
 """`lgmd-sim calibrate`: the same search for every model, judged on clips it never saw.
 
 A task (`TASKS`) is the clips and the objective they are judged by: "walker" (a hand-held,
-mutual or steady camera; `lgmd_sim.calibration.objective`) or "robot" (the robot driving
-at obstacles and past them; `lgmd_sim.calibration.robot`).
+mutual or steady camera; `lgmd_sim.calibration.objective`), "robot" (the robot driving
+at obstacles and past them; `lgmd_sim.calibration.robot`) or "video" (footage from a
+camera nobody calibrated: the walker's clips and synthetic stimuli that do not loom, with
+a real camera's noise, every detector with the front end a video allows, `VIDEO`).
 
 1. Record the task's clips (`lgmd_sim.calibration.clips`): a search set and a held-out set
    with disjoint seeds, into ``DIR/clips``.
@@ -32,7 +34,7 @@ import numpy as np
 from lgmd_sim import options
 from lgmd_sim.bench.closed_loop import ClosedLoopConfig
 from lgmd_sim.calibration import clips as clip_mod
-from lgmd_sim.calibration.objective import WALKER, Objective
+from lgmd_sim.calibration.objective import VIDEO, WALKER, Objective
 from lgmd_sim.calibration.robot import ROBOT
 from lgmd_sim.calibration.search import (
     CONTROLS,
@@ -57,19 +59,49 @@ __all__ = ["TASKS", "CalibrateConfig", "Task", "calibrate", "calibration_figure"
 @dataclass(frozen=True)
 class Task:
     """What a calibration is about: its clips, the objective that judges them, and the
-    name its presets start with."""
+    name its presets start with.
+
+    Attributes:
+        objective, groups (as `lgmd_sim.calibration.clips.DEFAULT_GROUPS`), prefix.
+        cruise: the forward action the clips are driven at (None: Straight's).
+        fronts: the front ends its clips keep the motions of, which its detectors may have.
+        front: None, or the front end every detector has (given or not), which its presets'
+            names leave out: the presets are the front end and the model together.
+        noise: a camera's noise on every clip (`lgmd_sim.noise`), seeded by the clip's.
+        fovy: None, or the vertical field of view (degrees) the front end assumes, with the
+            scenes' cameras drawn around it (`lgmd_sim.calibration.clips.record_clip`).
+    """
 
     objective: Objective
-    groups: Mapping[str, list[tuple[str, tuple[float, ...]]]]  # as clips.DEFAULT_GROUPS
+    groups: Mapping[str, list[tuple[str, tuple[float, ...]]]]
     prefix: str
-    cruise: float | None = None  # the forward action the clips are driven at (None: Straight's)
+    cruise: float | None = None
+    fronts: tuple[str, ...] = ("image", "imu")
+    front: str | None = None
+    noise: str = ""
+    fovy: float | None = None
+
+    def identity(self) -> dict[str, Any]:
+        """What a run folder records of the task beyond its groups and objective (nothing
+        for a task without noise or a field of view of its own: older runs resume)."""
+        return {k: v for k, v in (("noise", self.noise), ("fovy", self.fovy)) if v}
+
+    def preset_params(self, front: str | None) -> dict[str, Any]:
+        """The model parameters of front end `front` in this task's presets."""
+        if front is None:
+            return {}
+        stabilize, _, gain = front.partition("+")
+        return {"stabilize": stabilize, **({"gain": True} if gain else {}),
+                **({"fovy": self.fovy} if self.fovy else {})}
 
 
-#: The calibration tasks: the walker's clips (today's calibrated presets), and the robot's,
-#: driven at the closed-loop benchmark's cruise.
+#: The calibration tasks: the walker's clips (today's calibrated presets), the robot's,
+#: driven at the closed-loop benchmark's cruise, and the video task's.
 TASKS: dict[str, Task] = {
     "walker": Task(WALKER, clip_mod.DEFAULT_GROUPS, "calibrated"),
     "robot": Task(ROBOT, clip_mod.ROBOT_GROUPS, "robot", ClosedLoopConfig.cruise),
+    "video": Task(VIDEO, clip_mod.VIDEO_GROUPS, "video", fronts=("image+gain",),
+                  front="image+gain", noise=clip_mod.VIDEO_NOISE, fovy=clip_mod.VIDEO_FOVY),
 }
 
 
@@ -79,11 +111,13 @@ class CalibrateConfig:
     ValueError naming it).
 
     Attributes:
-        task: a key of `TASKS`: the clips and the objective ("walker" or "robot").
+        task: a key of `TASKS`: the clips and the objective ("walker", "robot" or
+            "video").
         detectors: detectors of `lgmd_sim.calibration.search.space`: a model whose class
             declares a search space (a name, or a plug-in's "package.module:Class" spec),
             or the feedback LGMD's open-loop control "feedback-open-loop", each also with
-            a front end ("lgmd1+image"); None: every one of the models available
+            a front end of the task's ("lgmd1+image"; in a task with a front end of its
+            own, that one, given or not); None: every one of the models available
             (`lgmd_sim.calibration.search.detector_list`).
         budget: candidate settings per detector, its starting preset included (the same
             for every detector).
@@ -112,7 +146,17 @@ class CalibrateConfig:
     def __post_init__(self) -> None:
         if self.task not in TASKS:
             raise ValueError(f"--task {self.task!r}: must be one of {', '.join(TASKS)}")
-        object.__setattr__(self, "detectors", tuple(detector_list(self.detectors)))
+        task = TASKS[self.task]
+        fronts = (task.front,) if task.front else (None, *task.fronts)
+        detectors = detector_list(self.detectors, fronts)
+        for i, d in enumerate(detectors):
+            front = space(d).front
+            if task.front and front is None:  # the task's own, given or not
+                detectors[i], front = f"{d}+{task.front}", task.front
+            if front is not None and front not in task.fronts:
+                raise ValueError(f"detector {d!r}: the {self.task} task's front ends are "
+                                 f"{', '.join('+' + f for f in task.fronts)}")
+        object.__setattr__(self, "detectors", tuple(detectors))
         options.check_positive(self.budget, "--budget", integer=True)
         options.check_positive(self.seeds, "--seeds", integer=True)
         for name in ("first_seed", "heldout_seed", "seed"):
@@ -152,7 +196,7 @@ class CalibrateConfig:
                 "budget": self.budget, "search_seeds": [self.first_seed, self.seeds],
                 "heldout_seeds": [self.heldout_seed, self.seeds],
                 "resolution": self.resolution, "groups": task.groups,
-                **task.objective.identity(), "seed": self.seed}
+                **task.objective.identity(), **task.identity(), "seed": self.seed}
 
 
 #: What the search reads of a clip's record and of a candidate's (its scores as the task's
@@ -167,12 +211,14 @@ def _candidate_fields(objective: Objective) -> Fields:
 
 def preset_name(detector: str, task: str = "walker") -> tuple[str, str]:
     """The (model, preset) a calibrated detector becomes: the task's prefix ("calibrated",
-    "robot"), for the feedback LGMD's control "calibrated-open-loop", with a front end
-    "calibrated-image", "robot-open-loop-imu" ..."""
+    "robot", "video"), for the feedback LGMD's control "calibrated-open-loop", with a
+    front end "calibrated-image", "robot-open-loop-imu" ... (not the task's own front end:
+    "video")."""
     sp = space(detector)
     name = TASKS[task].prefix + ("-open-loop" if detector.partition("+")[0] in CONTROLS
                                  else "")
-    return sp.model, name + (f"-{sp.front}" if sp.front else "")
+    return sp.model, name + (f"-{sp.front}" if sp.front and sp.front != TASKS[task].front
+                             else "")
 
 
 def choose(records: Sequence[dict[str, Any]], clip_sets: dict[str, list[dict]],
@@ -225,12 +271,16 @@ def calibration_figure(chosen: Sequence[dict[str, Any]], objective: Objective = 
     from lgmd_sim.plots import figure, model_style
 
     names = [c["detector"] for c in chosen]
-    fig = figure(figsize=(2 * max(_MIN_PANEL, _PER_DETECTOR * len(names)) + 0.8, 9.0))
-    axes = fig.subplots(2, 2, sharey=True).ravel()
+    panels = ("objective", *objective.parts)
+    cols = -(-len(panels) // 2)  # two rows
+    fig = figure(figsize=(cols * max(_MIN_PANEL, _PER_DETECTOR * len(names)) + 0.8, 9.0))
+    axes = fig.subplots(2, cols, sharey=True).ravel()
+    for ax in axes[len(panels):]:
+        ax.axis("off")
     x = np.arange(len(names))
     colours = [model_style(n.split("-")[0])["color"] for n in names]
     bar = {"edgecolor": "black", "lw": 0.5}
-    for ax, what in zip(axes, ("objective", *objective.parts), strict=True):
+    for ax, what in zip(axes, panels, strict=False):
         for k, (set_name, alpha) in enumerate((("search", 1.0), ("heldout", 0.45))):
             # a part the clips lack has no bar
             bars = ax.bar(x + (k - 0.5) * 0.38, [c[set_name].get(what, np.nan) for c in chosen],
@@ -272,7 +322,8 @@ def calibrate(config: CalibrateConfig, out: str | Path, *, resume: bool = False,
     done = folder.done()
     jobs = [Job(f"clip-{s.key}", clip_mod.record_clip,
                 {"spec": s, "folder": str(clip_dir), "resolution": config.resolution,
-                 "cruise": task.cruise})
+                 "cruise": task.cruise, "fronts": task.fronts, "noise": task.noise,
+                 "fovy": task.fovy})
             for s in all_specs if f"clip-{s.key}" not in done]
     common = {"workers": workers, "ray_address": ray_address, "progress": progress}
     run_jobs(jobs, lambda job, rec: folder.store(job.key, {**rec, "key": job.key[5:]}),
@@ -303,8 +354,7 @@ def calibrate(config: CalibrateConfig, out: str | Path, *, resume: bool = False,
     for c in chosen:
         model, name = preset_name(c["detector"], config.task)
         sp = space(c["detector"])
-        params = {**c["params"], "threshold": c["threshold"],
-                  **({"stabilize": sp.front} if sp.front else {})}
+        params = {**c["params"], "threshold": c["threshold"], **task.preset_params(sp.front)}
         calibration["presets"][model][name] = {"from": sp.preset, "params": params,
                                            "search": c["search"], "heldout": c["heldout"]}
     write_text_atomic(folder.path / "calibrated.json", json.dumps(calibration, indent=2) + "\n")

@@ -5,7 +5,7 @@ model, and the evaluation of one candidate on the recorded clips.
 A detector is a model whose class declares a search space (a name, or a plug-in's
 "package.module:Class" spec), its candidates starting from its default preset, or the
 feedback LGMD's open-loop control (`CONTROLS`); either with a front end of `FRONT_ENDS`
-or not ("lgmd1+image").
+or not ("lgmd1+image", "lgmd1+image+gain").
 
 The alarm threshold is free for every model, and costs nothing to search: one run of a
 candidate gives its potentials, and every threshold of `THRESHOLDS` is scored from them by
@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 
 from lgmd_sim import models, options
-from lgmd_sim.calibration.clips import FRONT_ENDS, load_clip, load_truth
+from lgmd_sim.calibration.clips import FRONT_ENDS, load_clip, load_gains, load_truth
 from lgmd_sim.calibration.objective import THRESHOLDS, WALKER, Objective
 from lgmd_sim.models.base import SearchRange, check_search_space, draw_search
 
@@ -63,7 +63,7 @@ class Space:
 
 def space(detector: str) -> Space:
     """The search of a detector: a model or a key of `CONTROLS`, optionally with a front
-    end ("+image", "+imu").
+    end ("+image", "+imu", "+image+gain").
 
     Raises:
         ValueError: an unknown model, a bad spec or front end, or a model that declares
@@ -85,20 +85,21 @@ def space(detector: str) -> Space:
     return Space(model, next(iter(cls.presets)), ranges, dict(fixed), front or None)
 
 
-def detector_list(given: str | Sequence[str] | None = None) -> list[str]:
+def detector_list(given: str | Sequence[str] | None = None,
+                  fronts: Sequence[str | None] = (None, "image", "imu")) -> list[str]:
     """The detectors to calibrate, each checked (`space`): those `given` (a
     comma-separated list or a sequence: models by name or spec, keys of `CONTROLS`, each
     with or without a front end), or, for None or "all", every model of
     `lgmd_sim.models.available()` whose class declares a search space, each followed by
-    its controls, then all of them with each front end in turn."""
+    its controls, all of them with each of `fronts` in turn (None: no front end)."""
     named = [n for m in models.available()
              for n in (m, *(c for c, (of, _, _) in CONTROLS.items() if of == m))]
     listed = None if given is None else (
         options.comma_list(given) if isinstance(given, str) else list(given))
     if listed in (None, ["all"]):
         return _with_fronts([n for n in named if models.model_class(
-            CONTROLS.get(n, (n,))[0]).search_space])
-    valid = _with_fronts(named)
+            CONTROLS.get(n, (n,))[0]).search_space], fronts)
+    valid = _with_fronts(named, (None, *FRONT_ENDS))
     chosen = options.names(listed, valid, "detector(s)", load=space)  # checks the specs
     for d in chosen:
         if d in valid:
@@ -106,8 +107,9 @@ def detector_list(given: str | Sequence[str] | None = None) -> list[str]:
     return chosen
 
 
-def _with_fronts(names: list[str]) -> list[str]:
-    return names + [f"{n}+{front}" for n in names for front in FRONT_ENDS]
+def _with_fronts(names: list[str], fronts: Sequence[str | None]) -> list[str]:
+    return ((names if None in fronts else [])
+            + [f"{n}+{front}" for n in names for front in fronts if front is not None])
 
 
 @dataclass(frozen=True)
@@ -136,6 +138,7 @@ def evaluate(candidate: Candidate, folder: str, clip_sets: Mapping[str, Sequence
              objective: Objective = WALKER) -> dict[str, Any]:
     """Run a candidate over every clip; per set, its scores by `objective` at every
     threshold (a job)."""
+    from lgmd_sim.models.stabilize import gain_field
     from lgmd_sim.models.warp import Motion
 
     sp = space(candidate.detector)
@@ -144,6 +147,7 @@ def evaluate(candidate: Candidate, folder: str, clip_sets: Mapping[str, Sequence
                            "params": dict(candidate.params), "sets": {}}
     for set_name, records in clip_sets.items():
         clips = [load_clip(folder, rec["key"], front) for rec in records]
+        gains = [load_gains(folder, rec["key"], front) for rec in records] if front else []
         # One batched model runs every clip of the set as its own stream (bit-identical to
         # separate streams); a clip that has ended repeats its last frame, unread. A front
         # end's motions were computed once, with the clip (`clips.clip_motions`).
@@ -152,9 +156,11 @@ def evaluate(candidate: Candidate, folder: str, clip_sets: Mapping[str, Sequence
         potentials = np.empty((len(clips), lengths.max()))
         for t in range(lengths.max()):
             at = [min(t, n - 1) for n in lengths]
-            motion = None if front is None else Motion(
-                np.stack([hs[i] for (_, hs), i in zip(clips, at, strict=True)]))
             frames = np.stack([f[i] for (f, _), i in zip(clips, at, strict=True)])
+            motion = None if front is None else Motion(
+                np.stack([hs[i] for (_, hs), i in zip(clips, at, strict=True)]),
+                None if gains[0] is None else np.stack(
+                    [gain_field(g[i], frames.shape[1:]) for g, i in zip(gains, at, strict=True)]))
             potentials[:, t] = model.step(frames, motion=motion).potential
         labels = [objective.label(r, load_truth(folder, r["key"], objective.truth))
                   for r in records]

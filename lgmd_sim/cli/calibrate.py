@@ -33,8 +33,8 @@ def add(sub: argparse._SubParsersAction) -> None:
         "held-out clips. Writes DIR/summary.md, "
         "DIR/calibration.png and DIR/calibrated.json (the presets, with the command, seeds "
         "and objective); --save-presets merges them into your presets file, which makes "
-        "them the models' `calibrated` presets (robot task: `robot`) on top of the shipped "
-        "ones.",
+        "them the models' `calibrated` presets (robot task: `robot`; video task: `video`) "
+        "on top of the shipped ones.",
     )
     p.add_argument("--task", default="walker",
                    help="walker (default): the clips of a hand-held, mutual or steady "
@@ -44,14 +44,19 @@ def add(sub: argparse._SubParsersAction) -> None:
                    "obstacles and where none is in its way, a hit when the first alarm "
                    "comes in the avoidance manoeuvre's window and silence while no obstacle "
                    "is within 2 s (lgmd_sim.calibration.robot); presets robot, robot-imu, "
-                   "robot-image ...")
+                   "robot-image ... video: for footage from a camera nobody calibrated, the "
+                   "walker's clips and synthetic stimuli that do not loom (receding, "
+                   "crossing, gratings, flicker: a hit when silent), every clip with a real "
+                   "camera's noise and the scenes' cameras of 40 to 90 degrees, every "
+                   "detector with the front end +image+gain (lgmd_sim.calibration.objective."
+                   "VIDEO); presets video ...")
     p.add_argument("--detectors", default="all",
                    help="comma-separated among feedback, feedback-open-loop, lgmd1, lgmd2, "
                    "f_on, f_off, any other model whose class declares a search_space (a "
                    "registered name or a package.module:Class spec), each also with a "
                    "front end (+image: the rotation fitted from the frames; +imu: the "
-                   "world's IMU), or all (default: every model available that declares "
-                   "one)")
+                   "world's IMU; the video task's: +image+gain, given or not), or all "
+                   "(default: every model available that declares one)")
     p.add_argument("--budget", type=positive_int, default=32,
                    help="candidate settings per detector, its starting preset included "
                    "(default 32, the same for every detector)")

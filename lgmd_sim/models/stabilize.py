@@ -41,8 +41,8 @@ from lgmd_sim.models.warp import Motion
 from lgmd_sim.params import CheckedParams, in_range, int_in_range, one_of, param
 
 __all__ = ["FrontEnd", "ImageRotation", "ImageRotationParams", "brightness_gain",
-           "ground_motion", "intrinsics", "rotation_homography", "rotation_matrix",
-           "rotation_vector"]
+           "gain_field", "gain_grid", "ground_motion", "intrinsics", "rotation_homography",
+           "rotation_matrix", "rotation_vector"]
 
 #: MuJoCo's camera frame (x right, y up, z backwards) to the image's (x right, y down,
 #: z forwards, the frame K works in): flip y and z.
@@ -298,6 +298,19 @@ def brightness_gain(prev: np.ndarray, cur: np.ndarray, homography: np.ndarray | 
     frames; homography previous -> current pixels, None for none), as a smooth gain field
     (H, W) float32: per block of `GAIN_GRID` the median ratio of their pixels (robust to
     what moves on its own within the block), interpolated between the blocks' centres."""
+    return gain_field(gain_grid(prev, cur, homography), cur.shape)
+
+
+def gain_field(grid: np.ndarray, shape: tuple[int, ...]) -> np.ndarray:
+    """The gain field (H, W) float32 of a `gain_grid`, interpolated between the blocks'
+    centres: what a calibration stores per frame (the grid) gives the model's field."""
+    return cv2.resize(grid, (shape[1], shape[0]), interpolation=cv2.INTER_LINEAR)
+
+
+def gain_grid(prev: np.ndarray, cur: np.ndarray, homography: np.ndarray | None
+              ) -> np.ndarray:
+    """`brightness_gain`'s gain per block of `GAIN_GRID`, (rows, cols) float32 (ones where
+    no pixel tells a gain)."""
     rows, cols = GAIN_GRID
     h, w = rows * _GAIN_CELL, cols * _GAIN_CELL
     small = [cv2.resize(f, (w, h), interpolation=cv2.INTER_AREA).astype(np.float32)
@@ -313,14 +326,14 @@ def brightness_gain(prev: np.ndarray, cur: np.ndarray, homography: np.ndarray | 
     lo, hi = _GAIN_RANGE
     ok = (covered > 0) & (before > lo) & (before < hi) & (after > lo) & (after < hi)
     if not ok.any():
-        return np.ones(cur.shape, np.float32)
+        return np.ones(GAIN_GRID, np.float32)
     ratio = np.where(ok, after / np.where(ok, before, 1.0), np.nan)
     blocks = ratio.reshape(rows, _GAIN_CELL, cols, _GAIN_CELL).transpose(0, 2, 1, 3)
     blocks = blocks.reshape(rows, cols, -1)
     enough = np.isfinite(blocks).mean(axis=-1) >= _GAIN_MIN_SHARE
     gains = np.full((rows, cols), np.median(ratio[ok]), np.float32)
     gains[enough] = np.nanmedian(blocks[enough], axis=-1)
-    return cv2.resize(gains, (cur.shape[1], cur.shape[0]), interpolation=cv2.INTER_LINEAR)
+    return gains
 
 
 # --- the front end of a model -------------------------------------------------------------------
@@ -346,6 +359,8 @@ class FrontEnd:
         #: as ``rotation`` takes them) and the tracks that agreed with it (image source).
         self.rotations = np.zeros((n_streams, 3))
         self.inliers = np.zeros(n_streams, np.int64)
+        #: Per stream, the last frame's `gain_grid` (ones on a stream's first frame).
+        self.gain_grids = np.ones((n_streams, *GAIN_GRID), np.float32)
 
     def reset(self, streams: np.ndarray | None) -> None:
         """Forget the previous frame of these streams (all of them for None)."""
@@ -371,10 +386,12 @@ class FrontEnd:
         gains = None
         if self.gain:
             gains = np.ones((n, height, width), np.float32)
+            self.gain_grids[:] = 1.0
             for i in range(n):
                 if self._prev[i] is not None and self._prev[i].shape == frames[i].shape:
-                    gains[i] = brightness_gain(self._prev[i], frames[i],
-                                               None if hs is None else hs[i])
+                    self.gain_grids[i] = gain_grid(self._prev[i], frames[i],
+                                                   None if hs is None else hs[i])
+                    gains[i] = gain_field(self.gain_grids[i], frames[i].shape)
                 self._prev[i] = frames[i].copy()
         return Motion(hs, gains)
 

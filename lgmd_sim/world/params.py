@@ -19,6 +19,7 @@ paper's jitter streams (0.63 to 0.76, Table 2) at 270 x 480; explicit ``roughnes
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -70,6 +71,13 @@ WALL_GAP = 0.6
 CARRIERS = ("robot", "handheld", "tripod")
 OBSTACLE_KINDS = ("box", "cylinder", "wall", "balloon")
 MOVERS = ("none", "balloon", "ball", "swing", "vehicle")
+
+
+def frame_size(resolution: str | Sequence[int]) -> tuple[int, int]:
+    """The (height, width) of a resolution: a name of `RESOLUTIONS` or (height, width)."""
+    if isinstance(resolution, str):
+        return RESOLUTIONS[resolution]
+    return int(resolution[0]), int(resolution[1])
 
 
 def resolution_check(v: Any) -> str | None:
@@ -268,8 +276,7 @@ class SceneParams(CheckedParams):
     @property
     def size(self) -> tuple[int, int]:
         """Frame (height, width)."""
-        res = self.resolution
-        return RESOLUTIONS[res] if isinstance(res, str) else (int(res[0]), int(res[1]))
+        return frame_size(self.resolution)
 
     @property
     def arena_bounds(self) -> tuple[float, float, float, float]:

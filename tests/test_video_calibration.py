@@ -1,0 +1,95 @@
+"""The video calibration task (`lgmd-sim calibrate --task video`): the walker's clips and
+synthetic stimuli that do not loom, with a real camera's noise; every detector with the
+front end a video allows; presets named `video` that score, run on their own, what the
+calibration scored."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from lgmd_sim import cli, models
+from lgmd_sim.calibration import clips, search
+from lgmd_sim.calibration import objective as obj
+from lgmd_sim.calibration.run import TASKS, CalibrateConfig
+
+
+def test_a_tiny_video_calibration_writes_video_presets_that_score_as_calibrated(
+        tmp_path, monkeypatch):
+    out = tmp_path / "cal"
+    assert cli.main(["calibrate", "--task", "video", "--detectors", "lgmd1", "--budget", "2",
+                     "--seeds", "1", "--resolution", "small", "--workers", "1",
+                     "--no-progress", "--out", str(out)]) == 0
+    data = json.loads((out / "calibrated.json").read_text())
+    entry = data["presets"]["lgmd1"]["video"]
+    assert entry["params"] | {"stabilize": "image", "gain": True, "fovy": 60.0} == entry["params"]
+    assert set(entry["heldout"]) == {"objective", "jitter", "stationary", "near_miss",
+                                     "non_looming"}
+    assert "non-looming rejected" in (out / "summary.md").read_text()
+    records = [json.loads(p.read_text()) for p in sorted((out / "records").glob("clip-*"))]
+    assert {r["kind"] for r in records} == set(obj.VIDEO.parts)
+    assert all(r["collision_frame"] is None for r in records if r["kind"] == "non_looming")
+
+    from lgmd_sim.models import presets
+
+    monkeypatch.setattr(presets, "CALIBRATED", out / "calibrated.json")
+    presets._load.cache_clear()
+    try:
+        # the preset on its own (rotation and gain fitted from the frames at 60 degrees)
+        # scores on the held-out clips what the calibration scored from stored motions
+        heldout = [r for r in records if r["key"].endswith("-s100")]
+        model = models.make("lgmd1", preset="video")
+        potentials = []
+        for r in heldout:
+            frames, _ = clips.load_clip(out / "clips", r["key"])
+            model.reset()
+            potentials.append(np.array([model.step(f).potential for f in frames]))
+        labels = [obj.VIDEO.label(r, {}) for r in heldout]
+        score, _ = obj.VIDEO.value(np.array([r["kind"] for r in heldout]),
+                                   obj.VIDEO.scores(labels, potentials, search.THRESHOLDS),
+                                   slice(None))
+        at = int(np.flatnonzero(search.THRESHOLDS == entry["params"]["threshold"])[0])
+        assert score[at] == pytest.approx(entry["heldout"]["objective"])
+    finally:
+        presets._load.cache_clear()
+
+
+def test_a_stimulus_clip_is_seeded_noisy_and_keeps_its_gains(tmp_path):
+    spec = clips.ClipSpec("non_looming", "Translating", 1.0, 7)
+    task = TASKS["video"]
+    kwargs = {"resolution": "small", "fronts": task.fronts, "fovy": task.fovy}
+    for name, noise in (("a", task.noise), ("b", task.noise), ("clean", "")):
+        (tmp_path / name).mkdir()
+        record = clips.record_clip(spec, str(tmp_path / name), noise=noise, **kwargs)
+    assert record == {"kind": "non_looming", "frames": record["frames"], "collision_frame": None}
+    a, b, clean = (clips.load_clip(tmp_path / n, spec.key)[0] for n in ("a", "b", "clean"))
+    assert np.array_equal(a, b) and not np.array_equal(a, clean)
+    gains = clips.load_gains(tmp_path / "a", spec.key, "image+gain")
+    assert gains.shape[0] == len(a) and (gains[0] == 1).all() and not (gains[1:] == 1).all()
+    assert clips.load_gains(tmp_path / "a", spec.key, "image") is None
+
+
+def test_a_video_clip_of_a_scene_draws_its_cameras_field_of_view(tmp_path):
+    fovy = []
+    for seed in (3, 4):
+        spec = clips.ClipSpec("near_miss", "PassBy", 0.0, seed)
+        clips.record_clip(spec, str(tmp_path), "small", fronts=("image+gain",), fovy=60.0)
+        with np.load(tmp_path / f"{spec.key}.npz") as z:
+            assert "motion_image+gain" in z.files and "motion_imu" not in z.files
+            fovy.append(float(z["camera_fovy"]))
+    assert all(40 <= f <= 90 for f in fovy) and fovy[0] != fovy[1]
+    clips.record_clip(spec, str(tmp_path), "small")  # the walker's: the world's camera
+    with np.load(tmp_path / f"{spec.key}.npz") as z:
+        assert float(z["camera_fovy"]) == 55.0 and "motion_imu" in z.files
+
+
+def test_the_video_tasks_detectors_take_its_front_end_and_no_other():
+    assert CalibrateConfig(task="video", detectors=("lgmd1", "feedback-open-loop")
+                           ).detectors == ("lgmd1+image+gain", "feedback-open-loop+image+gain")
+    assert all(d.endswith("+image+gain") for d in CalibrateConfig(task="video").detectors)
+    with pytest.raises(ValueError, match="the video task's front ends are \\+image\\+gain"):
+        CalibrateConfig(task="video", detectors=("lgmd1+imu",))
+    with pytest.raises(ValueError, match="the walker task's front ends are \\+image, \\+imu"):
+        CalibrateConfig(detectors=("lgmd1+image+gain",))
