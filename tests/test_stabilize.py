@@ -29,15 +29,17 @@ def _turns(n: int, seed: int, degrees: float = 1.0) -> np.ndarray:
     return np.radians(degrees) * np.random.default_rng(seed).normal(size=(n, 3))
 
 
-def _scene(n_frames: int, shape: tuple[int, int], seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
-    """A textured scene far away seen by a camera that turns a little each frame: uint8
-    frames (T, H, W) and each frame's turn since the previous one (T, 3; 0 first)."""
+def _scene(n_frames: int, shape: tuple[int, int], seed: int = 0, fovy: float = 55.0
+           ) -> tuple[np.ndarray, np.ndarray]:
+    """A textured scene far away seen by a camera (of vertical field of view `fovy`,
+    degrees) that turns a little each frame: uint8 frames (T, H, W) and each frame's turn
+    since the previous one (T, 3; 0 first)."""
     h, w = shape
     rng = np.random.default_rng(seed)
     texture = cv2.GaussianBlur(rng.integers(0, 256, (3 * h, 3 * w)).astype(np.float32),
                                (0, 0), 2.0)
     texture = cv2.normalize(texture, None, 0, 255, cv2.NORM_MINMAX)
-    k = intrinsics(55.0, h, w)
+    k = intrinsics(fovy, h, w)
     centre = np.array([[1, 0, -w], [0, 1, -h], [0, 0, 1.0]])  # the texture's middle third
     turns = np.vstack([np.zeros(3), _turns(n_frames - 1, seed)])
     pose = np.eye(3)
@@ -371,3 +373,28 @@ def test_detect_takes_the_rotation_from_infos():
     assert d.models["a"].potential.tolist() == expected
     with pytest.raises(ValueError, match="need imu_rotation from each frame's info"):
         detect(frames, 30.0, {"a": models.make("lgmd1", preset="published+imu")})
+
+
+def test_the_fit_at_an_assumed_60_degrees_removes_most_motion_of_cameras_of_40_to_90():
+    """The video presets' front end assumes 60 degrees of a camera nobody calibrated: the
+    rotation it fits still warps the previous frame onto the next for the fields of view
+    real cameras have (measured: 5% of the frame difference is left at 60 degrees, 8% at
+    40, 18% at 90, with 1-degree turns)."""
+    h, w = 120, 160
+    k = intrinsics(60.0, h, w)
+    inner = (slice(15, -15), slice(15, -15))  # the borders the warp uncovers
+    left = {}
+    for fovy in (40.0, 60.0, 90.0):
+        frames, _ = _scene(12, (h, w), fovy=fovy)
+        fit = ImageRotation(60.0)
+        residual, moved = [], []
+        for t, frame in enumerate(frames):
+            rot, _ = fit.update(frame)
+            if t:
+                warped = cv2.warpPerspective(frames[t - 1].astype(np.float32),
+                                             k @ rot @ np.linalg.inv(k), (w, h))
+                residual.append(np.abs(warped - frame)[inner].mean())
+                moved.append(np.abs(frames[t - 1].astype(np.float32) - frame)[inner].mean())
+        left[fovy] = np.mean(residual) / np.mean(moved)
+    assert max(left.values()) < 0.25
+    assert left[60.0] < min(left[40.0], left[90.0])  # the assumed one fits best
