@@ -27,8 +27,15 @@ def test_a_tiny_video_calibration_writes_video_presets_that_score_as_calibrated(
     assert entry["params"] | {"stabilize": "image", "gain": True, "fovy": 60.0} == entry["params"]
     assert set(entry["heldout"]) == {"objective", "jitter", "stationary", "near_miss",
                                      "non_looming"}
-    assert "non-looming rejected" in (out / "summary.md").read_text()
+    assert set(entry["transfer"]) == set(entry["heldout"])  # the other looks' set
+    summary = (out / "summary.md").read_text()
+    assert "non-looming rejected" in summary and "search / held-out / transfer" in summary
     records = [json.loads(p.read_text()) for p in sorted((out / "records").glob("clip-*"))]
+    transfer = [r for r in records if r["key"].endswith("-transfer")]
+    assert len(transfer) == len(records) // 3
+    moved, _ = clips.load_clip(out / "clips", "Receding-j0-s100-transfer")
+    plain, _ = clips.load_clip(out / "clips", "Receding-j0-s100")
+    assert moved.shape == plain.shape and not np.array_equal(moved, plain)
     assert {r["kind"] for r in records} == set(obj.VIDEO.parts)
     assert all(r["collision_frame"] is None for r in records if r["kind"] == "non_looming")
 
@@ -40,6 +47,7 @@ def test_a_tiny_video_calibration_writes_video_presets_that_score_as_calibrated(
         # the preset on its own (rotation and gain fitted from the frames at 60 degrees)
         # scores on the held-out clips what the calibration scored from stored motions
         heldout = [r for r in records if r["key"].endswith("-s100")]
+        assert len(heldout) == len(transfer)
         model = models.make("lgmd1", preset="video")
         potentials = []
         for r in heldout:
@@ -60,9 +68,10 @@ def test_a_stimulus_clip_is_seeded_noisy_and_keeps_its_gains(tmp_path):
     spec = clips.ClipSpec("non_looming", "Translating", 1.0, 7)
     task = TASKS["video"]
     kwargs = {"resolution": "small", "fronts": task.fronts, "fovy": task.fovy}
-    for name, noise in (("a", task.noise), ("b", task.noise), ("clean", "")):
+    own = task.looks[""]
+    for name, looks in (("a", own), ("b", own), ("clean", clips.Looks())):
         (tmp_path / name).mkdir()
-        record = clips.record_clip(spec, str(tmp_path / name), noise=noise, **kwargs)
+        record = clips.record_clip(spec, str(tmp_path / name), looks=looks, **kwargs)
     assert record == {"kind": "non_looming", "frames": record["frames"], "collision_frame": None}
     a, b, clean = (clips.load_clip(tmp_path / n, spec.key)[0] for n in ("a", "b", "clean"))
     assert np.array_equal(a, b) and not np.array_equal(a, clean)

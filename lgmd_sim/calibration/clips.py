@@ -15,7 +15,7 @@ from __future__ import annotations
 import math
 import zlib
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -28,8 +28,8 @@ from lgmd_sim.controllers import Straight
 from lgmd_sim.fileio import atomic_output
 
 __all__ = ["DEFAULT_GROUPS", "FRONT_ENDS", "LOOKAHEAD", "ROBOT_GROUPS", "STIMULI",
-           "VIDEO_FOVY", "VIDEO_FOVY_RANGE", "VIDEO_GROUPS", "VIDEO_NOISE", "ClipSpec",
-           "HoldLine", "clip_motions", "label", "load_clip", "load_gains", "load_truth",
+           "VIDEO_FOVY", "VIDEO_FOVY_RANGE", "VIDEO_GROUPS", "VIDEO_LOOKS", "ClipSpec",
+           "HoldLine", "Looks", "clip_motions", "label", "load_clip", "load_gains", "load_truth",
            "record_clip", "specs"]
 
 #: The front ends a calibrated detector may have (see `lgmd_sim.models.stabilize`): the
@@ -65,10 +65,30 @@ VIDEO_GROUPS: dict[str, list[tuple[str, tuple[float, ...]]]] = {
     "non_looming": [("Receding", (0.0, 1.0)), ("Translating", (0.0, 1.0)),
                     ("Grating", (0.0, 1.0)), ("Flicker", (0.0, 1.0))],
 }
-#: What a real, unstabilised camera adds to every video-task frame, on top of each clip's
-#: shake: white shake at video rate, auto-exposure, sensor noise and compression
-#: (`lgmd_sim.noise`; level 1 of each, JPEG quality 70, a web video's).
-VIDEO_NOISE = "shake:0.5,exposure:1,sensor:1,jpeg:70"
+
+
+@dataclass(frozen=True)
+class Looks:
+    """A family of looks clips are recorded in: a camera's noise on every frame
+    (`lgmd_sim.noise`, seeded by the clip's seed), the scenes' light (environment
+    parameters of the scenario clips) and the synthetic stimuli's background."""
+
+    noise: str = ""
+    scene: Mapping[str, Any] = field(default_factory=dict)
+    background: str = "texture"
+
+
+#: The video task's looks: "" the calibration's (search and held-out seeds), a real
+#: unstabilised camera adding white shake at video rate, auto-exposure, sensor noise and
+#: compression to each clip's shake (level 1 of each, JPEG quality 70, a web video's), on
+#: the scenes' default light and textured stimuli; "transfer" the held-out check of a
+#: domain the calibration never saw: a worse camera (twice the shake, exposure and sensor
+#: noise, JPEG 40), a low sun with passing shade and flicker, stimuli on plain grounds.
+VIDEO_LOOKS: dict[str, Looks] = {
+    "": Looks("shake:0.5,exposure:1,sensor:1,jpeg:70"),
+    "transfer": Looks("shake:1,exposure:2,sensor:2,jpeg:40",
+                      {"sun_elevation": 15.0, "shade": 0.6, "flicker": 0.15}, "uniform"),
+}
 #: The vertical field of view (degrees) the video presets' front end assumes, the middle
 #: of real cameras' `VIDEO_FOVY_RANGE`, over which the video task's scenario clips draw
 #: their camera's: the calibration sees the fit made with the wrong focal length.
@@ -76,32 +96,33 @@ VIDEO_FOVY = 60.0
 VIDEO_FOVY_RANGE = (40.0, 90.0)
 
 
-def _look(rng: np.random.Generator, seed: int) -> stimuli.Look:
+def _look(rng: np.random.Generator, seed: int, background: str) -> stimuli.Look:
     return stimuli.Look(polarity=str(rng.choice(["dark", "light"])),
                         form=str(rng.choice(["square", "disc"])),
-                        contrast=float(rng.uniform(0.3, 0.8)), background="texture",
+                        contrast=float(rng.uniform(0.3, 0.8)), background=background,
                         seed=seed)
 
 
 #: Synthetic stimuli as clip scenarios (`lgmd_sim.stimuli`), each drawn per clip from its
-#: seed (the object's polarity, form and contrast on a seeded texture; speeds, periods and
-#: frequencies): a looming object (to collision), and four that do not loom: an object
-#: receding or crossing the view, a drifting grating, the whole field dimming and
-#: lightening.
-STIMULI: dict[str, Callable[[tuple[int, int], np.random.Generator, int], stimuli.Stimulus]] = {
-    "Looming": lambda shape, rng, seed: stimuli.approaching(
-        shape, speed=float(rng.uniform(1.5, 3.0)), look=_look(rng, seed)),
-    "Receding": lambda shape, rng, seed: stimuli.receding(
-        shape, speed=float(rng.uniform(1.0, 3.0)), look=_look(rng, seed)),
-    "Translating": lambda shape, rng, seed: stimuli.translating(
-        shape, speed=float(rng.uniform(0.5, 2.0)), look=_look(rng, seed)),
-    "Grating": lambda shape, rng, seed: stimuli.grating(
+#: seed (the object's polarity, form and contrast on the looks' background; speeds,
+#: periods and frequencies): a looming object (to collision), and four that do not loom:
+#: an object receding or crossing the view, a drifting grating, the whole field dimming
+#: and lightening. Each takes the frame shape, the clip's generator, seed and background.
+STIMULI: dict[str, Callable[[tuple[int, int], np.random.Generator, int, str],
+                            stimuli.Stimulus]] = {
+    "Looming": lambda shape, rng, seed, bg: stimuli.approaching(
+        shape, speed=float(rng.uniform(1.5, 3.0)), look=_look(rng, seed, bg)),
+    "Receding": lambda shape, rng, seed, bg: stimuli.receding(
+        shape, speed=float(rng.uniform(1.0, 3.0)), look=_look(rng, seed, bg)),
+    "Translating": lambda shape, rng, seed, bg: stimuli.translating(
+        shape, speed=float(rng.uniform(0.5, 2.0)), look=_look(rng, seed, bg)),
+    "Grating": lambda shape, rng, seed, bg: stimuli.grating(
         shape, period=float(rng.uniform(10, 40)), speed=float(rng.uniform(20, 120)),
         orientation=float(rng.uniform(0, 360)), contrast=float(rng.uniform(0.2, 0.8)),
         n_frames=90),
-    "Flicker": lambda shape, rng, seed: stimuli.flicker(
+    "Flicker": lambda shape, rng, seed, bg: stimuli.flicker(
         shape, frequency=float(rng.uniform(0.5, 3.0)), depth=float(rng.uniform(0.1, 0.5)),
-        background="texture", n_frames=90, seed=seed),
+        background=bg, n_frames=90, seed=seed),
 }
 
 
@@ -125,25 +146,29 @@ class HoldLine(Straight):
 
 @dataclass(frozen=True)
 class ClipSpec:
-    """One clip to record: a scenario episode driven straight ahead."""
+    """One clip to record: a scenario episode driven straight ahead, or a stimulus, in
+    the task's looks of that name ("": its own)."""
 
     kind: str
     scenario: str
     jitter: float
     seed: int
+    looks: str = ""
 
     @property
     def key(self) -> str:
-        return f"{self.scenario}-j{self.jitter:g}-s{self.seed}"
+        return f"{self.scenario}-j{self.jitter:g}-s{self.seed}" + (
+            f"-{self.looks}" if self.looks else "")
 
 
 def record_clip(spec: ClipSpec, folder: str, resolution: Any, cruise: float | None = None,
-                fronts: Sequence[str] = ("image", "imu"), noise: str = "",
+                fronts: Sequence[str] = ("image", "imu"), looks: Looks = Looks(),
                 fovy: float | None = None) -> dict[str, Any]:
     """Record one clip into ``folder/<key>.npz`` (a job); return its label. An
     environment's carrier is driven by `Straight` (the walker's clips), or with `cruise`
     by `HoldLine` at that forward action (the robot's); a stimulus of `STIMULI` is drawn.
-    `noise` (`lgmd_sim.noise`) corrupts every frame, seeded by the clip's seed. The motions
+    `looks` gives the scene's light, the stimulus's background and the noise that
+    corrupts every frame (seeded by the clip's seed). The motions
     of each front end of `fronts` are kept, fitted with the camera's field of view, or
     with `fovy` (degrees) where given: the one a preset's front end will assume; a clip
     with `fovy` draws its camera's from `VIDEO_FOVY_RANGE`."""
@@ -154,14 +179,14 @@ def record_clip(spec: ClipSpec, folder: str, resolution: Any, cruise: float | No
     if spec.scenario in STIMULI:
         rng = np.random.default_rng([spec.seed, zlib.crc32(spec.scenario.encode())])
         shape = frame_size(resolution)
-        clip = stimuli.jittered(STIMULI[spec.scenario](shape, rng, spec.seed), spec.jitter,
-                                spec.seed)
+        clip = stimuli.jittered(STIMULI[spec.scenario](shape, rng, spec.seed, looks.background),
+                                spec.jitter, spec.seed)
         frames, truth, camera_fovy = list(clip.frames), {}, None
         hit, fps = clip.collision_frame, clip.fps
     else:
         frames, truth, camera_fovy, hit, fps = _scenario_clip(spec, resolution, cruise,
-                                                              fovy is not None)
-    noises = noise_mod.parse(noise)
+                                                              fovy is not None, looks.scene)
+    noises = noise_mod.parse(looks.noise)
     frames = [noise_mod.apply(f, noises, spec.seed, t) for t, f in enumerate(frames)]
     grey = np.stack([f if f.ndim == 2 else cv2.cvtColor(f, cv2.COLOR_RGB2GRAY)
                      for f in frames])
@@ -178,7 +203,8 @@ def record_clip(spec: ClipSpec, folder: str, resolution: Any, cruise: float | No
             "collision_frame": None if hit is None or hit < 0 else int(hit)}
 
 
-def _scenario_clip(spec: ClipSpec, resolution: Any, cruise: float | None, any_fovy: bool
+def _scenario_clip(spec: ClipSpec, resolution: Any, cruise: float | None, any_fovy: bool,
+                   scene: Mapping[str, Any]
                    ) -> tuple[list[np.ndarray], dict[str, np.ndarray], float, int, float]:
     """An environment's clip: its RGB frames, per-frame ground truth, camera's vertical
     field of view, first collision frame (-1 for none) and frames per second."""
@@ -193,7 +219,7 @@ def _scenario_clip(spec: ClipSpec, resolution: Any, cruise: float | None, any_fo
         rng = np.random.default_rng([spec.seed, zlib.crc32(b"fovy")])
         camera = {"fovy": float(rng.uniform(*VIDEO_FOVY_RANGE))}
     env = gym.make(scenario(spec.scenario).env_id, jitter=spec.jitter, resolution=resolution,
-                   **camera)
+                   **camera, **scene)
     try:
         check_frame_space(env.observation_space)
         driver = Straight() if cruise is None else HoldLine(cruise=cruise)
@@ -255,10 +281,10 @@ def load_truth(folder: str | Path, key: str, names: Sequence[str]) -> dict[str, 
         return {name: z[f"truth_{name}"] for name in names}
 
 
-def specs(groups: dict[str, list[tuple[str, tuple[float, ...]]]], seeds: Sequence[int]
-          ) -> list[ClipSpec]:
-    """Every clip of a set."""
-    return [ClipSpec(kind, sc, j, s) for kind, entries in groups.items()
+def specs(groups: Mapping[str, list[tuple[str, tuple[float, ...]]]], seeds: Sequence[int],
+          looks: str = "") -> list[ClipSpec]:
+    """Every clip of a set, in the looks of that name."""
+    return [ClipSpec(kind, sc, j, s, looks) for kind, entries in groups.items()
             for sc, levels in entries for j in levels for s in seeds]
 
 

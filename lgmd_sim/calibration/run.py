@@ -23,9 +23,10 @@ a real camera's noise, every detector with the front end a video allows, `VIDEO`
 
 from __future__ import annotations
 
+import dataclasses
 import json
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -67,7 +68,9 @@ class Task:
         fronts: the front ends its clips keep the motions of, which its detectors may have.
         front: None, or the front end every detector has (given or not), which its presets'
             names leave out: the presets are the front end and the model together.
-        noise: a camera's noise on every clip (`lgmd_sim.noise`), seeded by the clip's.
+        looks: the families of looks its clips are recorded in
+            (`lgmd_sim.calibration.clips.Looks`): "" the search and held-out sets', and
+            each other a set of its own, of the held-out seeds (a transfer check).
         fovy: None, or the vertical field of view (degrees) the front end assumes, with the
             scenes' cameras drawn around it (`lgmd_sim.calibration.clips.record_clip`).
     """
@@ -78,13 +81,16 @@ class Task:
     cruise: float | None = None
     fronts: tuple[str, ...] = ("image", "imu")
     front: str | None = None
-    noise: str = ""
+    looks: Mapping[str, clip_mod.Looks] = field(
+        default_factory=lambda: {"": clip_mod.Looks()})
     fovy: float | None = None
 
     def identity(self) -> dict[str, Any]:
         """What a run folder records of the task beyond its groups and objective (nothing
-        for a task without noise or a field of view of its own: older runs resume)."""
-        return {k: v for k, v in (("noise", self.noise), ("fovy", self.fovy)) if v}
+        for a task of plain looks and the world's field of view: older runs resume)."""
+        looks = {name: dataclasses.asdict(v) for name, v in self.looks.items()}
+        return {k: v for k, v in (("looks", looks), ("fovy", self.fovy))
+                if v and v != {"": dataclasses.asdict(clip_mod.Looks())}}
 
     def preset_params(self, front: str | None) -> dict[str, Any]:
         """The model parameters of front end `front` in this task's presets."""
@@ -101,7 +107,7 @@ TASKS: dict[str, Task] = {
     "walker": Task(WALKER, clip_mod.DEFAULT_GROUPS, "calibrated"),
     "robot": Task(ROBOT, clip_mod.ROBOT_GROUPS, "robot", ClosedLoopConfig.cruise),
     "video": Task(VIDEO, clip_mod.VIDEO_GROUPS, "video", fronts=("image+gain",),
-                  front="image+gain", noise=clip_mod.VIDEO_NOISE, fovy=clip_mod.VIDEO_FOVY),
+                  front="image+gain", looks=clip_mod.VIDEO_LOOKS, fovy=clip_mod.VIDEO_FOVY),
 }
 
 
@@ -243,17 +249,30 @@ def choose(records: Sequence[dict[str, Any]], clip_sets: dict[str, list[dict]],
     return result
 
 
+def _sets(chosen: Sequence[dict[str, Any]]) -> list[str]:
+    """The clip sets the chosen candidates were scored on, in order: search, held-out,
+    then any transfer set (`choose` keeps them in the order of its clip sets)."""
+    return [k for k, v in chosen[0].items() if isinstance(v, dict) and "objective" in v]
+
+
+def _set_label(name: str) -> str:
+    return {"heldout": "held-out"}.get(name, name)
+
+
 def summary_markdown(chosen: Sequence[dict[str, Any]], objective: Objective = WALKER) -> str:
-    """The chosen candidates, search and held-out, as a Markdown table: the objective and
-    each of its parts ("-" for a part the clips lack, which the objective leaves out)."""
-    lines = ["| detector | threshold | objective search / held-out | "
+    """The chosen candidates, search and held-out (and transfer, where there is one), as
+    a Markdown table: the objective and each of its parts ("-" for a part the clips lack,
+    which the objective leaves out)."""
+    sets = _sets(chosen)
+    lines = [f"| detector | threshold | objective {' / '.join(map(_set_label, sets))} | "
              + " | ".join(objective.parts.values()) + " |",
              "|---|---:|---:|" + "---:|" * len(objective.parts)]
     for c in chosen:
-        s, h = c["search"], c["heldout"]
-        cells = [f"{s[k]:.2f} / {h[k]:.2f}" if k in s else "-" for k in objective.parts]
-        lines.append(f"| {c['detector']} | {c['threshold']:.3f} | "
-                     f"{s['objective']:.3f} / {h['objective']:.3f} | {' | '.join(cells)} |")
+        cells = [" / ".join(f"{c[n][k]:.2f}" for n in sets) if k in c["search"] else "-"
+                 for k in objective.parts]
+        score = " / ".join(f"{c[n]['objective']:.3f}" for n in sets)
+        lines.append(f"| {c['detector']} | {c['threshold']:.3f} | {score} | "
+                     f"{' | '.join(cells)} |")
     return "\n".join(lines) + "\n"
 
 
@@ -265,7 +284,8 @@ _PER_DETECTOR, _MIN_PANEL = 0.6, 3.4
 def calibration_figure(chosen: Sequence[dict[str, Any]], objective: Objective = WALKER
                        ) -> Figure:
     """calibration.png: for the objective and each of its parts, each chosen detector's
-    score on the search and the held-out seeds."""
+    score on the search and the held-out seeds (and the transfer set, where there is
+    one)."""
     from matplotlib.patches import Patch
 
     from lgmd_sim.plots import figure, model_style
@@ -280,11 +300,15 @@ def calibration_figure(chosen: Sequence[dict[str, Any]], objective: Objective = 
     x = np.arange(len(names))
     colours = [model_style(n.split("-")[0])["color"] for n in names]
     bar = {"edgecolor": "black", "lw": 0.5}
+    sets = _sets(chosen)
+    alphas = dict(zip(sets, (1.0, 0.45, 0.2), strict=False))
+    width = 0.76 / len(sets)
     for ax, what in zip(axes, panels, strict=False):
-        for k, (set_name, alpha) in enumerate((("search", 1.0), ("heldout", 0.45))):
+        for k, set_name in enumerate(sets):
             # a part the clips lack has no bar
-            bars = ax.bar(x + (k - 0.5) * 0.38, [c[set_name].get(what, np.nan) for c in chosen],
-                          0.38, color=colours, alpha=alpha, **bar)
+            bars = ax.bar(x + (k - (len(sets) - 1) / 2) * width,
+                          [c[set_name].get(what, np.nan) for c in chosen],
+                          width, color=colours, alpha=alphas[set_name], **bar)
             for b, n in zip(bars, names, strict=True):
                 if "open-loop" in n:  # the feedback LGMD's control: its colour, hatched
                     b.set_hatch("//")
@@ -294,8 +318,9 @@ def calibration_figure(chosen: Sequence[dict[str, Any]], objective: Objective = 
         ax.set_ylim(0, 1.02)
         ax.grid(axis="y", alpha=0.3)
     # the key in grey: the bars' colours are the detectors', named below each pair
-    handles = [Patch(facecolor="0.4", label="search seeds", **bar),
-               Patch(facecolor="0.4", alpha=0.45, label="held-out seeds", **bar)]
+    handles = [Patch(facecolor="0.4", alpha=alphas[n], label=f"{_set_label(n)} seeds"
+                     if n in ("search", "heldout") else f"{n}: held-out seeds in other looks",
+                     **bar) for n in sets]
     if any("open-loop" in n for n in names):
         handles.append(Patch(facecolor="white", hatch="//",
                              label="the feedback LGMD's open-loop control", **bar))
@@ -317,13 +342,15 @@ def calibrate(config: CalibrateConfig, out: str | Path, *, resume: bool = False,
     clip_dir = folder.path / "clips"
     clip_dir.mkdir(exist_ok=True)
     sets = {"search": clip_mod.specs(task.groups, config.search_seeds),
-            "heldout": clip_mod.specs(task.groups, config.heldout_seeds)}
+            "heldout": clip_mod.specs(task.groups, config.heldout_seeds),
+            **{name: clip_mod.specs(task.groups, config.heldout_seeds, name)
+               for name in task.looks if name}}
     all_specs = [s for specs in sets.values() for s in specs]
     done = folder.done()
     jobs = [Job(f"clip-{s.key}", clip_mod.record_clip,
                 {"spec": s, "folder": str(clip_dir), "resolution": config.resolution,
-                 "cruise": task.cruise, "fronts": task.fronts, "noise": task.noise,
-                 "fovy": task.fovy})
+                 "cruise": task.cruise, "fronts": task.fronts,
+                 "looks": task.looks[s.looks], "fovy": task.fovy})
             for s in all_specs if f"clip-{s.key}" not in done]
     common = {"workers": workers, "ray_address": ray_address, "progress": progress}
     run_jobs(jobs, lambda job, rec: folder.store(job.key, {**rec, "key": job.key[5:]}),
@@ -356,7 +383,7 @@ def calibrate(config: CalibrateConfig, out: str | Path, *, resume: bool = False,
         sp = space(c["detector"])
         params = {**c["params"], "threshold": c["threshold"], **task.preset_params(sp.front)}
         calibration["presets"][model][name] = {"from": sp.preset, "params": params,
-                                           "search": c["search"], "heldout": c["heldout"]}
+                                               **{n: c[n] for n in _sets(chosen)}}
     write_text_atomic(folder.path / "calibrated.json", json.dumps(calibration, indent=2) + "\n")
     files = ["summary.md", "calibration.png", "calibrated.json", "run.json"]
     target = config.presets_target
