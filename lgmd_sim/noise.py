@@ -17,6 +17,10 @@ real camera's exposure, sensor noise and compression.
 - ``sensor:L``: a camera sensor's noise, signal-dependent (Poisson-Gaussian, Foi et al.
   2008): on the [0, 1] scale, x + sqrt(a x + b) N(0, 1) with a = L^2 `SENSOR_SHOT` (the
   photon shot noise) and b = (L `SENSOR_READ`)^2 (the read noise), clipped;
+- ``blur:L``: motion blur at the shutter time: the image smeared along a line of random
+  direction, its length drawn per frame from a half-normal of standard deviation L times
+  `BLUR_SD` pixels (the camera's shake during an exposure; image space, so it costs a
+  filter, not the sub-frame renders a world's blur would);
 - ``jpeg:Q``: compression artefacts, each frame encoded and decoded as a JPEG of quality
   Q (1 to 100; OpenCV's libjpeg, 4:2:0 chroma for colour frames).
 
@@ -38,6 +42,7 @@ import cv2
 import numpy as np
 
 __all__ = [
+    "BLUR_SD",
     "EXPOSURE_CYCLES",
     "EXPOSURE_SD",
     "EXPOSURE_WAVES",
@@ -61,6 +66,7 @@ KINDS: dict[str, tuple[float, float]] = {
     "shake": (0.0, 10.0),      # level: a multiple of the SHAKE_* standard deviations
     "exposure": (0.0, 10.0),   # level: a multiple of EXPOSURE_SD
     "sensor": (0.0, 10.0),     # level: a multiple of the SENSOR_* noise
+    "blur": (0.0, 10.0),       # level: a multiple of BLUR_SD
     "jpeg": (1.0, 100.0),      # JPEG quality: lower is coarser
 }
 
@@ -81,6 +87,11 @@ SHAKE_GAIN_SD = 0.05
 EXPOSURE_SD = 0.1
 EXPOSURE_WAVES = 3
 EXPOSURE_CYCLES = (1 / 90, 1 / 10)
+
+#: Motion blur at level 1: the standard deviation of the smear's length (pixels, whatever
+#: the frame's size, like the shake's shift). A round value: a hand-held camera at 1/60 s
+#: smears a few pixels.
+BLUR_SD = 3.0
 
 #: Sensor noise at level 1, on the [0, 1] scale: the shot-noise variance per unit of
 #: signal (a standard deviation of 0.014 at mid-grey) and the read noise's standard
@@ -123,6 +134,9 @@ class Noise:
                            * 255.0).astype(np.uint8)
         if self.kind == "jpeg":
             return _jpeg(frame, round(self.level))
+        if self.kind == "blur":
+            length = abs(rng.normal(0.0, self.level * BLUR_SD))
+            return _smear(frame, length, rng.uniform(0.0, np.pi))
         if self.kind == "gaussian":
             noisy = frame / 255.0 + rng.normal(0.0, np.sqrt(self.level), frame.shape)
             return np.rint(np.clip(noisy, 0.0, 1.0) * 255.0).astype(np.uint8)
@@ -157,6 +171,23 @@ def _drift(seed: int, index: int) -> float:
     # a sine of random phase has variance 1/2: the sum of n, n/2
     return float(np.sqrt(2 / EXPOSURE_WAVES)
                  * np.sin(2 * np.pi * cycles * index + phases).sum())
+
+
+def _smear(frame: np.ndarray, length: float, angle: float) -> np.ndarray:
+    """`frame` averaged along a centred line of `length` pixels at `angle` (radians)."""
+    if length < 1.0:
+        return frame
+    size = 2 * int(np.ceil(length / 2)) + 1
+    kernel = np.zeros((size, size), np.float32)
+    centre, half = (size - 1) / 2, length / 2
+    dx, dy = half * np.cos(angle), half * np.sin(angle)
+    # sub-pixel line ends: cv2.line's shift, 8 fractional bits
+    ends = [(round((centre + sx * dx) * 256), round((centre + sx * dy) * 256))
+            for sx in (-1, 1)]
+    cv2.line(kernel, ends[0], ends[1], 1.0, 1, cv2.LINE_AA, shift=8)
+    kernel /= kernel.sum()
+    out = cv2.filter2D(frame, -1, kernel, borderType=cv2.BORDER_REPLICATE)
+    return out.reshape(frame.shape)
 
 
 def _jpeg(frame: np.ndarray, quality: int) -> np.ndarray:

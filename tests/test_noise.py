@@ -84,8 +84,23 @@ def test_jpeg_is_coarser_at_lower_quality_and_keeps_the_frames_shape():
                            ).shape == shape
 
 
-@pytest.mark.parametrize("spec", ["exposure:1", "sensor:1", "jpeg:40",
-                                  "shake:1,exposure:1,sensor:1,jpeg:60"])
+def test_blur_smears_edges_and_keeps_the_brightness():
+    rng = np.random.default_rng(2)
+    sharp = np.kron(rng.integers(0, 2, (12, 16)) * 200 + 20, np.ones((8, 8))).astype(np.uint8)
+    def edges(frame: np.ndarray) -> float:  # squared gradients: a smear spreads them
+        f = frame.astype(float)
+        return float((np.diff(f, axis=0) ** 2).mean() + (np.diff(f, axis=1) ** 2).mean())
+
+    energy = {}
+    for level in (0.5, 3.0):
+        out = [noise.apply(sharp, noise.parse(f"blur:{level}"), 3, t) for t in range(20)]
+        energy[level] = np.mean([edges(o) for o in out])
+        assert np.mean([o.mean() for o in out]) == pytest.approx(sharp.mean(), rel=0.02)
+    assert energy[3.0] < 0.7 * edges(sharp) and energy[3.0] < energy[0.5]
+
+
+@pytest.mark.parametrize("spec", ["exposure:1", "sensor:1", "jpeg:40", "blur:1",
+                                  "shake:1,exposure:1,sensor:1,blur:1,jpeg:60"])
 def test_each_camera_noise_is_seeded_and_any_frame_is_made_alone(spec):
     frames = _frames(6, (24, 32, 3))
     noises = noise.parse(spec)

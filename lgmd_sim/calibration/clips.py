@@ -79,14 +79,15 @@ class Looks:
 
 
 #: The video task's looks: "" the calibration's (search and held-out seeds), a real
-#: unstabilised camera adding white shake at video rate, auto-exposure, sensor noise and
-#: compression to each clip's shake (level 1 of each, JPEG quality 70, a web video's), on
-#: the scenes' default light and textured stimuli; "transfer" the held-out check of a
-#: domain the calibration never saw: a worse camera (twice the shake, exposure and sensor
-#: noise, JPEG 40), a low sun with passing shade and flicker, stimuli on plain grounds.
+#: unstabilised camera adding white shake at video rate, motion blur, auto-exposure,
+#: sensor noise and compression to each clip's shake (level 1 of each, JPEG quality 70, a
+#: web video's), on the scenes' default light and textured stimuli; "transfer" the
+#: held-out check of a domain the calibration never saw: a worse camera (twice the shake,
+#: blur, exposure and sensor noise, JPEG 40), a low sun with passing shade and flicker,
+#: stimuli on plain grounds.
 VIDEO_LOOKS: dict[str, Looks] = {
-    "": Looks("shake:0.5,exposure:1,sensor:1,jpeg:70"),
-    "transfer": Looks("shake:1,exposure:2,sensor:2,jpeg:40",
+    "": Looks("shake:0.5,blur:1,exposure:1,sensor:1,jpeg:70"),
+    "transfer": Looks("shake:1,blur:2,exposure:2,sensor:2,jpeg:40",
                       {"sun_elevation": 15.0, "shade": 0.6, "flicker": 0.15}, "uniform"),
 }
 #: The vertical field of view (degrees) the video presets' front end assumes, the middle

@@ -172,12 +172,12 @@ VIDEO = _Walker(
 camera nobody calibrated, and silence on what does not loom.
 
 Clips fall in four kinds, and each kind weighs the same in the objective; every clip has
-a real camera's noise on top of its shake (white shake, auto-exposure, sensor noise and
-compression, `lgmd_sim.calibration.clips.VIDEO_LOOKS`), and the scenes' cameras have
-fields of view from 40 to 90 degrees while the front end assumes 60. Besides the search
-and held-out seeds, a transfer set of the held-out seeds in other looks (a worse camera,
-low sun, shade and flicker, stimuli on plain grounds) says how much of the score survives
-a domain the calibration never saw:
+a real camera's noise on top of its shake (white shake, motion blur, auto-exposure,
+sensor noise and compression, `lgmd_sim.calibration.clips.VIDEO_LOOKS`), and the scenes'
+cameras have fields of view from 40 to 90 degrees while the front end assumes 60.
+Besides the search and held-out seeds, a transfer set of the held-out seeds in other
+looks (a worse camera, low sun, shade and flicker, stimuli on plain grounds) says how much
+of the score survives a domain the calibration never saw:
 
 - **jitter**: a shaking camera approaching an obstacle, or a synthetic object looming at
   it, until it collides. A hit when the first alarm falls in the last 15% of the approach

@@ -66,7 +66,8 @@ def add(sub: argparse._SubParsersAction) -> None:
                    "0.001 to 0.009), shake (extra rotation, translation and brightness "
                    "gain, level 1: about 1 degree and 2 pixels), and a real camera's: "
                    "exposure (a smoothly drifting gain, level 1: about 10%%), sensor "
-                   "(signal-dependent noise) and jpeg (compression at quality 1 to 100), "
+                   "(signal-dependent noise), blur (motion blur, level 1: about 3 pixels) "
+                   "and jpeg (compression at quality 1 to 100), "
                    "e.g. "
                    "gaussian:0.005,saltpepper:0.005; recorded in the JSON summary")
     p.add_argument("--noise-seed", type=non_negative_int, default=0, metavar="N",

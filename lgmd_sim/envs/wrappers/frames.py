@@ -54,8 +54,8 @@ class NoiseObservation(gym.Wrapper, gym.utils.RecordConstructorArgs):
         noise: "kind:level,..." (`lgmd_sim.noise.parse`: ``gaussian:V``, variance V on the
             [0, 1] scale, the paper's 0.001 to 0.009; ``saltpepper:D``, density D, the
             paper's 0.001 to 0.009; ``shake:L``, extra rotation, translation and
-            brightness gain at level L; a real camera's ``exposure:L``, ``sensor:L`` and
-            ``jpeg:Q``), or a list of `lgmd_sim.noise.Noise`, applied in order.
+            brightness gain at level L; a real camera's ``exposure:L``, ``sensor:L``,
+            ``blur:L`` and ``jpeg:Q``), or a list of `lgmd_sim.noise.Noise`, applied in order.
     """
 
     def __init__(self, env: gym.Env, noise: str | Sequence[noise_lib.Noise]) -> None:
