@@ -256,7 +256,7 @@ def test_a_bad_noise_spec_is_one_line_before_any_video_is_read(tmp_path, capfd):
     captured = capfd.readouterr()
     err = captured.err.strip().splitlines()
     assert err == ["lgmd-sim detect: error: unknown noise 'gauss'; known: gaussian, "
-                   "saltpepper, shake"]
+                   "saltpepper, shake, exposure, sensor, blur, jpeg"]
     assert captured.out == "" and not (tmp_path / "o").exists()
 
 
