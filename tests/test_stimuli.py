@@ -70,6 +70,20 @@ def test_receding_is_a_reversed_approach_and_translating_keeps_size():
     assert np.all(np.diff(cols) > 0)  # moving rightwards
 
 
+def test_rotating_turns_a_square_of_constant_area_without_looming():
+    rot = stimuli.rotating(SHAPE, rate=90.0, n_frames=16, still_frames=2,
+                           look=stimuli.Look(form="disc"))  # a square whatever the form
+    assert rot.collision_frame is None and np.ptp(rot.angular_size) == 0
+    assert np.array_equal(rot.frames[0], rot.frames[2])  # still, then turning from 0
+    darkness = (255 - rot.frames.astype(float)).sum(axis=(1, 2))
+    assert np.ptp(darkness) < 0.02 * darkness.mean()  # its area stays
+    assert not np.array_equal(rot.frames[2], rot.frames[5])
+    # turned by 45 degrees (15 frames at 90 degrees/s), its corners reach further along
+    # the row through the centre
+    row = rot.frames[:, SHAPE[0] // 2] < 128
+    assert row[2 + 15].sum() > row[2].sum()
+
+
 def test_static_grating_flicker():
     st = stimuli.static(SHAPE, n_frames=5)
     assert st.frames.shape == (5, *SHAPE)
@@ -131,6 +145,7 @@ def test_jitter_is_the_noise_modules_shake():
     (lambda: stimuli.grating(SHAPE, waveform="saw"), "waveform"),
     (lambda: stimuli.flicker(SHAPE, depth=0), "depth"),
     (lambda: stimuli.static(SHAPE, n_frames=0), "n_frames"),
+    (lambda: stimuli.rotating(SHAPE, rate=0), "rate"),
     (lambda: stimuli.jittered(stimuli.static(SHAPE), -1), "level"),
 ])
 def test_invalid_arguments_are_named(call, name):

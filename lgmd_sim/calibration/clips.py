@@ -63,7 +63,8 @@ VIDEO_GROUPS: dict[str, list[tuple[str, tuple[float, ...]]]] = {
     "stationary": [("StationaryApproach", (0.0,)), ("Looming", (0.0,))],
     "near_miss": [("PassBy", (0.0, 1.0))],
     "non_looming": [("Receding", (0.0, 1.0)), ("Translating", (0.0, 1.0)),
-                    ("Grating", (0.0, 1.0)), ("Flicker", (0.0, 1.0))],
+                    ("Rotating", (0.0, 1.0)), ("Grating", (0.0, 1.0)),
+                    ("Flicker", (0.0, 1.0))],
 }
 
 
@@ -106,9 +107,9 @@ def _look(rng: np.random.Generator, seed: int, background: str) -> stimuli.Look:
 
 #: Synthetic stimuli as clip scenarios (`lgmd_sim.stimuli`), each drawn per clip from its
 #: seed (the object's polarity, form and contrast on the looks' background; speeds,
-#: periods and frequencies): a looming object (to collision), and four that do not loom:
-#: an object receding or crossing the view, a drifting grating, the whole field dimming
-#: and lightening. Each takes the frame shape, the clip's generator, seed and background.
+#: periods and frequencies): a looming object (to collision), and five that do not loom:
+#: an object receding, crossing the view or turning, a drifting grating, the whole field
+#: dimming and lightening. Each takes the frame shape, the clip's generator, seed and background.
 STIMULI: dict[str, Callable[[tuple[int, int], np.random.Generator, int, str],
                             stimuli.Stimulus]] = {
     "Looming": lambda shape, rng, seed, bg: stimuli.approaching(
@@ -117,6 +118,9 @@ STIMULI: dict[str, Callable[[tuple[int, int], np.random.Generator, int, str],
         shape, speed=float(rng.uniform(1.0, 3.0)), look=_look(rng, seed, bg)),
     "Translating": lambda shape, rng, seed, bg: stimuli.translating(
         shape, speed=float(rng.uniform(0.5, 2.0)), look=_look(rng, seed, bg)),
+    "Rotating": lambda shape, rng, seed, bg: stimuli.rotating(
+        shape, rate=float(rng.uniform(60, 360)), distance=float(rng.uniform(0.5, 1.5)),
+        n_frames=90, look=_look(rng, seed, bg)),
     "Grating": lambda shape, rng, seed, bg: stimuli.grating(
         shape, period=float(rng.uniform(10, 40)), speed=float(rng.uniform(20, 120)),
         orientation=float(rng.uniform(0, 360)), contrast=float(rng.uniform(0.2, 0.8)),

@@ -185,9 +185,9 @@ of the score survives a domain the calibration never saw:
 - **stationary**: a steady camera and a collision. A hit when the model alarms at or
   before the collision.
 - **near miss**: an object passing by. A hit when the model never alarms.
-- **non-looming**: synthetic stimuli that move without looming: an object receding or
-  crossing the view, a drifting grating, the whole field dimming and lightening, steady
-  or shaken. A hit when the model never alarms.
+- **non-looming**: synthetic stimuli that move without looming: an object receding,
+  crossing the view or turning, a drifting grating, the whole field dimming and
+  lightening, steady or shaken. A hit when the model never alarms.
 
 objective = mean of the four kinds' hit rates, in [0, 1].""",
     parts={"jitter": "jitter hits", "stationary": "stationary hits",
@@ -196,5 +196,5 @@ objective = mean of the four kinds' hit rates, in [0, 1].""",
             "jitter": "jitter clips:\nfirst alarm late and before the collision",
             "stationary": "stationary clips:\nan alarm before the collision",
             "near_miss": "near misses:\nno alarm",
-            "non_looming": "receding, crossing, gratings, flicker:\nno alarm"},
+            "non_looming": "receding, crossing, turning,\ngratings, flicker: no alarm"},
     fields=[list])

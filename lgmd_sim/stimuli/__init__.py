@@ -1,7 +1,8 @@
 """Synthetic stimuli: the classic LGMD characterisation set, seeded, as uint8 grey frames.
 
 - `lgmd_sim.stimuli.objects`: an object (a dark or light square or disc, as its `Look`
-  says) approaching, receding, crossing the view or at rest in a pinhole-camera world,
+  says) approaching, receding, crossing the view, turning or at rest in a pinhole-camera
+  world,
   drawn with exact area coverage at its edges;
 - `lgmd_sim.stimuli.fields`: full-field stimuli without an object (grating, flicker);
 - `lgmd_sim.stimuli.clip`: the `Stimulus` they all return, and `jittered`, any of them
@@ -15,7 +16,14 @@
 
 from lgmd_sim.stimuli.clip import Stimulus, jittered
 from lgmd_sim.stimuli.fields import flicker, grating
-from lgmd_sim.stimuli.objects import Look, approaching, receding, static, translating
+from lgmd_sim.stimuli.objects import (
+    Look,
+    approaching,
+    receding,
+    rotating,
+    static,
+    translating,
+)
 
 __all__ = [
     "Look",
@@ -25,6 +33,7 @@ __all__ = [
     "grating",
     "jittered",
     "receding",
+    "rotating",
     "static",
     "translating",
 ]

@@ -9,6 +9,7 @@ so that a model begins at rest.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -72,8 +73,10 @@ def _render(
     distances: np.ndarray,
     centres_x: np.ndarray | None = None,
     collision_frame: int | None = None,
+    angles: np.ndarray | None = None,
 ) -> Stimulus:
-    """Draw the object at the given distance (and image column of its centre) per frame."""
+    """Draw the object at the given distance (and image column of its centre, and turn
+    about the line of sight, radians) per frame."""
     half_size = float(look.half_size)
     contrast = float(look.contrast)
     sign = 1.0 if look.polarity == "dark" else -1.0
@@ -85,7 +88,8 @@ def _render(
     for t, d in enumerate(distances):
         half_px = focal * half_size / d if d > 0 else math.inf
         cx = cx0 if centres_x is None else centres_x[t]
-        cov = _coverage(shape, look.form, cx, cy, half_px)
+        cov = (_coverage(shape, look.form, cx, cy, half_px) if angles is None
+               else _turned_square(shape, cx, cy, half_px, float(angles[t])))
         frames[t] = to_uint8(bg + (level - bg) * cov)
     angular = np.where(
         distances > 0, 2 * np.arctan(half_size / np.maximum(distances, 1e-12)), math.pi
@@ -223,6 +227,59 @@ def translating(
     centres = np.concatenate([np.full(still_frames, -1e9),
                               start + step_px * np.arange(n_motion + 1)])
     return _render("translating", shape, look, fps, np.full(len(centres), distance), centres)
+
+
+#: Samples per pixel side of a turned square's coverage (its edges are not on the axes).
+_SUPERSAMPLE = 4
+
+
+def _turned_square(shape: tuple[int, int], cx: float, cy: float, half: float, angle: float
+                   ) -> np.ndarray:
+    """Fraction of each pixel covered by a square of half-side ``half`` turned by `angle`
+    (radians) about its centre: `_SUPERSAMPLE` x `_SUPERSAMPLE` samples per pixel."""
+    h, w = shape
+    n = _SUPERSAMPLE
+    offsets = (np.arange(n) + 0.5) / n - 0.5
+    y = (np.arange(h)[:, None] + offsets[None, :]).reshape(-1) - cy
+    x = (np.arange(w)[:, None] + offsets[None, :]).reshape(-1) - cx
+    c, s = math.cos(angle), math.sin(angle)
+    u = c * x[None, :] + s * y[:, None]  # the square's own axes
+    v = -s * x[None, :] + c * y[:, None]
+    inside = (np.abs(u) <= half) & (np.abs(v) <= half)
+    return inside.reshape(h, n, w, n).mean(axis=(1, 3))
+
+
+def rotating(
+    shape: Sequence[int] = (120, 160),
+    *,
+    distance: float = 1.0,
+    rate: float = 180.0,
+    n_frames: int = 60,
+    still_frames: int = 5,
+    fps: float = 30.0,
+    look: Look = Look(),
+) -> Stimulus:
+    """A square at rest in the middle of the view, turning about the line of sight at a
+    constant rate: its edges sweep, its size stays. Always a square (a turning disc looks
+    still), whatever ``look.form``.
+
+    :param distance: the object's distance, metres (sets its image size: 27 pixels across
+        with the defaults).
+    :param rate: turning rate, degrees per second.
+    :param n_frames: frames of turning (after the still frames).
+    Others as in `approaching`.
+    """
+    shape = frame_shape(shape)
+    distance = positive_float("distance", distance)
+    rate = positive_float("rate", rate)
+    n_frames = count("n_frames", n_frames, 1)
+    still_frames = count("still_frames", still_frames, 0)
+    fps = positive_float("fps", fps)
+    angles = np.radians(rate) / fps * np.concatenate(
+        [np.zeros(still_frames), np.arange(n_frames)])
+    square = dataclasses.replace(look, form="square")
+    return _render("rotating", shape, square, fps, np.full(len(angles), distance),
+                   angles=angles)
 
 
 def static(
