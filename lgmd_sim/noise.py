@@ -1,5 +1,5 @@
 """Seeded frame corruptions: the paper's noisy streams (its dataset d), extra shake and a
-real camera's exposure, sensor noise and compression.
+real camera's exposure, sensor noise, motion blur and compression.
 
 - ``gaussian:V``: additive Gaussian noise of variance V on the [0, 1] grey scale, clipped
   (the paper uses V = 0.001 to 0.009, as MATLAB's ``imnoise(I, 'gaussian', 0, V)``);

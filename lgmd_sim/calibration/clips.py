@@ -262,7 +262,8 @@ def clip_motions(grey: np.ndarray, truth: dict[str, np.ndarray], front: str, fov
     for t, g in enumerate(grey):
         hs.append(front_end.motion(g[None], None if rotations is None else rotations[t])
                   .homography[0])
-        grids.append(front_end.gain_grids[0].copy())
+        if gain:
+            grids.append(front_end.gain_grids[0].copy())
     return np.stack(hs), np.stack(grids) if gain else None
 
 

@@ -88,9 +88,12 @@ class Task:
     def identity(self) -> dict[str, Any]:
         """What a run folder records of the task beyond its groups and objective (nothing
         for a task of plain looks and the world's field of view: older runs resume)."""
-        looks = {name: dataclasses.asdict(v) for name, v in self.looks.items()}
-        return {k: v for k, v in (("looks", looks), ("fovy", self.fovy))
-                if v and v != {"": dataclasses.asdict(clip_mod.Looks())}}
+        out: dict[str, Any] = {}
+        if self.looks != {"": clip_mod.Looks()}:
+            out["looks"] = {name: dataclasses.asdict(v) for name, v in self.looks.items()}
+        if self.fovy:
+            out["fovy"] = self.fovy
+        return out
 
     def preset_params(self, front: str | None) -> dict[str, Any]:
         """The model parameters of front end `front` in this task's presets."""
