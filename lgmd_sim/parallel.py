@@ -7,6 +7,11 @@ or Ray tasks. `run_jobs` hands each result to ``on_result`` in this process as s
 its job finishes, so the caller stores it at once (atomically) and an interrupted run
 keeps every finished job; calling it again with the rest resumes.
 
+What is costly to set up and can serve one job after another (an environment, with its
+compiled scene and its GL context) a job takes from `kept`: made once in each process of
+the run and handed to the run's later jobs there, so that a pool's throughput is that of
+its episodes, not of their set-up.
+
 The workers end with the run, whatever ends it: an error, SIGTERM or Ctrl-C here stop
 them within seconds (SIGTERM, which lets a job remove its temporaries, then SIGKILL), and
 they stop by themselves when this process ends, even killed outright (on Linux at once,
@@ -26,15 +31,19 @@ import sys
 import threading
 import time
 import traceback
-from collections import deque
-from collections.abc import Callable, Mapping, Sequence
+from collections import OrderedDict, deque
+from collections.abc import Callable, Hashable, Iterator, Mapping, Sequence
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from multiprocessing.connection import Connection, wait
 from multiprocessing.context import BaseContext
 from multiprocessing.process import BaseProcess
-from typing import Any
+from typing import Any, TypeVar
 
-__all__ = ["Job", "WorkerDied", "default_workers", "run_jobs", "stop_again_when_swallowed"]
+__all__ = ["KEEP", "Job", "WorkerDied", "default_workers", "kept", "run_jobs",
+           "stop_again_when_swallowed"]
+
+T = TypeVar("T")
 
 #: Seconds the workers have to stop (their jobs' temporaries removed) before SIGKILL.
 _GRACE = 3
@@ -68,6 +77,72 @@ def default_workers() -> int:
 
 
 def _call(fn: Callable[..., Any], kwargs: Mapping[str, Any]) -> Any:
+    return fn(**kwargs)
+
+
+#: How many objects `kept` holds in one process: a benchmark's jobs come cell by cell, so
+#: a few serve every episode of a run (an environment at 270 x 480 holds about 100 MB).
+KEEP = 4
+#: What `kept` holds in this process, the least recently used first; None outside a run
+#: (a job called directly makes its objects and closes them when it is done).
+_kept: OrderedDict[Hashable, Any] | None = None
+
+
+@contextmanager
+def kept(key: Hashable, make: Callable[[], T]) -> Iterator[T]:
+    """``make()``, made once in this process of a run for `key` and kept for the run's
+    later jobs with the same key.
+
+    A job uses it for what is costly to set up and can serve job after job: an
+    environment (its compiled scene, its GL context), which each job then resets with its
+    own seed, so that its result is the same as with a fresh one (the tests show it for
+    the jobs that use it). The least recently used of more than `KEEP` is closed (its
+    ``close()``); the rest go when the run ends (an in-process run closes them; a pool's
+    workers end). Outside `run_jobs` the object is made for this one use and closed after.
+    """
+    if _kept is None:
+        obj = make()
+        try:
+            yield obj
+        finally:
+            _close(obj)
+        return
+    if key in _kept:
+        _kept.move_to_end(key)
+    else:
+        _kept[key] = make()
+        while len(_kept) > KEEP:
+            _close(_kept.popitem(last=False)[1])
+    yield _kept[key]
+
+
+def _close(obj: Any) -> None:
+    close = getattr(obj, "close", None)
+    if close is not None:
+        close()
+
+
+@contextmanager
+def _keeping() -> Iterator[None]:
+    """Let `kept` keep its objects while this process runs jobs; close them after."""
+    global _kept
+    if _kept is not None:  # a run within a run's job: the outer one keeps them
+        yield
+        return
+    _kept = OrderedDict()
+    try:
+        yield
+    finally:
+        held, _kept = _kept, None
+        for obj in held.values():
+            _close(obj)
+
+
+def _call_keeping(fn: Callable[..., Any], kwargs: Mapping[str, Any]) -> Any:
+    """A Ray task: its worker process lives on between tasks, and keeps `kept`'s objects."""
+    global _kept
+    if _kept is None:
+        _kept = OrderedDict()
     return fn(**kwargs)
 
 
@@ -143,8 +218,9 @@ def run_jobs(jobs: Sequence[Job], on_result: Callable[[Job, Any], None], *,
         if ray_address is not None:
             _run_on_ray(jobs, store, ray_address)
         elif (workers or default_workers()) == 1 or len(jobs) == 1:
-            for job in jobs:
-                store(job, _call(job.fn, job.kwargs))
+            with _keeping():
+                for job in jobs:
+                    store(job, _call(job.fn, job.kwargs))
         else:
             _run_on_pool(jobs, store, min(workers or default_workers(), len(jobs)))
     finally:
@@ -171,7 +247,8 @@ def _worker(conn: Connection, parent: int) -> None:
         if os.getppid() != parent:  # it ended before that
             return
     try:
-        _serve(conn)
+        with _keeping():
+            _serve(conn)
     finally:  # nothing left to unwind: a SIGTERM while the interpreter ends just ends it
         signal.signal(signal.SIGTERM, signal.SIG_DFL)
 
@@ -262,15 +339,38 @@ def _start_worker(context: BaseContext, pool: list[_Worker]) -> None:
     process = context.Process(target=_worker, args=(theirs, os.getpid()), daemon=True,
                               name=f"lgmd-sim worker {len(pool) + 1}")
     # The worker starts with these blocked, until its handlers are in place (a Ctrl-C
-    # while it starts would print its traceback); in this thread they wait until the
-    # worker is in `pool`, whose workers _stop ends.
+    # while it starts would print its traceback); here they wait until the worker is in
+    # `pool`, whose workers _stop ends: a stop half-way through its start would leave it
+    # reading its start-up data from a closed pipe, and printing that traceback.
     mask = signal.pthread_sigmask(signal.SIG_BLOCK, _STOPPING)
     try:
-        process.start()
-        pool.append(_Worker(process, ours))
+        with _stops_held():
+            process.start()
+            pool.append(_Worker(process, ours))
     finally:
         signal.pthread_sigmask(signal.SIG_SETMASK, mask)
     theirs.close()  # its end is the worker's alone, so that its death is an end of file
+
+
+@contextmanager
+def _stops_held() -> Iterator[None]:
+    """Hold the stopping signals' handlers until the block ends, then run them. Blocking
+    the signals in this thread is not enough: another thread of the process (OpenBLAS's,
+    pyarrow's) takes a signal sent to the process, and Python then runs its handler here
+    all the same."""
+    if threading.current_thread() is not threading.main_thread():
+        yield  # handlers can be set from the main thread only; signals are run there
+        return
+    caught: list[int] = []
+    held = {s: signal.signal(s, lambda signum, frame: caught.append(signum))
+            for s in _STOPPING}
+    try:
+        yield
+    finally:
+        for s, handler in held.items():
+            signal.signal(s, signal.SIG_DFL if handler is None else handler)
+        for s in caught:
+            os.kill(os.getpid(), s)  # now, to the handlers of the run
 
 
 def _run_on_pool(jobs: Sequence[Job], on_result: Callable[[Job, Any], None], workers: int
@@ -325,7 +425,7 @@ def _run_on_ray(jobs: Sequence[Job], on_result: Callable[[Job, Any], None], addr
         ray.init(address=None if address == "local" else address, include_dashboard=False,
                  log_to_driver=False, configure_logging=False)
     try:
-        task = ray.remote(num_cpus=1, max_retries=0)(_call)
+        task = ray.remote(num_cpus=1, max_retries=0)(_call_keeping)
         pending.update({task.remote(job.fn, job.kwargs): job for job in jobs})
         while pending:
             ready, _ = ray.wait(list(pending), num_returns=1)

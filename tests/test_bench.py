@@ -190,7 +190,7 @@ def test_speed_closed_loop_prints_both_tables(capsys):
                      "--resolution", "small"]) == 0
     out = capsys.readouterr().out
     assert "environment alone" in out and "+ ReactiveAvoid(feedback)" in out
-    assert "speed-up" in out
+    assert "speed-up" in out and "share of the environment's speed" in out
 
 
 def test_open_loop_runs_detectors_with_front_ends(tmp_path):

@@ -104,10 +104,8 @@ def plan(scenarios: Sequence[str], jitters: Sequence[float], controllers: Sequen
 def episode(cell: Cell, seed: int, *, resolution: Any, cruise: float, horizon: float,
             top_view: bool = False) -> dict[str, Any]:
     """Run one episode of `cell` and measure it (a job: runs in a worker process)."""
-    import gymnasium as gym
-
     from lgmd_sim import controllers
-    from lgmd_sim.envs.catalogue import scenario
+    from lgmd_sim.envs.reuse import episode_env
 
     params = dict(cell.params)
     if cell.model:
@@ -115,18 +113,15 @@ def episode(cell: Cell, seed: int, *, resolution: Any, cruise: float, horizon: f
     if "cruise" in controllers.controller_class(cell.controller).Params.names():
         params.setdefault("cruise", cruise)  # every cruising controller at the same speed
     controller = controllers.make(cell.controller, **params)
-    env = controller.wrap_env(gym.make(scenario(cell.scenario).env_id, jitter=cell.jitter,
-                                       resolution=resolution))
     infos, alarms, manoeuvring = [], [], []
-    try:
+    with episode_env(cell.scenario, jitter=cell.jitter, resolution=resolution) as base:
+        env = controller.wrap_env(base)
         for step in controllers.rollout(env, controller, seed=seed):
             infos.append(step.info)
             alarms.append(step.action is not None and controller.alarm)
             if step.action is not None:
                 manoeuvring.append(controller.manoeuvring)
         view = env.unwrapped.world.top_view() if top_view else None
-    finally:
-        env.close()
     first, last = infos[0], infos[-1]
     xy = np.array([i["carrier_pos"][:2] for i in infos])
     times = np.array([i["time"] for i in infos])

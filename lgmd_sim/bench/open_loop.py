@@ -67,19 +67,14 @@ def _frames(clip: Clip, resolution: Any
         ttc = np.array([row["threat_ttc"] for row in table], float)
         infos = [{c: np.asarray(row[c]) for c in columns} for row in table] if columns else None
         return list(ep.frames()), ttc, ep.collision_frame, ep.fps, infos
-    import gymnasium as gym
-
     from lgmd_sim.controllers import Straight, rollout
-    from lgmd_sim.envs.catalogue import scenario
+    from lgmd_sim.envs.reuse import episode_env
     from lgmd_sim.envs.wrappers.frames import check_frame_space
 
-    env = gym.make(scenario(clip.scenario).env_id, jitter=clip.jitter, resolution=resolution)
-    try:
+    with episode_env(clip.scenario, jitter=clip.jitter, resolution=resolution) as env:
         check_frame_space(env.observation_space)
         steps = list(rollout(env, Straight(), seed=clip.seed))
         fps = float(env.unwrapped.params.fps)
-    finally:
-        env.close()
     frames = [s.obs["frame"] for s in steps]
     ttc = np.array([s.info["threat_ttc"] for s in steps], float)
     hit = steps[-1].info["first_collision_frame"]

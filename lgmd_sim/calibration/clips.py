@@ -213,25 +213,20 @@ def _scenario_clip(spec: ClipSpec, resolution: Any, cruise: float | None, any_fo
                    ) -> tuple[list[np.ndarray], dict[str, np.ndarray], float, int, float]:
     """An environment's clip: its RGB frames, per-frame ground truth, camera's vertical
     field of view, first collision frame (-1 for none) and frames per second."""
-    import gymnasium as gym
-
     from lgmd_sim.controllers import rollout
-    from lgmd_sim.envs.catalogue import scenario
+    from lgmd_sim.envs.reuse import episode_env
     from lgmd_sim.envs.wrappers.frames import check_frame_space
 
     camera = {}
     if any_fovy:  # drawn from the seed alone: the same clip whatever else the set holds
         rng = np.random.default_rng([spec.seed, zlib.crc32(b"fovy")])
         camera = {"fovy": float(rng.uniform(*VIDEO_FOVY_RANGE))}
-    env = gym.make(scenario(spec.scenario).env_id, jitter=spec.jitter, resolution=resolution,
-                   **camera, **scene)
-    try:
+    with episode_env(spec.scenario, jitter=spec.jitter, resolution=resolution, **camera,
+                     **scene) as env:
         check_frame_space(env.observation_space)
         driver = Straight() if cruise is None else HoldLine(cruise=cruise)
         steps = list(rollout(env, driver, seed=spec.seed))
         fovy, fps = float(env.unwrapped.params.fovy), float(env.unwrapped.params.fps)
-    finally:
-        env.close()
     truth = {}
     for name, value in steps[0].info.items():
         value = np.asarray(value)

@@ -237,11 +237,9 @@ def _validate(config: GenerateConfig) -> None:
 def make_episode(spec: EpisodeSpec) -> EpisodeResult:
     """Run one episode and encode it: its video, its labels as a Parquet file, its
     metadata. Depends on `spec` only (the same bytes wherever it runs)."""
-    import gymnasium as gym
-
     from lgmd_sim import __version__, controllers, models, noise
     from lgmd_sim.controllers import rollout
-    from lgmd_sim.envs.catalogue import scenario
+    from lgmd_sim.envs.reuse import episode_env
     from lgmd_sim.frames import to_grey
     from lgmd_sim.video import encoder
 
@@ -251,11 +249,10 @@ def make_episode(spec: EpisodeSpec) -> EpisodeResult:
     built = {v: {m: models.make(m) for m in spec.models}
              for v in [None, *variants]} if spec.models else {}
     controller = controllers.make(spec.controller)
-    env = gym.make(scenario(spec.scenario).env_id, **spec.overrides)
     columns: dict[str, list] = {name: [] for name in layout.label_schema(spec.models,
                                                                          spec.noise).names}
     nan3 = np.full(3, np.nan, np.float32)
-    try:
+    with episode_env(spec.scenario, **spec.overrides) as env:
         params = env.unwrapped.params
         with scratch_folder("lgmd-sim-episode") as tmp:
             video = tmp / f"episode{fmt.suffix}"
@@ -279,8 +276,6 @@ def make_episode(spec: EpisodeSpec) -> EpisodeResult:
                             columns[alarm].append(out.alarm)
             video_bytes = video.read_bytes()
         env_params = dataclasses.asdict(params)
-    finally:
-        env.close()
     meta = _episode_meta(spec, columns, params.fps, params.size)
     meta.update(
         version=__version__, video_codec=fmt.codec, video_sha256=_sha256_bytes(video_bytes),

@@ -32,16 +32,11 @@ from lgmd_sim.speed import format_table
 
 def drive(scenario: str, overrides: dict[str, Any], seed: int, controller: str) -> int:
     """One episode with nothing stored: the environment's own cost. Returns its frames."""
-    import gymnasium as gym
-
     from lgmd_sim import controllers
-    from lgmd_sim.envs.catalogue import scenario as scenario_of
+    from lgmd_sim.envs.reuse import episode_env
 
-    env = gym.make(scenario_of(scenario).env_id, **overrides)
-    try:
+    with episode_env(scenario, **overrides) as env:
         return sum(1 for _ in controllers.rollout(env, controllers.make(controller), seed=seed))
-    finally:
-        env.close()
 
 
 def _cpu() -> float:
