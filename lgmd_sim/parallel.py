@@ -81,7 +81,8 @@ def _call(fn: Callable[..., Any], kwargs: Mapping[str, Any]) -> Any:
 
 
 #: How many objects `kept` holds in one process: a benchmark's jobs come cell by cell, so
-#: a few serve every episode of a run (an environment at 270 x 480 holds about 100 MB).
+#: a few serve every episode of a run, and each kept environment holds its scene, its
+#: frames and its GL buffers.
 KEEP = 4
 #: What `kept` holds in this process, the least recently used first; None outside a run
 #: (a job called directly makes its objects and closes them when it is done).

@@ -72,18 +72,20 @@ def measure_overhead(scenario: str, resolution: str, models: list[str], steps: i
     return rows
 
 
-def bare_episode(scenario: str, resolution: str | list[int], seed: int, frames: int) -> int:
+def bare_episode(scenario: str, jitter: float, resolution: str | list[int], seed: int,
+                 frames: int) -> dict[str, int]:
     """The environment alone for `frames` frames (a fixed action, resetting where an
-    episode ends), in the kept environment a benchmark episode runs in: its frames."""
+    episode ends), in the kept environment a benchmark episode runs in; its record holds
+    its frames, as a benchmark episode's does."""
     from lgmd_sim.envs.reuse import episode_env
 
-    with episode_env(scenario, jitter=1.0, resolution=resolution) as env:
+    with episode_env(scenario, jitter=jitter, resolution=resolution) as env:
         env.reset(seed=seed)
         for _ in range(frames - 1):
             _, _, terminated, truncated, _ = env.step(ACTION)
             if terminated or truncated:
                 env.reset()
-    return frames
+    return {"frames": frames}
 
 
 def measure_workers(scenario: str, resolution: str | list[int], episodes: int) -> dict:
@@ -102,16 +104,15 @@ def measure_workers(scenario: str, resolution: str | list[int], episodes: int) -
     def frames_per_s(jobs: list[Job], workers: int) -> tuple[float, dict[str, int]]:
         frames: dict[str, int] = {}
         start = time.perf_counter()
-        run_jobs(jobs, lambda job, r: frames.__setitem__(
-            job.key, r if isinstance(r, int) else r["frames"]), workers=workers,
-            progress=False)
+        run_jobs(jobs, lambda job, record: frames.__setitem__(job.key, record["frames"]),
+                 workers=workers, progress=False)
         return sum(frames.values()) / (time.perf_counter() - start), frames
 
     one, frames = frames_per_s(jobs, 1)
     two, _ = frames_per_s(jobs, 2)
     bare, _ = frames_per_s([Job(job.key, bare_episode, {
-        "scenario": scenario, "resolution": resolution, "seed": job.kwargs["seed"],
-        "frames": frames[job.key]}) for job in jobs], 2)
+        "scenario": scenario, "jitter": cell.jitter, "resolution": resolution,
+        "seed": job.kwargs["seed"], "frames": frames[job.key]}) for job in jobs], 2)
     return {"one": one, "two": two, "speedup": two / one, "bare": bare, "share": two / bare}
 
 
