@@ -270,6 +270,19 @@ def test_preset_applies_to_every_model_that_has_it(tmp_path, clip, capsys):
     assert "has a preset 'nope'" in capsys.readouterr().err
 
 
+def test_preset_video_alone_runs_every_model_with_the_front_end_footage_needs(
+        tmp_path, clip, capsys):
+    """`lgmd-sim detect VIDEO --preset video` with no other option: every model at its
+    shipped video preset, the rotation and the gain fitted from the frames."""
+    video = _write_video(tmp_path / "a.mp4", clip.frames)
+    assert _detect(str(video), "--preset", "video", "--json") == 0
+    record = json.loads(capsys.readouterr().out)
+    assert list(record["models"]) == [f"{name}/video" for name in models.available()]
+    for name in models.available():
+        params = models.make(name, preset="video").params
+        assert (params.stabilize, params.gain) == ("image", True)
+
+
 def test_an_alarm_on_the_collision_frame_is_a_hit_with_lead_0_as_the_benchmarks_count_it(
         tmp_path, clip, capsys):
     """The rule `--help` states: a first alarm in the window before the collision frame,

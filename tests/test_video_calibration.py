@@ -5,7 +5,9 @@ calibration scored."""
 
 from __future__ import annotations
 
+import importlib
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -15,13 +17,21 @@ from lgmd_sim.calibration import clips, search
 from lgmd_sim.calibration import objective as obj
 from lgmd_sim.calibration.run import TASKS, CalibrateConfig
 
+ROOT = Path(__file__).resolve().parents[1]
 
-def test_a_tiny_video_calibration_writes_video_presets_that_score_as_calibrated(
-        tmp_path, monkeypatch):
-    out = tmp_path / "cal"
+
+@pytest.fixture(scope="module")
+def tiny_run(tmp_path_factory) -> Path:
+    out = tmp_path_factory.mktemp("video") / "cal"
     assert cli.main(["calibrate", "--task", "video", "--detectors", "lgmd1", "--budget", "2",
                      "--seeds", "1", "--resolution", "small", "--workers", "1",
                      "--no-progress", "--out", str(out)]) == 0
+    return out
+
+
+def test_a_tiny_video_calibration_writes_video_presets_that_score_as_calibrated(
+        tiny_run, monkeypatch):
+    out = tiny_run
     data = json.loads((out / "calibrated.json").read_text())
     entry = data["presets"]["lgmd1"]["video"]
     assert entry["params"] | {"stabilize": "image", "gain": True, "fovy": 60.0} == entry["params"]
@@ -102,3 +112,40 @@ def test_the_video_tasks_detectors_take_its_front_end_and_no_other():
         CalibrateConfig(task="video", detectors=("lgmd1+imu",))
     with pytest.raises(ValueError, match="the walker task's front ends are \\+image, \\+imu"):
         CalibrateConfig(detectors=("lgmd1+image+gain",))
+
+
+def test_the_video_objective_scores_silence_and_alarming_on_everything_zero():
+    kinds = np.array(["jitter", "stationary", "near_miss", "non_looming", "non_looming"])
+    collision = np.isin(kinds, ("jitter", "stationary"))
+    silent, always = ~collision, collision  # a hit is silence on the other kinds
+    balanced = np.array([True, False, True, True, False])  # alarms 0.5, silences 0.75
+
+    def value(objective, hit):
+        score, _ = objective.value(kinds, obj.pack_hits(np.tile(hit[:, None], 3)),
+                                   slice(0, 1))
+        return float(score[0])
+
+    assert value(obj.VIDEO, silent) == 0 and value(obj.VIDEO, always) == 0
+    assert value(obj.VIDEO, balanced) == pytest.approx(np.sqrt(0.5 * 0.75))
+    assert value(obj.WALKER, silent) > 0  # the plain mean pays silence
+    with pytest.raises(ValueError, match="collision kind and of a silence kind"):
+        obj.VIDEO.value(kinds[:2], obj.pack_hits(np.ones((2, 3), bool)), slice(0, 1))
+
+
+def test_the_video_page_reads_the_run_as_the_calibration_chose(tiny_run):
+    """scripts/video_page.py's tables: the run's choice (its clips in the order they were
+    scored), and a model's video preset scored as the run scored it."""
+    with pytest.MonkeyPatch.context() as mp:
+        mp.syspath_prepend(str(ROOT / "scripts"))
+        page = importlib.import_module("video_page")
+    chosen, clip_sets, _ = page._chosen(tiny_run)
+    entry = json.loads((tiny_run / "calibrated.json").read_text())["presets"]["lgmd1"]["video"]
+    (c,) = chosen
+    assert c["threshold"] == entry["params"]["threshold"]
+    for name in ("search", "heldout", "transfer"):
+        assert c[name] == pytest.approx(entry[name])
+    silence = page.silence_table(chosen, clip_sets)
+    assert len(silence) == 3 and silence[2].startswith("| lgmd1+image+gain |")
+    fronts = page.front_table(tiny_run, chosen, clip_sets)
+    assert fronts[2].endswith(f"| {entry['heldout']['objective']:.3f} / "
+                              f"{entry['transfer']['objective']:.3f} |")

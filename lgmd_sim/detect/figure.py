@@ -4,7 +4,8 @@ the threshold and the labelled collision (`draw_potentials`), and a model's lege
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from collections.abc import Callable
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -33,12 +34,14 @@ def alarm_label(name: str, first_alarm: int | None, event: metrics.EventResult |
             f"lead {event.lead_s:.2f} s")
 
 
-def draw_potentials(ax: Axes, d: Detection, legend: bool = True) -> None:
+def draw_potentials(ax: Axes, d: Detection, legend: bool = True,
+                    style_of: Callable[[str], dict[str, Any]] = model_style) -> None:
     """Every model's membrane potential over the frames of a clip, its first alarm
-    marked, the threshold, and the labelled collision frame."""
+    marked, the threshold, and the labelled collision frame; each model's line in
+    `style_of` its name."""
     frames = np.arange(d.frames)
     for name, tr in d.models.items():
-        style = model_style(name)
+        style = style_of(name)
         ax.plot(frames, tr.potential, label=alarm_label(name, tr.first_alarm, tr.event),
                 **style)
         if tr.first_alarm is not None:
