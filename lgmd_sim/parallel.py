@@ -306,12 +306,11 @@ def stop_again_when_swallowed(stops: Mapping[type[BaseException], int]
 
 @dataclass
 class _Worker:
-    """A worker process, our end of its pipe, and the jobs sent to it (the first is
-    running)."""
+    """A worker process, our end of its pipe, and the job it is running (None: idle)."""
 
     process: BaseProcess
     conn: Connection
-    jobs: deque[Job] = field(default_factory=deque)
+    job: Job | None = None
 
     def send(self, job: Job) -> None:
         try:
@@ -319,7 +318,7 @@ class _Worker:
         except OSError:  # its end of the pipe is closed: it died between two jobs
             raise WorkerDied(f"a worker process died (killed, or out of memory) before "
                              f"running {job.key}") from None
-        self.jobs.append(job)
+        self.job = job
 
     def receive(self) -> Any:
         """The result of the running job (raising its exception)."""
@@ -329,7 +328,7 @@ class _Worker:
             ok, value, *trace = self.conn.recv()
         except (EOFError, OSError):
             raise WorkerDied(f"a worker process died (killed, or out of memory) while "
-                             f"running {self.jobs[0].key}") from None
+                             f"running {self.job.key}") from None
         if not ok:
             raise value from _RemoteTraceback(trace[0])
         return value
@@ -385,17 +384,18 @@ def _run_on_pool(jobs: Sequence[Job], on_result: Callable[[Job, Any], None], wor
     try:
         for _ in range(workers):
             _start_worker(context, pool)
-        while queue or any(worker.jobs for worker in pool):
-            while queue:  # to the least busy: a job running on each, one queued behind
-                worker = min(pool, key=lambda w: len(w.jobs))
-                if len(worker.jobs) == 2:
-                    break
-                worker.send(queue.popleft())
-            ready = wait([worker.conn for worker in pool if worker.jobs])
+        while queue or any(worker.job is not None for worker in pool):
+            # A job to each idle worker, none queued behind a running one: at the end of
+            # a run a worker would wait idle while another still had two jobs to run.
+            for worker in pool:
+                if queue and worker.job is None:
+                    worker.send(queue.popleft())
+            ready = wait([worker.conn for worker in pool if worker.job is not None])
             for worker in sorted((w for w in pool if w.conn in ready),
-                                 key=lambda w: w.jobs[0].key):
+                                 key=lambda w: w.job.key):
                 result = worker.receive()
-                on_result(worker.jobs.popleft(), result)
+                job, worker.job = worker.job, None
+                on_result(job, result)
     finally:
         _stop(pool)
 
@@ -405,7 +405,7 @@ def _stop(pool: Sequence[_Worker]) -> None:
     SIGTERM, then SIGKILL for any still there after the grace."""
     for worker in pool:
         worker.conn.close()  # an idle worker ends at that
-        if worker.jobs:
+        if worker.job is not None:
             worker.process.terminate()
     deadline = time.monotonic() + _GRACE + 1
     for worker in pool:

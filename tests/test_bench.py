@@ -8,7 +8,7 @@ import json
 
 import pytest
 
-from lgmd_sim import cli
+from lgmd_sim import cli, models
 
 # A fast sweep: the tripod scenario at 64 x 64 (about 0.2 s an episode); the machinery
 # is the same as on the robot.
@@ -189,8 +189,10 @@ def test_speed_closed_loop_prints_both_tables(capsys):
     assert cli.main(["speed", "closed-loop", "--steps", "5", "--episodes", "1",
                      "--resolution", "small"]) == 0
     out = capsys.readouterr().out
-    assert "environment alone" in out and "+ ReactiveAvoid(feedback)" in out
-    assert "speed-up" in out and "share of the environment's speed" in out
+    rows = {line.split("  ")[0] for line in out.splitlines()}
+    assert {f"ReactiveAvoid({name})" for name in models.available()} <= rows
+    assert "share of the time in the environment's step" in out
+    assert "closed-loop episodes" in out and "the environment alone" in out
 
 
 def test_open_loop_runs_detectors_with_front_ends(tmp_path):

@@ -154,3 +154,6 @@ def test_speed_models_prints_every_model():
     assert [r.split("|")[1].strip() for r in rows[1:]] == models.available()
     feedback = rows[1].split("|")
     assert float(feedback[2].replace(",", "")) > 0 and feedback[5].strip().endswith("x")
+    # each row's target and its verdict in the same run: the feedback LGMD's own
+    assert feedback[6].strip() in ("2,000: met", "2,000: not met")
+    assert rows[2].split("|")[6].strip() in ("500: met", "500: not met")

@@ -358,7 +358,12 @@ def test_speed_stabilize_prints_every_front_end():
                          capture_output=True, text=True, timeout=300)
     assert run.returncode == 0, run.stderr
     assert "| image: rotation fit (ImageRotation.update) |" in run.stdout
-    assert all(f"| {name} |" in run.stdout for name in models.available())
+    rows = [line.split("|") for line in run.stdout.splitlines()
+            if line.split("|")[1:2] in ([f" {name} "] for name in models.available())]
+    assert len(rows) == len(models.available())
+    for row in rows:  # the video preset's cost over the bare model's, and its verdict
+        ratio = float(row[6].strip().removesuffix("x"))
+        assert ratio > 0 and row[7].strip() == ("met" if ratio <= 2 else "not met")
 
 
 def test_detect_takes_the_rotation_from_infos():

@@ -2,8 +2,8 @@
 
 - `lgmd_sim.speed.models`: frames/s of every LGMD model on one core, streaming and
   batched, against its per-equation reference implementation.
-- `lgmd_sim.speed.envs`: environment steps/s against a bare render loop of the same
-  scene, and the scaling of async vector environments.
+- `lgmd_sim.speed.envs`: environment steps/s against bare renders of the same views, and
+  the scaling of async vector environments.
 - `lgmd_sim.speed.stabilize`: milliseconds per frame of each ego-motion front end.
 - `lgmd_sim.speed.closed_loop`: the closed loop's cost over the environment alone, and
   the benchmark's scaling with workers.
@@ -11,7 +11,7 @@
 - `lgmd_sim.speed.train`: training steps/s against the bare VecEnv it trains on.
 
 Each module's ``run(**options)`` measures and prints its tables (``lgmd-sim speed WHAT``
-passes its options by name).
+passes its options by name), each target with its verdict in the same run.
 """
 
 from __future__ import annotations
@@ -31,6 +31,11 @@ def pin_to_one_core() -> str:
     core = min(os.sched_getaffinity(0))
     os.sched_setaffinity(0, {core})
     return f"pinned to core {core} of {os.cpu_count()}"
+
+
+def met(ok: bool) -> str:
+    """A target's verdict, as the tables print it."""
+    return "met" if ok else "not met"
 
 
 def format_table(head: list[str], body: list[list[str]], markdown: bool) -> str:

@@ -3,14 +3,18 @@ how the benchmark scales with worker processes.
 
 In one run, on the same scenario and frame size:
 
-- steps per second of the environment alone (a fixed action), and of the environment
-  with `ReactiveAvoid` driven by each model (the model on every frame, its S layer, the
-  controller): the ratio is the share of the speed the detector leaves (target 0.9 or
-  more: the LGMD and the controller cost at most 10%);
+- steps per second of the environment driven by `ReactiveAvoid` with each model (the
+  model on every frame, its S layer, the controller), and the share of that time the
+  environment's step takes, timed apart on the same steps (target 0.9 or more: the LGMD
+  and the controller cost at most 10%). Timed apart, since an environment driven
+  otherwise (a fixed action) goes elsewhere and renders other views: its own speed
+  differed from the controller's runs by as much as the shares to be measured;
 - episodes of ``lgmd-sim bench closed-loop`` (`lgmd_sim.bench.episode.episode`) on one
   and on two local workers, the same episodes: the speed-up (target 1.85x or more);
-- the environment alone stepping as many frames per episode on two workers: the limit of
-  the benchmark's two workers, of which they reach a share (target 0.9 or more).
+- the environment alone stepping as many frames per episode, on one and on two workers:
+  its own speed-up, the limit of the benchmark's, and the share of its two workers'
+  speed the benchmark's reach (target 0.9 or more). Driven by a fixed action, it sees
+  other views than the avoider's: the share is near, not exact.
 
 Worker start-up is in the timed span of every pool, paid once per run: the workers keep
 their environments from episode to episode (`lgmd_sim.parallel.kept`).
@@ -24,32 +28,35 @@ import time
 import numpy as np
 
 from lgmd_sim.machine import cpu_name
-from lgmd_sim.speed import format_table
+from lgmd_sim.speed import format_table, met
 
+#: The targets: the environment's share of the closed loop's time, the benchmark's two
+#: workers against one, and against the environment alone on two.
+SHARE_TARGET, SPEEDUP_TARGET, WORKERS_SHARE_TARGET = 0.9, 1.85, 0.9
 #: Steps before timing starts (GL context, first frames, JIT caches).
 WARMUP = 10
 #: The fixed action of the environment alone: what the avoider does while cruising.
 ACTION = np.array([0.6, 0.0], np.float32)
 
 
-def _steps_per_s(env, steps: int, controller=None) -> float:
-    """Steps per second over `steps` steps, resets outside the timing."""
+def _controlled(env, steps: int, controller) -> tuple[float, float]:
+    """Seconds in the environment's steps and in the controller's actions, over `steps`
+    steps driven by `controller` (resets outside the timing)."""
     obs, info = env.reset(seed=0)
-    if controller is not None:
-        controller.reset()
-    elapsed, done = 0.0, -WARMUP
-    while done < steps:
+    controller.reset()
+    in_env = in_controller = 0.0
+    for done in range(-WARMUP, steps):
         start = time.perf_counter()
-        action = ACTION if controller is None else controller.act(obs, info)
+        action = controller.act(obs, info)
+        acted = time.perf_counter()
         obs, _, terminated, truncated, info = env.step(action)
         if done >= 0:
-            elapsed += time.perf_counter() - start
-        done += 1
+            in_controller += acted - start
+            in_env += time.perf_counter() - acted
         if terminated or truncated:
             obs, info = env.reset()
-            if controller is not None:
-                controller.reset()
-    return steps / elapsed
+            controller.reset()
+    return in_env, in_controller
 
 
 def measure_overhead(scenario: str, resolution: str, models: list[str], steps: int
@@ -60,13 +67,14 @@ def measure_overhead(scenario: str, resolution: str, models: list[str], steps: i
     from lgmd_sim.envs.catalogue import scenario as scenario_of
 
     env = gym.make(scenario_of(scenario).env_id, resolution=resolution)
+    rows = []
     try:
-        alone = _steps_per_s(env, steps)
-        rows = [{"what": "environment alone", "steps_per_s": alone, "ratio": 1.0}]
         for name in models:
-            rate = _steps_per_s(env, steps, controllers.make("reactive", model=name))
-            rows.append({"what": f"+ ReactiveAvoid({name})", "steps_per_s": rate,
-                         "ratio": rate / alone})
+            in_env, in_controller = _controlled(env, steps,
+                                                controllers.make("reactive", model=name))
+            rows.append({"what": f"ReactiveAvoid({name})",
+                         "steps_per_s": steps / (in_env + in_controller),
+                         "ratio": in_env / (in_env + in_controller)})
     finally:
         env.close()
     return rows
@@ -90,10 +98,10 @@ def bare_episode(scenario: str, jitter: float, resolution: str | list[int], seed
 
 def measure_workers(scenario: str, resolution: str | list[int], episodes: int) -> dict:
     """Frames per second of the closed-loop benchmark's episodes on one worker and on
-    two, and of the environment alone stepping as many frames per episode on two: the
-    limit the benchmark's workers would reach if the detector and the controller cost
-    nothing. Each run as ``lgmd-sim bench`` runs its jobs (one worker: in this process;
-    two: a pool, its start-up included)."""
+    two, and of the environment alone stepping as many frames per episode on one and on
+    two: the limit the benchmark's workers would reach if the detector and the controller
+    cost nothing. Each run as ``lgmd-sim bench`` runs its jobs (one worker: in this
+    process; two: a pool, its start-up included)."""
     from lgmd_sim.bench.episode import Cell, episode
     from lgmd_sim.parallel import Job, run_jobs
 
@@ -110,10 +118,13 @@ def measure_workers(scenario: str, resolution: str | list[int], episodes: int) -
 
     one, frames = frames_per_s(jobs, 1)
     two, _ = frames_per_s(jobs, 2)
-    bare, _ = frames_per_s([Job(job.key, bare_episode, {
+    bare_jobs = [Job(job.key, bare_episode, {
         "scenario": scenario, "jitter": cell.jitter, "resolution": resolution,
-        "seed": job.kwargs["seed"], "frames": frames[job.key]}) for job in jobs], 2)
-    return {"one": one, "two": two, "speedup": two / one, "bare": bare, "share": two / bare}
+        "seed": job.kwargs["seed"], "frames": frames[job.key]}) for job in jobs]
+    bare_one, _ = frames_per_s(bare_jobs, 1)
+    bare, _ = frames_per_s(bare_jobs, 2)
+    return {"one": one, "two": two, "speedup": two / one, "bare_one": bare_one,
+            "bare": bare, "bare_speedup": bare / bare_one, "share": two / bare}
 
 
 def run(*, scenario: str = "RoughTerrainObstacles", resolution: str | list[int] = "rl",
@@ -128,17 +139,22 @@ def run(*, scenario: str = "RoughTerrainObstacles", resolution: str | list[int] 
           f"steps per run, {episodes} episodes per worker count; CPU: {cpu_name()}, "
           f"{os.cpu_count()} cores")
     print(format_table(
-        ["what", "steps/s", "share of the environment's speed"],
-        [[r["what"], f"{r['steps_per_s']:.0f}", f"{r['ratio']:.2f}"] for r in overhead],
+        ["closed loop", "steps/s", "share of the time in the environment's step",
+         f"target {SHARE_TARGET}"],
+        [[r["what"], f"{r['steps_per_s']:.0f}", f"{r['ratio']:.2f}",
+          met(r["ratio"] >= SHARE_TARGET)] for r in overhead],
         markdown,
     ))
     print()
     print(format_table(
-        ["closed-loop episodes", "1 worker frames/s", "2 workers frames/s", "speed-up",
-         "environment alone, 2 workers frames/s", "share of the environment's speed"],
-        [["ReactiveAvoid(feedback), jitter 1", f"{workers['one']:.0f}",
-          f"{workers['two']:.0f}", f"{workers['speedup']:.2f}x", f"{workers['bare']:.0f}",
-          f"{workers['share']:.2f}"]],
+        ["frames/s", "1 worker", "2 workers", "speed-up", f"target {SPEEDUP_TARGET}x",
+         "share of the environment's", f"target {WORKERS_SHARE_TARGET}"],
+        [["closed-loop episodes, ReactiveAvoid(feedback), jitter 1", f"{workers['one']:.0f}",
+          f"{workers['two']:.0f}", f"{workers['speedup']:.2f}x",
+          met(workers["speedup"] >= SPEEDUP_TARGET), f"{workers['share']:.2f}",
+          met(workers["share"] >= WORKERS_SHARE_TARGET)],
+         ["the environment alone, as many frames per episode", f"{workers['bare_one']:.0f}",
+          f"{workers['bare']:.0f}", f"{workers['bare_speedup']:.2f}x", "", "", ""]],
         markdown,
     ))
     return 0

@@ -25,7 +25,7 @@ import time
 from typing import Any
 
 from lgmd_sim.machine import cpu_name
-from lgmd_sim.speed import format_table
+from lgmd_sim.speed import format_table, met
 
 #: (algo, obs, hyperparameter overrides) of each row.
 ROWS: tuple[tuple[str, str, dict[str, Any]], ...] = (
@@ -95,7 +95,7 @@ def run(*, steps: int = 8192, envs: int = 2, env: str = "lgmd_sim/RoughTerrainOb
          "training / bare", f"target {TARGET} (PPO, 2 environments)"],
         [[r["row"], r["settings"], f"{r['bare']:.0f}", f"{r['training']:.0f}",
           f"{r['ratio']:.2f}",
-          ("met" if r["ratio"] >= TARGET else "not met")
+          met(r["ratio"] >= TARGET)
           if r["row"].startswith("ppo") and envs == 2 else "-"]
          for r in rows],
         markdown,

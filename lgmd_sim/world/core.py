@@ -232,7 +232,7 @@ class JitterWorld:
     def render_camera(self, out: np.ndarray | None = None) -> np.ndarray:
         """Render the carrier's camera in the current state (RGB); nothing else.
 
-        The same call a step makes: a bare render loop of this is the baseline for the
+        The same call a step makes: this, after each step, is the baseline for the
         cost of an environment step.
         """
         return self._render(self.scene.camera, out)
