@@ -49,11 +49,12 @@ def oracle_clips() -> list[np.ndarray]:
 
 # Every preset, and every value of every switch, against the per-equation reference. A
 # large c_sig keeps the potentials off saturation, where a difference would be hidden. The
-# reference has no front end: a preset with one (calibrated-image) is compared without it
-# (tests/test_stabilize.py checks the front ends).
+# reference has no front end: a preset with one (calibrated-image, video) is compared
+# without it (tests/test_stabilize.py checks the front ends).
+NO_FRONT_END = {"stabilize": "none", "gain": False}
 SWITCHED = [
-    *[(n, p, {"c_sig": 30.0, **({"stabilize": "none"} if models.presets_of(n)[p].get(
-        "stabilize", "none") != "none" else {})}) for n, p in PRESETS],
+    *[(n, p, {"c_sig": 30.0, **{k: v for k, v in NO_FRONT_END.items()
+                                if k in models.presets_of(n)[p]}}) for n, p in PRESETS],
     ("lgmd1", "published", {}),
     ("lgmd1", "v0.1", {"c_sig": 30.0, "coincidence": False, "t_s": 5.37, "w_i": 0.45}),
     ("lgmd1", "v0.1", {"c_sig": 30.0, "t_ffi": 3.0, "border": "zero"}),

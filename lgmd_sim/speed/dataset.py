@@ -8,9 +8,9 @@ For each scenario, in one run, with the same workers, episodes, seeds and frame 
 - ``dataset generate`` of the same episodes into a temporary folder (everything: frames
   encoded, labels, files written, the manifest and contact sheet);
 - frames per second of both (total frames over wall time, worker start-up included in
-  both; the best of ``--repeat`` interleaved rounds of each) and their ratio (target: 0.9
-  or more with 2 workers, `TARGET`); and the same ratio in CPU time (CPU seconds per frame of this
-  process and its workers), which other jobs on a shared machine disturb far less;
+  both; the best of ``--repeat`` interleaved rounds of each) and their ratio (`TARGET`:
+  0.9 or more with 2 workers); and the same ratio in CPU time (CPU seconds per frame of
+  this process and its workers), which other jobs on a shared machine disturb far less;
 - disk per frame of the stored frames, against the same frames as PNG files (OpenCV's
   default compression) and raw RGB, and of the labels.
 """
@@ -138,9 +138,8 @@ def run(*, scenarios: str = "all", episodes: int = 6, resolution: str | list[int
          "raw KB/frame", "labels KB/frame"],
         [[r["scenario"], str(r["frames"]), f"{r['env_fps']:.0f}", f"{r['gen_fps']:.0f}",
           f"{r['ratio']:.2f}", met(r["ratio"] >= TARGET), f"{r['cpu_ratio']:.2f}",
-          f"{r['stored'] / 1000:.1f}",
-          f"{r['png'] / 1000:.1f}",
-          f"{r['raw'] / 1000:.1f}", f"{r['labels'] / 1000:.2f}"] for r in rows],
+          f"{r['stored'] / 1000:.1f}", f"{r['png'] / 1000:.1f}", f"{r['raw'] / 1000:.1f}",
+          f"{r['labels'] / 1000:.2f}"] for r in rows],
         markdown,
     ))
     return 0
