@@ -22,6 +22,7 @@ import argparse
 import csv
 import json
 import shutil
+import sys
 from collections import defaultdict
 from collections.abc import Callable
 from pathlib import Path
@@ -93,12 +94,16 @@ def _best_reactive(benches: list[Path]) -> dict[float, str]:
     return {j: label for j, (_, label) in best.items()}
 
 
-def table(eval_run: Path, benches: list[Path], notes: dict[str, str] | None = None
+def table(eval_runs: list[Path], benches: list[Path], notes: dict[str, str] | None = None
           ) -> tuple[list[str], dict, dict[float, str]]:
-    """The evaluation's cells and the benches' best reactive cell on the same seeds: the
-    Markdown table, the cells, and the best cell's label per jitter level. `notes` adds a
-    note to a policy's row (by its label)."""
-    rows = _episodes(eval_run)
+    """The evaluations' cells (a cell two of them ran, from the first) and the benches'
+    best reactive cell on the same seeds: the Markdown table, the cells, and the best
+    cell's label per jitter level. `notes` adds a note to a policy's row (by its label)."""
+    rows: list[dict[str, str]] = []
+    for run in eval_runs:
+        theirs = _episodes(run)
+        have = {(float(r["jitter"]), _label(r)) for r in rows}
+        rows += [r for r in theirs if (float(r["jitter"]), _label(r)) not in have]
     seeds, jitters = {r["seed"] for r in rows}, {float(r["jitter"]) for r in rows}
     best = {j: cell for j, cell in _best_reactive(benches).items() if j in jitters}
     have = {(float(r["jitter"]), _label(r)) for r in rows}
@@ -282,13 +287,13 @@ def seeds(evaluation: dict, train: list[dict]) -> str:
     return text + ", none of them the evaluation's."
 
 
-def _policy_obs(evaluation: dict, name: str, configs: dict[str, dict]) -> str:
+def _policy_obs(evaluations: list[dict], name: str, configs: dict[str, dict]) -> str:
     """What an evaluated policy observes: its training run's record where the page has
     it, else its policy folder's policy.json (a shipped policy); "unknown" when neither
     is here."""
     if name in configs:
         return configs[name]["obs"]
-    path = next(Path(c["params"]["path"]) for c in evaluation["config"]["extra"]
+    path = next(Path(c["params"]["path"]) for e in evaluations for c in e["config"]["extra"]
                 if c["tag"] == name) / "policy.json"
     return json.loads(path.read_text())["config"]["obs"] if path.is_file() else "unknown"
 
@@ -296,13 +301,20 @@ def _policy_obs(evaluation: dict, name: str, configs: dict[str, dict]) -> str:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--train", type=Path, nargs="+", required=True)
-    parser.add_argument("--eval", type=Path, required=True)
+    parser.add_argument("--eval", type=Path, nargs="+", required=True,
+                        help="evaluations on the same seeds and jitter levels: one table")
     parser.add_argument("--bench", type=Path, nargs="*", default=[])
     args = parser.parse_args()
     figures: dict[Path, Path] = {}
     records = {run.name: json.loads((run / "run.json").read_text()) for run in args.train}
-    evaluation = json.loads((args.eval / "run.json").read_text())
-    benches = {b.name: json.loads((b / "run.json").read_text()) for b in args.bench}
+    evaluations = [json.loads((e / "run.json").read_text()) for e in args.eval]
+    if len({(tuple(e["config"]["seeds"]), tuple(e["config"]["jitter"]))
+            for e in evaluations}) > 1:
+        sys.exit("training_page.py: the evaluations differ in seeds or jitter levels: one "
+                 "table needs the same")
+    evaluation = evaluations[0]
+    benches = {b.name: json.loads((b / "run.json").read_text())
+               for b in [*args.eval[1:], *args.bench]}
     lines = [RESULTS, "", machines(records, evaluation, benches)]
     if speed := speeds(records):
         lines[-1] += " " + speed
@@ -321,7 +333,7 @@ def main() -> None:
                for name, record in records.items()}
     rows, cells, best = table(args.eval, args.bench, {
         f"policy: {name}": about(config) for name, config in configs.items()})
-    names = [c["tag"] for c in evaluation["config"]["extra"]]
+    names = [c["tag"] for e in evaluations for c in e["config"]["extra"]]
     policies = list(dict.fromkeys(names))
     lines += ["### Evaluation on held-out seeds", "", "```bash", evaluation["command"]]
     lines += [record["command"] for record in benches.values()
@@ -332,10 +344,10 @@ def main() -> None:
               "closed-loop benchmark's seeds at that jitter level, shown here on the "
               "evaluation's seeds.", "", *rows, "",
               *reading(cells, best, policies, trained_at), "", "### Targets", "",
-              *targets(cells, {name: _policy_obs(evaluation, name, configs)
+              *targets(cells, {name: _policy_obs(evaluations, name, configs)
                                for name in policies}), ""]
     for fig in ("collisions_vs_jitter.png", "trajectories.png"):
-        lines += [f"![{fig}]({_copy(args.eval / fig, fig, figures)})", ""]
+        lines += [f"![{fig}]({_copy(args.eval[0] / fig, fig, figures)})", ""]
     text = PAGE.read_text()
     head = text[:text.index(f"\n{RESULTS}\n") + 1] if RESULTS in text else text.rstrip() + "\n\n"
     page = head + "\n".join(lines).rstrip() + "\n"

@@ -63,3 +63,31 @@ def test_only_controllers_that_can_tell_report_manoeuvring():
     assert Controller.manoeuvring is None and Policy.manoeuvring is None
     assert Straight().manoeuvring is False
     assert make("oracle").manoeuvring is False  # not yet: nothing triggered it
+
+
+def test_steer_acts_on_the_frame_alone_and_reaches_the_goal():
+    """`Steer`: the Oracle's inputs without its memory. The same frame gives the same action
+    whatever came before (the Oracle, mid-manoeuvre, does not), and on a search seed of
+    its constants it drives to the goal without touching anything."""
+    from lgmd_sim.controllers import make
+
+    frames = [{"time": 0.1 * t, "threat_bearing": 0.3, "threat_distance": 0.2,
+               "threat_ttc": 0.5, "goal_bearing": 0.0} for t in range(3)]
+    calm = {"time": 0.3, "threat_bearing": 0.3, "threat_distance": 5.0,
+            "threat_ttc": float("inf"), "goal_bearing": 0.2}
+    for name, memoryless in (("steer", True), ("oracle", False)):
+        after_threats, fresh = make(name), make(name)
+        for info in frames:
+            after_threats.act({}, info)
+        same = np.array_equal(after_threats.act({}, calm), fresh.act({}, calm))
+        assert same is memoryless, name
+    steer = make("steer")
+    assert steer.act({}, frames[0])[1] < 0 and steer.manoeuvring  # threat left: turn right
+    assert not (steer.act({}, calm), steer.manoeuvring)[1]
+
+    env = gym.make("lgmd_sim/RoughTerrainObstacles-v0", frame="none")
+    try:
+        last = list(rollout(env, make("steer"), seed=2000))[-1]
+    finally:
+        env.close()
+    assert last.info["goal_reached"] and last.info["first_collision_frame"] < 0

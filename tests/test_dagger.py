@@ -222,3 +222,14 @@ def test_a_bad_teacher_is_one_line_before_training(tmp_path, capsys, args, messa
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and message in err, err
     assert not out.exists()
+
+
+def test_steer_teaches_as_the_controller_acts():
+    """`--teacher steer`: one `Steer` per environment, labelling as the controller acts."""
+    from lgmd_sim.controllers.steer import Steer
+
+    teacher = dagger.Teacher("steer", 2, CONFIG)
+    assert [type(c) for c in teacher.controllers] == [Steer, Steer]
+    info = {"time": 0.0, "threat_bearing": -0.2, "threat_distance": 0.3, "threat_ttc": 0.4,
+            "goal_bearing": 0.1}
+    assert np.array_equal(teacher.controllers[0].act({}, info), Steer().act({}, info))

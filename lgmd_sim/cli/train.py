@@ -71,8 +71,9 @@ def add(sub: argparse._SubParsersAction) -> None:
                    "(obstacles: no obstacle and the goal 4 m away, then 2 obstacles at 6 m, "
                    "4 at 8 m, then the task) or a TOML file of stages "
                    "(lgmd_sim.training.curriculum); validation always runs on the task")
-    p.add_argument("--teacher", metavar="oracle|reactive|POLICY",
+    p.add_argument("--teacher", metavar="oracle|steer|reactive|POLICY",
                    help="learn from a teacher first, by DAgger: the Oracle controller, "
+                   "steer (the Oracle's inputs without its memory: what a policy can copy), "
                    "ReactiveAvoid's manoeuvre on the policy's own LGMD alarm (reactive, "
                    "--obs features), or a privileged policy (a folder trained with --obs "
                    "privileged) labels the states the policy visits, the policy is fitted "

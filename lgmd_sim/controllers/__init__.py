@@ -29,6 +29,7 @@ _CONTROLLERS = Registry("controller", Controller, {
     "straight": "lgmd_sim.controllers.straight:Straight",
     "reactive": "lgmd_sim.controllers.avoid:ReactiveAvoid",
     "oracle": "lgmd_sim.controllers.avoid:Oracle",
+    "steer": "lgmd_sim.controllers.steer:Steer",  # the Oracle's inputs, no memory
     "policy": "lgmd_sim.controllers.policy:Policy",  # a trained policy (the 'rl' extra)
 })
 

@@ -66,6 +66,8 @@ def learning_curve(folder: Path, title: str = "") -> Path:
     against environment steps, of the training episodes (a running mean over the last
     100) and of the validation episodes (fixed held-out seeds, deterministic policy),
     with a dotted line where DAgger ended or a curriculum stage was passed."""
+    from matplotlib.ticker import EngFormatter
+
     logs = read_logs(folder)
     changes = phase_changes(folder)
     fig = figure(figsize=(12, 3.6))
@@ -82,6 +84,8 @@ def learning_curve(folder: Path, title: str = "") -> Path:
                         va="top", ha="right", fontsize="x-small", color="0.3")
         if "rate" in name:
             ax.set_ylim(-0.03, 1.03)
+        # "300k", not "300000": six-digit ticks ran into each other
+        ax.xaxis.set_major_formatter(EngFormatter(sep=""))
         ax.set_xlabel("environment steps")
         ax.set_title(name, fontsize="medium")
         ax.grid(alpha=0.3)

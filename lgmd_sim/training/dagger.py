@@ -82,12 +82,13 @@ class AlarmAvoid(Avoider):
 
 
 class Teacher:
-    """One teacher controller per environment: the Oracle (``"oracle"``), ReactiveAvoid's
-    rule on the student's own features (``"reactive"``, `AlarmAvoid`) or a privileged
-    policy (a policy folder trained with ``--obs privileged``, or a shipped one's name).
+    """One teacher controller per environment: the Oracle (``"oracle"``), `Steer` (its
+    inputs without its memory, ``"steer"``), ReactiveAvoid's rule on the student's own
+    features (``"reactive"``, `AlarmAvoid`) or a privileged policy (a policy folder
+    trained with ``--obs privileged``, or a shipped one's name).
 
     Args:
-        spec: "oracle", "reactive" or the policy.
+        spec: "oracle", "steer", "reactive" or the policy.
         n_envs: environments it labels.
         student: the student's policy configuration: a teacher policy must have trained
             in its environment; "reactive" needs its features (one LGMD model).
@@ -99,8 +100,8 @@ class Teacher:
         self.spec = spec
         self._observe: Callable[[Mapping[str, np.ndarray], Mapping[str, Any]],
                                 Mapping[str, np.ndarray]] = lambda obs, info: obs
-        if spec == "oracle":
-            self.controllers = [controllers.make("oracle") for _ in range(n_envs)]
+        if spec in ("oracle", "steer"):
+            self.controllers = [controllers.make(spec) for _ in range(n_envs)]
         elif spec == "reactive":
             if student.obs != "features":
                 raise ValueError("--teacher reactive acts on the student's LGMD alarm: it "

@@ -84,10 +84,11 @@ class TrainConfig:
         curriculum: a curriculum (`lgmd_sim.training.curriculum`: a built-in name or a
             TOML file) the training environments go through before the task itself;
             None: the task from the start.
-        teacher: "oracle", "reactive" (ReactiveAvoid's rule on the policy's own LGMD
-            features) or a privileged policy (a folder or a shipped name) the policy
-            first learns from by DAgger (`lgmd_sim.training.dagger`), before RL; None:
-            RL from the start. PPO only.
+        teacher: "oracle", "steer" (the Oracle's inputs without its memory,
+            `lgmd_sim.controllers.steer`), "reactive" (ReactiveAvoid's rule on the
+            policy's own LGMD features) or a privileged policy (a folder or a shipped
+            name) the policy first learns from by DAgger (`lgmd_sim.training.dagger`),
+            before RL; None: RL from the start. PPO only.
         imitation_steps: environment steps of the DAgger rounds (part of `steps`).
         dagger_rounds: DAgger rounds, each ``imitation_steps / dagger_rounds`` steps.
     """
