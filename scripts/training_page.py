@@ -346,6 +346,8 @@ def main() -> None:
               *reading(cells, best, policies, trained_at), "", "### Targets", "",
               *targets(cells, {name: _policy_obs(evaluations, name, configs)
                                for name in policies}), ""]
+    if len(args.eval) > 1:
+        lines += [f"The figures are the first evaluation's (`{args.eval[0].name}`).", ""]
     for fig in ("collisions_vs_jitter.png", "trajectories.png"):
         lines += [f"![{fig}]({_copy(args.eval[0] / fig, fig, figures)})", ""]
     text = PAGE.read_text()

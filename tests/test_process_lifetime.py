@@ -299,3 +299,17 @@ def test_sigterm_or_ctrl_c_at_any_moment_ends_the_run_promptly_resumably(tmp_pat
                 assert len((out / "episodes.csv").read_text().splitlines()) == 1 + 8
             else:
                 assert main(["dataset", "verify", str(out)]) == 0
+
+
+def test_a_stop_that_ctypes_swallowed_stops_the_run_all_the_same():
+    """A Ctrl-C while ctypes converts a GL driver call's arguments comes back as a
+    ctypes.ArgumentError naming it: the signal is sent again and its handler raises, where
+    the GL set-up would otherwise report a broken driver (seen in the any-moment test)."""
+    import ctypes
+
+    from lgmd_sim.world.render import resend_swallowed_stop
+
+    with pytest.raises(KeyboardInterrupt):
+        resend_swallowed_stop(ctypes.ArgumentError("argument 3: KeyboardInterrupt: "))
+    resend_swallowed_stop(ctypes.ArgumentError("argument 3: TypeError: wrong type"))
+    resend_swallowed_stop(ValueError("argument 3: KeyboardInterrupt: "))  # not ctypes'
