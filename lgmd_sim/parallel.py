@@ -24,6 +24,7 @@ elsewhere after their job).
 
 from __future__ import annotations
 
+import ctypes
 import multiprocessing
 import os
 import signal
@@ -41,7 +42,7 @@ from multiprocessing.process import BaseProcess
 from typing import Any, TypeVar
 
 __all__ = ["KEEP", "Job", "WorkerDied", "default_workers", "kept", "run_jobs",
-           "stop_again_when_swallowed"]
+           "stop_again_if_swallowed", "stop_again_when_swallowed"]
 
 T = TypeVar("T")
 
@@ -300,8 +301,26 @@ def stop_again_when_swallowed(stops: Mapping[type[BaseException], int]
                 return
         previous(unraisable)
 
+    hook.stops = dict(stops)  # type: ignore[attr-defined]  # for stop_again_if_swallowed
     sys.unraisablehook = hook
     return previous
+
+
+def stop_again_if_swallowed(exc: BaseException) -> None:
+    """A stop that came while ctypes converted a C call's arguments (a GL driver's) comes
+    back as a ctypes.ArgumentError naming it ("argument 3: KeyboardInterrupt: "): send its
+    signal again, so that the handler stops the program as it would have (it raises during
+    the wait). The stops are those `stop_again_when_swallowed` installed, and Ctrl-C's
+    KeyboardInterrupt always; anything else returns."""
+    if not isinstance(exc, ctypes.ArgumentError):
+        return
+    stops = {KeyboardInterrupt: signal.SIGINT, **getattr(sys.unraisablehook, "stops", {})}
+    named = str(exc).partition(": ")[2].partition(":")[0]  # ctypes gives the class's name
+    for stop, signum in stops.items():
+        if stop.__name__ == named:
+            os.kill(os.getpid(), signum)
+            time.sleep(1.0)
+            return
 
 
 @dataclass

@@ -302,14 +302,27 @@ def test_sigterm_or_ctrl_c_at_any_moment_ends_the_run_promptly_resumably(tmp_pat
 
 
 def test_a_stop_that_ctypes_swallowed_stops_the_run_all_the_same():
-    """A Ctrl-C while ctypes converts a GL driver call's arguments comes back as a
-    ctypes.ArgumentError naming it: the signal is sent again and its handler raises, where
-    the GL set-up would otherwise report a broken driver (seen in the any-moment test)."""
+    """A Ctrl-C or SIGTERM while ctypes converts a GL driver call's arguments comes back
+    as a ctypes.ArgumentError naming it: the signal is sent again and its handler raises,
+    where the GL set-up would otherwise report a broken driver (seen in the any-moment
+    test). SIGTERM's stop is the one the command installed; Ctrl-C's always is."""
     import ctypes
 
-    from lgmd_sim.world.render import resend_swallowed_stop
+    from lgmd_sim.cli import Terminated, _terminate
+    from lgmd_sim.parallel import stop_again_if_swallowed, stop_again_when_swallowed
 
     with pytest.raises(KeyboardInterrupt):
-        resend_swallowed_stop(ctypes.ArgumentError("argument 3: KeyboardInterrupt: "))
-    resend_swallowed_stop(ctypes.ArgumentError("argument 3: TypeError: wrong type"))
-    resend_swallowed_stop(ValueError("argument 3: KeyboardInterrupt: "))  # not ctypes'
+        stop_again_if_swallowed(ctypes.ArgumentError("argument 3: KeyboardInterrupt: "))
+    stop_again_if_swallowed(ctypes.ArgumentError("argument 3: TypeError: wrong type"))
+    stop_again_if_swallowed(ValueError("argument 3: KeyboardInterrupt: "))  # not ctypes'
+    previous = signal.signal(signal.SIGTERM, _terminate)
+    try:
+        stop_again_if_swallowed(ctypes.ArgumentError("argument 1: Terminated: "))  # not yet
+        previous_hook = stop_again_when_swallowed({Terminated: signal.SIGTERM})
+        try:
+            with pytest.raises(Terminated):
+                stop_again_if_swallowed(ctypes.ArgumentError("argument 1: Terminated: "))
+        finally:
+            sys.unraisablehook = previous_hook
+    finally:
+        signal.signal(signal.SIGTERM, previous)

@@ -19,18 +19,16 @@ outside lgmd-sim in the same process do not survive a fork either.
 
 from __future__ import annotations
 
-import ctypes
 import os
-import signal
 import sys
 import threading
-import time
 import weakref
 
 import cv2
 import numba
 import numpy as np
 
+from lgmd_sim.parallel import stop_again_if_swallowed
 from lgmd_sim.world.gl import BACKEND, mujoco
 
 # SSIM as lgmd_sim.metrics.ssim (Wang et al. 2004): 11 x 11 Gaussian window, sigma 1.5,
@@ -45,24 +43,6 @@ _GENERATION = [0]  # bumped when a fork freed them: threads then make new ones
 _LIVE: weakref.WeakSet = weakref.WeakSet()  # every open renderer
 
 
-#: The stops a signal handler raises, by name (as ctypes prints them), with their signals:
-#: Ctrl-C's, the command's SIGTERM (`lgmd_sim.cli.Terminated`) and a worker's.
-_STOPS = {"KeyboardInterrupt": signal.SIGINT, "Terminated": signal.SIGTERM,
-          "SystemExit": signal.SIGTERM}
-
-
-def resend_swallowed_stop(exc: Exception) -> None:
-    """A Ctrl-C or SIGTERM that came while ctypes converted a driver call's arguments
-    comes back as a ctypes.ArgumentError naming it ("argument 3: KeyboardInterrupt: "):
-    send the signal again, so that its handler stops the program as it would have (it
-    raises during the wait); anything else returns."""
-    if isinstance(exc, ctypes.ArgumentError):
-        signum = _STOPS.get(str(exc).partition(": ")[2].partition(":")[0])
-        if signum is not None:
-            os.kill(os.getpid(), signum)
-            time.sleep(1.0)
-
-
 def _thread_context():  # -> mujoco.GLContext
     gl, generation = getattr(_THREAD, "entry", (None, -1))
     if gl is None or generation != _GENERATION[0]:
@@ -70,7 +50,7 @@ def _thread_context():  # -> mujoco.GLContext
             # Renderers draw into their own framebuffers: the context's own size is moot.
             gl = mujoco.GLContext(64, 64)
         except Exception as exc:  # GL set-up fails deep inside a driver: name the cause
-            resend_swallowed_stop(exc)
+            stop_again_if_swallowed(exc)
             raise RuntimeError(
                 f"cannot create an offscreen OpenGL context (MUJOCO_GL={BACKEND}): {exc}. "
                 "Install Mesa EGL (libegl1 libegl-mesa0) or OSMesa, or set MUJOCO_GL to a "
