@@ -358,12 +358,15 @@ def test_speed_stabilize_prints_every_front_end():
                          capture_output=True, text=True, timeout=300)
     assert run.returncode == 0, run.stderr
     assert "| image: rotation fit (ImageRotation.update) |" in run.stdout
+    assert "| one warp of the previous frame (cv2.warpPerspective) |" in run.stdout
     rows = [line.split("|") for line in run.stdout.splitlines()
             if line.split("|")[1:2] in ([f" {name} "] for name in models.available())]
     assert len(rows) == len(models.available())
     for row in rows:  # the video preset's cost over the bare model's, and its verdict
         ratio = float(row[6].strip().removesuffix("x"))
         assert ratio > 0 and row[7].strip() == ("met" if ratio <= 2 else "not met")
+        # the least a warping front end costs: the bare model and one warp of the frame
+        assert 1 <= float(row[8].strip().removesuffix("x")) <= ratio
 
 
 def test_detect_takes_the_rotation_from_infos():
