@@ -2,18 +2,16 @@
 and figure made from the runs' files, every sentence computed from them, each run's
 command beside its results.
 
-    .venv/bin/python scripts/training_page.py --train runs/train/sac-feedback \
-        runs/train/sac-lgmd1 --eval runs/eval-190k --bench runs/closed-loop \
-        runs/closed-loop-calibrated
+    .venv/bin/python scripts/training_page.py --train docs/training/runs/ppo-privileged \
+        docs/training/runs/privileged-steer --eval docs/training/runs/eval \
+        docs/training/runs/eval-steer --bench docs/training/runs/eval
 
 --bench: closed-loop benchmark runs on the same scenario and seeds (supersets of the
 evaluation's), whose ReactiveAvoid cell with the fewest collisions (then the most
 successes) stands beside the policies, on the evaluation's seeds only. The page above
-``## Results`` is kept as it is. The machine is read from the runs' records; what they do
-not record (`MACHINE`) is commentary, printed only while the runs are the ones it was
-written about (see results_page.Commentary). The page and its figures are written as one
-set (`lgmd_sim.fileio.write_files`). Releasing a run's policy as the shipped one is
-scripts/ship_policy.py.
+``## Results`` is kept as it is. The machine is read from the runs' records. The page and
+its figures are written as one set (`lgmd_sim.fileio.write_files`). Releasing a run's
+policy as the shipped one is scripts/ship_policy.py.
 """
 
 from __future__ import annotations
@@ -27,7 +25,7 @@ from collections import defaultdict
 from collections.abc import Callable
 from pathlib import Path
 
-from results_page import Commentary, seed_ranges
+from results_page import seed_ranges
 
 from lgmd_sim.fileio import write_files
 from lgmd_sim.metrics import wilson_interval
@@ -36,21 +34,6 @@ ROOT = Path(__file__).resolve().parents[1]
 PAGE = ROOT / "docs" / "training.md"
 FIGURES = ROOT / "docs" / "training"
 RESULTS = "## Results"
-
-#: What the runs' records do not say about the machine of the training sessions.
-MACHINE = Commentary(
-    written="2026-11-30",
-    commands=(
-        "lgmd-sim train --algo sac --obs features --model feedback --steps 90000 --envs 2 "
-        "--seed 0 --eval-every 15000 --eval-seeds 8 --checkpoint-every 15000 --out "
-        "runs/train/sac-feedback --no-progress",
-        "lgmd-sim train --algo sac --obs features --model lgmd1 --steps 90000 --envs 2 "
-        "--seed 0 --eval-every 15000 --eval-seeds 8 --checkpoint-every 15000 --out "
-        "runs/train/sac-lgmd1 --no-progress"),
-    text="The machine was a virtual machine without a GPU, rendering with Mesa's software "
-         "GL, and other jobs shared it during some sessions: hence sessions of one run "
-         "differ in speed.")
-
 
 def _episodes(run: Path) -> list[dict[str, str]]:
     with (run / "episodes.csv").open(newline="") as f:
@@ -257,19 +240,6 @@ def speeds(train: dict[str, dict]) -> str:
             "between sessions of one run: " + "; ".join(parts) + ".")
 
 
-def machine_conditions(train: list[dict]) -> list[tuple[str, bool]]:
-    """What `MACHINE` rests on: the sessions are on the machine it describes, and none
-    started after it was written (what it says of other jobs is of those sessions)."""
-    sessions = [s for record in train for s in record["sessions"]]
-    return [
-        ("every training session ran on a 2-core Intel Xeon", bool(sessions) and all(
-            s.get("machine", {}).get("cores") == 2 and "Xeon" in s.get("machine", {}).get(
-                "cpu", "") for s in sessions)),
-        (f"every one started on or before {MACHINE.written}",
-         all(s.get("started", "")[:10] <= MACHINE.written for s in sessions)),
-    ]
-
-
 def seeds(evaluation: dict, train: list[dict]) -> str:
     """The evaluation's seeds against those of training and validation."""
     first, n = evaluation["config"]["seeds"]
@@ -318,8 +288,7 @@ def main() -> None:
     lines = [RESULTS, "", machines(records, evaluation, benches)]
     if speed := speeds(records):
         lines[-1] += " " + speed
-    lines += ["", *MACHINE.block(args.train, machine_conditions(list(records.values()))),
-              "Made by `scripts/training_page.py` from the runs: every figure and sentence "
+    lines += ["", "Made by `scripts/training_page.py` from the runs: every figure and sentence "
               "below is computed from the runs' own files.", "", "### Training runs", ""]
     trained_at = None
     for run in args.train:
