@@ -305,18 +305,22 @@ def test_a_stop_that_ctypes_swallowed_stops_the_run_all_the_same():
     """A Ctrl-C or SIGTERM while ctypes converts a GL driver call's arguments comes back
     as a ctypes.ArgumentError naming it: the signal is sent again and its handler raises,
     where the GL set-up would otherwise report a broken driver (seen in the any-moment
-    test). SIGTERM's stop is the one the command installed; Ctrl-C's always is."""
+    test). SIGTERM's stop is the one the command installed; Ctrl-C's always is. The
+    handlers and the signal mask are set here, whatever earlier tests left."""
     import ctypes
 
     from lgmd_sim.cli import Terminated, _terminate
     from lgmd_sim.parallel import stop_again_if_swallowed, stop_again_when_swallowed
 
-    with pytest.raises(KeyboardInterrupt):
-        stop_again_if_swallowed(ctypes.ArgumentError("argument 3: KeyboardInterrupt: "))
-    stop_again_if_swallowed(ctypes.ArgumentError("argument 3: TypeError: wrong type"))
-    stop_again_if_swallowed(ValueError("argument 3: KeyboardInterrupt: "))  # not ctypes'
-    previous = signal.signal(signal.SIGTERM, _terminate)
+    stops = {signal.SIGINT, signal.SIGTERM}
+    handlers = {signal.SIGINT: signal.signal(signal.SIGINT, signal.default_int_handler),
+                signal.SIGTERM: signal.signal(signal.SIGTERM, _terminate)}
+    mask = signal.pthread_sigmask(signal.SIG_UNBLOCK, stops)
     try:
+        with pytest.raises(KeyboardInterrupt):
+            stop_again_if_swallowed(ctypes.ArgumentError("argument 3: KeyboardInterrupt: "))
+        stop_again_if_swallowed(ctypes.ArgumentError("argument 3: TypeError: wrong type"))
+        stop_again_if_swallowed(ValueError("argument 3: KeyboardInterrupt: "))  # not ctypes'
         stop_again_if_swallowed(ctypes.ArgumentError("argument 1: Terminated: "))  # not yet
         previous_hook = stop_again_when_swallowed({Terminated: signal.SIGTERM})
         try:
@@ -325,4 +329,6 @@ def test_a_stop_that_ctypes_swallowed_stops_the_run_all_the_same():
         finally:
             sys.unraisablehook = previous_hook
     finally:
-        signal.signal(signal.SIGTERM, previous)
+        signal.pthread_sigmask(signal.SIG_SETMASK, mask)
+        for signum, handler in handlers.items():
+            signal.signal(signum, signal.SIG_DFL if handler is None else handler)
