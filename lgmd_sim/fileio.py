@@ -77,7 +77,19 @@ def scratch_folder(name: str) -> Iterator[Path]:
     try:
         yield folder
     finally:
+        _remove_tree(folder)
+
+
+def _remove_tree(folder: Path) -> None:
+    """Remove a temporary folder, to the end even when a stop (the exception a signal
+    handler raises) comes half-way through: the stop is raised again afterwards. A run's
+    stop can land in a job's cleanup (short jobs end often), and an interrupted removal
+    would leave the folder behind."""
+    try:
         shutil.rmtree(folder, ignore_errors=True)
+    except BaseException:
+        shutil.rmtree(folder, ignore_errors=True)
+        raise
 
 
 def _named(exc: OSError, target: Path, verb: str = "write") -> OSError:
@@ -179,7 +191,7 @@ def atomic_folder_outputs(folder: str | os.PathLike, names: Sequence[str]) -> It
         raise type(exc)(exc.errno, final(exc.strerror or exc),
                         *(() if exc.filename is None else (final(exc.filename),))) from exc
     finally:
-        shutil.rmtree(staging, ignore_errors=True)
+        _remove_tree(staging)
 
 
 @contextlib.contextmanager
@@ -203,7 +215,7 @@ def atomic_folder(dest: str | os.PathLike) -> Iterator[Path]:
             raise FileExistsError(errno.EEXIST, os.strerror(errno.EEXIST), str(dest))
         os.rename(tmp, dest)
     finally:
-        shutil.rmtree(tmp, ignore_errors=True)
+        _remove_tree(tmp)
 
 
 def write_files(writers: Mapping[str | os.PathLike, Callable[[Path], None]]) -> None:

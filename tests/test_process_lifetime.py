@@ -332,3 +332,25 @@ def test_a_stop_that_ctypes_swallowed_stops_the_run_all_the_same():
         signal.pthread_sigmask(signal.SIG_SETMASK, mask)
         for signum, handler in handlers.items():
             signal.signal(signum, signal.SIG_DFL if handler is None else handler)
+
+
+def test_a_stop_while_a_temporary_folder_is_removed_still_removes_it(monkeypatch):
+    """A job that ends in its cleanup when the run's stop comes: the removal of its
+    scratch folder is interrupted by the stop's exception, and finishes all the same."""
+    import shutil
+
+    from lgmd_sim import fileio
+
+    real, calls = shutil.rmtree, []
+
+    def stopped_once(path, ignore_errors=False):
+        calls.append(path)
+        if len(calls) == 1:
+            raise KeyboardInterrupt  # the handler's exception, half-way through
+        real(path, ignore_errors=ignore_errors)
+
+    monkeypatch.setattr(shutil, "rmtree", stopped_once)
+    with pytest.raises(KeyboardInterrupt):
+        with fileio.scratch_folder("lgmd-sim-test") as folder:
+            (folder / "episode.avi").write_bytes(b"x")
+    assert not folder.exists() and len(calls) == 2
