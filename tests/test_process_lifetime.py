@@ -334,13 +334,15 @@ def test_a_stop_that_ctypes_swallowed_stops_the_run_all_the_same():
             signal.signal(signum, signal.SIG_DFL if handler is None else handler)
 
 
-def test_a_stop_while_a_temporary_folder_is_removed_still_removes_it(monkeypatch):
+def test_a_stop_while_a_temporary_folder_is_removed_still_removes_it(monkeypatch, tmp_path):
     """A job that ends in its cleanup when the run's stop comes: the removal of its
     scratch folder is interrupted by the stop's exception, and finishes all the same."""
     import shutil
+    import tempfile
 
     from lgmd_sim import fileio
 
+    monkeypatch.setattr(tempfile, "tempdir", str(tmp_path))  # no other run's leftovers
     real, calls = shutil.rmtree, []
 
     def stopped_once(path, ignore_errors=False):
@@ -354,3 +356,4 @@ def test_a_stop_while_a_temporary_folder_is_removed_still_removes_it(monkeypatch
         with fileio.scratch_folder("lgmd-sim-test") as folder:
             (folder / "episode.avi").write_bytes(b"x")
     assert not folder.exists() and len(calls) == 2
+    assert list(tmp_path.iterdir()) == []
