@@ -135,6 +135,8 @@ class RunFolder:
             what it ships); None: run.json's "config" identifies the run.
         changeable: configuration keys a resumed session may change (e.g. a training
             run's step budget); the record keeps the latest value.
+        defaults: configuration keys added since some runs were recorded, each at the
+            value those runs ran at: a record without the key holds it.
         start: write the record now (see `start`); the folder is checked either way.
     """
 
@@ -142,7 +144,7 @@ class RunFolder:
                  *, resume: bool = False, what: str = "run",
                  resume_hint: str = "add --resume to complete it", record: str = RECORD,
                  identity: str | None = None, changeable: Collection[str] = (),
-                 start: bool = True) -> None:
+                 defaults: Mapping[str, Any] | None = None, start: bool = True) -> None:
         self.path = Path(path)
         self.config = json.loads(json.dumps(config))  # as it will read back
         self.records_dir = self.path / "records"
@@ -150,7 +152,8 @@ class RunFolder:
         self._identity = self.path / identity if identity else None
         if self.path.exists() and not self.path.is_dir():
             raise ValueError(f"output folder {self.path} is a file, not a folder")
-        earlier, self._facts = self._earlier(what, resume, resume_hint, changeable)
+        earlier, self._facts = self._earlier(what, resume, resume_hint, changeable,
+                                             json.loads(json.dumps(defaults or {})))
         self.started = time.time()
         self.session: dict[str, Any] = {"command": command,
                                         "started": time.strftime("%Y-%m-%d %H:%M:%S"),
@@ -179,8 +182,8 @@ class RunFolder:
         return _read_json(file, {"config": dict, "sessions": Maybe([dict])},
                           "choose another folder or remove it")
 
-    def _earlier(self, what: str, resume: bool, resume_hint: str, changeable: Collection[str]
-                 ) -> tuple[list[dict[str, Any]], dict[str, Any]]:
+    def _earlier(self, what: str, resume: bool, resume_hint: str, changeable: Collection[str],
+                 defaults: Mapping[str, Any]) -> tuple[list[dict[str, Any]], dict[str, Any]]:
         """The earlier sessions of the run in the folder and the facts recorded of it,
         after checking it is this run."""
         if not (self.path.is_dir() and any(self.path.iterdir())):
@@ -193,6 +196,7 @@ class RunFolder:
         else:
             raise ValueError(f"output folder {self.path} is not empty and holds no {what}: "
                              "choose a new or empty folder")
+        held = {**defaults, **held}
         diff = difference({k: v for k, v in held.items() if k not in changeable},
                           {k: v for k, v in self.config.items() if k not in changeable})
         if diff:

@@ -29,6 +29,7 @@ from results_page import seed_ranges
 
 from lgmd_sim.fileio import write_files
 from lgmd_sim.metrics import wilson_interval
+from lgmd_sim.training.summary import summary_markdown
 
 ROOT = Path(__file__).resolve().parents[1]
 PAGE = ROOT / "docs" / "training.md"
@@ -154,7 +155,9 @@ STUDENT_COLLISIONS = {1.0: 0.10}
 def about(config: dict) -> str:
     """What a training run's policy sees and who taught it, from its recorded options."""
     model = "/".join(v for v in (config["model"], config["preset"]) if v)
-    sees = f"{model} features" if config["obs"] == "features" else config["obs"]
+    grid = config.get("grid", [1, 3])
+    sees = (f"{model} features" + (f", grid {grid[0]}x{grid[1]}" if grid != [1, 3] else "")
+            if config["obs"] == "features" else config["obs"])
     return sees + (f", DAgger from {Path(config['teacher']).name}" if config.get("teacher")
                    else "")
 
@@ -188,8 +191,9 @@ def targets(cells: dict, obs: dict[str, str]) -> list[str]:
 
 
 def run_summary(run: Path) -> str:
-    """A training run's summary.md without its title."""
-    return (run / "summary.md").read_text().strip().split("\n", 1)[1].strip()
+    """A training run's summary without its title, made anew from its folder (a run's
+    summary.md is as old as its last session)."""
+    return summary_markdown(run).strip().split("\n", 1)[1].strip()
 
 
 def _copy(src: Path, name: str, figures: dict[Path, Path]) -> str:

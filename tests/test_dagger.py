@@ -187,7 +187,7 @@ def test_a_run_stopped_inside_the_rounds_resumes_at_the_next(tmp_path, monkeypat
     with pytest.raises(RuntimeError, match="killed"):
         cli.main([*TINY, "--steps", "256", "--out", str(out)])
     state = json.loads((out / "checkpoints" / "state.json").read_text())
-    assert state == {"num_timesteps": 64, "imitation_round": 2, "labels": 64}
+    assert state == {"num_timesteps": 64, "imitation_round": 2, "labels": 64, "critic_until": 0}
     before = dagger.Labels.load(out / "checkpoints" / "dagger.npz")
     assert len(before) == 64
 
@@ -195,7 +195,7 @@ def test_a_run_stopped_inside_the_rounds_resumes_at_the_next(tmp_path, monkeypat
     from lgmd_sim.training.run import _load_checkpoint
 
     envs = make_vec_env(CONFIG, 1)
-    assert _load_checkpoint(out / "checkpoints", envs.venv, "ppo")[0].training
+    assert _load_checkpoint(out / "checkpoints", envs.venv, "ppo", {})[0].training
     envs.close()
 
     monkeypatch.setattr(dagger, "fit", fit)
@@ -215,6 +215,9 @@ def test_a_run_stopped_inside_the_rounds_resumes_at_the_next(tmp_path, monkeypat
     (["--teacher", "nowhere"], "nowhere"),
     (["--teacher", "reactive"], "needs --obs features, not privileged"),
     (["--dagger-rounds", "200"], "--imitation-steps 128 must be at least"),
+    (["--value-warmup", "128"], "--imitation-steps 128 and --value-warmup 128 must be fewer "
+     "than --steps 256"),
+    (["--value-warmup", "-1"], "--value-warmup must be a non-negative integer, got -1"),
 ])
 def test_a_bad_teacher_is_one_line_before_training(tmp_path, capsys, args, message):
     out = tmp_path / "never"
@@ -233,3 +236,57 @@ def test_steer_teaches_as_the_controller_acts():
     info = {"time": 0.0, "threat_bearing": -0.2, "threat_distance": 0.3, "threat_ttc": 0.4,
             "goal_bearing": 0.1}
     assert np.array_equal(teacher.controllers[0].act({}, info), Steer().act({}, info))
+
+
+def test_the_value_warmup_trains_the_critic_alone():
+    """`critic_only`: PPO's updates inside it change the value function and nothing else,
+    and every parameter learns again after it."""
+    import torch
+    from stable_baselines3 import PPO
+
+    envs = make_vec_env(CONFIG, 1, SHORT)
+    try:
+        model = PPO("MultiInputPolicy", envs.venv, n_steps=64, batch_size=64, seed=0)
+        policy = model.policy
+        critic = {id(p) for net in (policy.value_net, policy.mlp_extractor.value_net)
+                  for p in net.parameters()}
+        before = [p.detach().clone() for p in policy.parameters()]
+        with dagger.critic_only(policy):
+            model.learn(128)
+        for p, old in zip(policy.parameters(), before, strict=True):
+            assert torch.equal(p, old) != (id(p) in critic)  # the critic's changed alone
+        assert all(p.requires_grad for p in policy.parameters())
+    finally:
+        envs.close()
+
+
+def test_a_student_resumed_past_its_rounds_warms_its_value_function_up_once(tmp_path, capsys):
+    """A run that had no warm-up, resumed with --value-warmup and a new hyperparameter:
+    the warm-up starts where it resumes, is recorded, and a later resume does not redo it;
+    the hyperparameter is added to the run's, the network's shape cannot change."""
+    out = tmp_path / "student"
+    assert cli.main([*TINY, "--steps", "192", "--out", str(out)]) == 0
+    assert cli.main(["train", "--resume", str(out), "--steps", "384", "--value-warmup", "128",
+                     "--hp", "target_kl=0.02", "--no-progress"]) == 0
+    record = json.loads((out / "run.json").read_text())
+    warmup = record["sessions"][1]["value_warmup"]
+    assert warmup["steps"] == [192, 320]  # 2 rollouts of 64
+    assert warmup["n_updates"][1] - warmup["n_updates"][0] == 20  # 10 epochs each
+    assert record["config"]["hp"] == ["n_steps=64", "batch_size=64", "target_kl=0.02"]
+    assert record["hyperparameters"]["target_kl"] == 0.02
+    state = json.loads((out / "checkpoints" / "state.json").read_text())
+    assert state["critic_until"] == 320
+    updates = [line.split(" | ") for line in (out / "summary.md").read_text().splitlines()
+               if "| value warm-up |" in line or "| PPO |" in line]
+    assert [(row[0], row[1]) for row in updates] == [("| 0", "PPO"), ("| 1", "value warm-up"),
+                                                     ("| 1", "PPO")]
+    assert abs(float(updates[1][4])) < 1e-6  # approximate KL: the policy did not move
+    assert curve.phase_changes(out) == [(128, "DAgger ends"), (320, "value warm-up ends")]
+    assert cli.main(["train", "--resume", str(out), "--steps", "448", "--value-warmup", "64",
+                     "--no-progress"]) == 0
+    assert "value_warmup" not in json.loads((out / "run.json").read_text())["sessions"][2]
+    capsys.readouterr()
+    assert cli.main(["train", "--resume", str(out), "--steps", "512",
+                     "--hp", "policy_kwargs={'net_arch': [8]}"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "keeps its network (policy_kwargs)" in err

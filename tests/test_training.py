@@ -89,6 +89,18 @@ def test_the_policy_acts_deterministically_on_what_it_was_trained_to_see(run):
     env.close()
 
 
+def test_the_s_layer_grid_is_an_option_the_policy_keeps(tmp_path):
+    out = tmp_path / "grid"
+    assert _train(out, "--steps", "64", "--envs", "1", "--grid", "2x4") == 0
+    assert json.loads((out / "policy.json").read_text())["config"]["grid"] == [2, 4]
+    policy = controllers.make("policy", path=str(out))
+    env = policy.wrap_env(base_env(policy.policy.config))
+    obs, _ = env.reset(seed=1)
+    assert obs["lgmd_grid"].shape == (8,)
+    env.close()
+    assert "S-layer grid 2x4" in (out / "summary.md").read_text()
+
+
 def test_the_training_vec_env_observes_as_the_controller_does(run):
     """The batched LGMD features of the training VecEnv are those of the single wrapped
     environment the controller sees, bit for bit."""
@@ -137,6 +149,11 @@ def test_reward_shaping_reaches_the_training_environments_only(tmp_path, monkeyp
 def test_resume_continues_the_step_count(run, tmp_path):
     out = tmp_path / "resumed"
     shutil.copytree(run, out)
+    # as a run recorded before --grid and --value-warmup existed: it ran at their defaults
+    record = json.loads((out / "run.json").read_text())
+    for key in ("grid", "value_warmup"):
+        del record["config"][key]
+    (out / "run.json").write_text(json.dumps(record))
     assert cli.main(["train", "--resume", str(out), "--steps", "384", "--no-progress"]) == 0
     record = json.loads((out / "run.json").read_text())
     assert [s["steps"] for s in record["sessions"]] == [[0, 256], [256, 384]]
@@ -219,6 +236,8 @@ def _nan_reward_env(**overrides):
     (["--reward", "goal_bonus=1", "--reward", "goal_bonus=2"], "--reward goal_bonus is given "
      "twice"),
     (["--env", "lgmd_test/NanReward-v0", "--envs", "1"], "is not finite"),
+    (["--obs", "pixels", "--grid", "2x2"], "--grid is the S-layer grid of --obs features, "
+     "not pixels"),
 ])
 def test_bad_input_is_one_line_before_training(tmp_path, capsys, args, message):
     if "lgmd_test/NanReward-v0" not in gym.registry:

@@ -45,6 +45,17 @@ def resolution(text: str) -> str | list[int]:
     return size
 
 
+def grid(text: str) -> list[int]:
+    """ROWSxCOLUMNS of positive integers (a grid of cells over the frame)."""
+    try:
+        cells = [int(v) for v in text.lower().split("x")]
+    except ValueError:
+        cells = []
+    if len(cells) != 2 or min(cells) < 1:
+        raise argparse.ArgumentTypeError(f"must be ROWSxCOLUMNS (e.g. 3x5), got {text!r}")
+    return cells
+
+
 def add_parallel_options(p: argparse.ArgumentParser, unit: str = "episodes") -> None:
     """--workers, --ray and --no-progress: how a command's independent jobs run."""
     p.add_argument("--workers", type=positive_int, default=None,

@@ -13,7 +13,7 @@ import json
 from pathlib import Path
 from typing import Any
 
-from lgmd_sim.cli.args import print_result, resolution
+from lgmd_sim.cli.args import grid, print_result, resolution
 from lgmd_sim.extras import install_command
 
 
@@ -39,6 +39,10 @@ def add(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--model", help="the LGMD model of --obs features, MODEL or MODEL/PRESET "
                    "(default feedback)")
     p.add_argument("--preset", help="its preset (default: the model's default)")
+    p.add_argument("--grid", type=grid, metavar="RxC",
+                   help="the S-layer grid of --obs features: rows x columns of cells, each "
+                   "holding its share of the layer's activity (default 1x3: left, centre, "
+                   "right)")
     p.add_argument("--resolution", type=resolution,
                    help="frame size the environment renders: rl (120x160, default, as the "
                    "benchmark), paper, small or HxW")
@@ -58,7 +62,9 @@ def add(sub: argparse._SubParsersAction) -> None:
                    help="write a checkpoint every N steps (default 25000)")
     p.add_argument("--hp", action="append", metavar="KEY=VALUE",
                    help="override a hyperparameter of the algorithm (repeatable), e.g. "
-                   "--hp n_steps=512 --hp learning_rate=1e-4")
+                   "--hp n_steps=512 --hp learning_rate=1e-4; with --resume, added to the "
+                   "run's (not policy_kwargs), e.g. --hp target_kl=0.02 for gentler "
+                   "fine-tuning")
     p.add_argument("--reward", action="append", metavar="KEY=VALUE",
                    help="a reward parameter of the training environments (repeatable): "
                    "progress_reward, collision_penalty, effort_penalty, goal_bonus, "
@@ -84,6 +90,11 @@ def add(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--dagger-rounds", type=int, metavar="K",
                    help="DAgger rounds (default 10): the teacher drives round 0, then less "
                    "and less, none from half the rounds on")
+    p.add_argument("--value-warmup", type=int, metavar="N",
+                   help="after DAgger, N environment steps of PPO in which only the value "
+                   "function learns, so that fine-tuning starts from advantages that mean "
+                   "something (default 0: none; part of --steps); with --resume of a run "
+                   "past its DAgger rounds that had none, it starts there")
     p.add_argument("--out", metavar="DIR", help="output folder, new or empty (default "
                    "./train-ALGO-OBS)")
     p.add_argument("--resume", metavar="DIR", help="continue the run in DIR from its last "
@@ -107,12 +118,20 @@ def config_from_args(args: argparse.Namespace) -> Any:
         if key not in RESUMABLE and json.loads(json.dumps(value)) != recorded[key]:
             raise ValueError(f"--{key.replace('_', '-')} {value} differs from the run being "
                              f"resumed ({recorded[key]}); only "
-                             f"{' and '.join('--' + k for k in RESUMABLE)} may change")
+                             f"{', '.join('--' + k.replace('_', '-') for k in RESUMABLE)} "
+                             "may change")
+    if "hp" in given:
+        shaped = [item for item in given["hp"] if item.partition("=")[0] == "policy_kwargs"]
+        if shaped:
+            raise ValueError(f"--hp {shaped[0]}: a resumed run keeps its network "
+                             "(policy_kwargs); only other hyperparameters may be added")
+        given["hp"] = [*recorded["hp"], *given["hp"]]  # added to the run's: a later one wins
     return TrainConfig(**{**{k: recorded[k] for k in names}, **given})
 
 
 def run(args: argparse.Namespace) -> int:
-    from lgmd_sim.training.run import summary_markdown, train
+    from lgmd_sim.training.run import train
+    from lgmd_sim.training.summary import summary_markdown
 
     if args.resume and args.out is not None and Path(args.out) != Path(args.resume):
         raise ValueError("--out and --resume name different folders: --resume continues "

@@ -50,12 +50,15 @@ def _number(text: str | None) -> float | None:
 
 def phase_changes(folder: Path) -> list[tuple[float, str]]:
     """(step, label) where the run of `folder` changed what it trained on: the end of its
-    DAgger rounds (RL from there) and each curriculum stage passed (from its run.json)."""
+    DAgger rounds (RL from there), the end of its value warm-up (the policy learns again
+    from there) and each curriculum stage passed (from its run.json)."""
     sessions = json.loads((folder / "run.json").read_text()).get("sessions", [])
     changes = []
     rounds = [r for s in sessions for r in s.get("imitation", [])]
     if rounds:
         changes.append((rounds[-1]["steps"], "DAgger ends"))
+    changes += [(s["value_warmup"]["steps"][1], "value warm-up ends") for s in sessions
+                if "value_warmup" in s]
     changes += [(st["steps"][1], f"stage {st['stage'] + 1} passed")
                 for s in sessions for st in s.get("stages", []) if st["passed"]]
     return changes
@@ -65,7 +68,8 @@ def learning_curve(folder: Path, title: str = "") -> Path:
     """Draw ``folder/learning_curve.png``: episode return, success rate and collision rate
     against environment steps, of the training episodes (a running mean over the last
     100) and of the validation episodes (fixed held-out seeds, deterministic policy),
-    with a dotted line where DAgger ended or a curriculum stage was passed."""
+    with a dotted line where DAgger or the value warm-up ended or a curriculum stage was
+    passed."""
     from matplotlib.ticker import EngFormatter
 
     logs = read_logs(folder)

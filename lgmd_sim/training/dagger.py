@@ -29,7 +29,8 @@ teacher's action under the student's Gaussian, minus 1e-3 times its entropy.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
@@ -40,7 +41,7 @@ from lgmd_sim.fileio import write_files
 from lgmd_sim.policies.config import PolicyConfig
 
 __all__ = ["ENT_WEIGHT", "FIT_BATCH", "FIT_EPOCHS", "FIT_LEARNING_RATE", "AlarmAvoid", "Labels",
-           "Teacher", "beta", "collect", "fit", "imitate"]
+           "Teacher", "beta", "collect", "critic_only", "fit", "imitate"]
 
 #: Weight of the entropy bonus in the cloning loss (imitation's default).
 ENT_WEIGHT = 1e-3
@@ -282,3 +283,30 @@ def imitate(model: Any, venv: Any, reset_infos: Callable[[], Sequence[Mapping[st
         model.num_timesteps += vector_steps * venv.num_envs
         after_round(k, beta(k, rounds), loss)
     venv.training = True
+
+
+@contextmanager
+def critic_only(policy: Any) -> Iterator[None]:
+    """Within it, only the value function of `policy` (a stable-baselines3 actor-critic
+    policy) learns: every other parameter, a features extractor it shares with the actor
+    included, is frozen (``requires_grad`` False, so PPO's optimiser skips it).
+
+    Why: `fit` trains the action distribution alone, so after DAgger the value function
+    is still the initial one. PPO's advantages are then noise, normalised to unit scale
+    per minibatch, and its first updates move a cloned policy far from what it learnt
+    (docs/training.md: the approximate KL per update of the runs that unlearnt their
+    task). Warming the critic up on the student's own rollouts first gives PPO
+    advantages that mean something.
+    """
+    critic = [policy.value_net, policy.mlp_extractor.value_net]
+    if not policy.share_features_extractor:
+        critic.append(policy.vf_features_extractor)
+    learns = {id(p) for net in critic for p in net.parameters()}
+    before = [(p, p.requires_grad) for p in policy.parameters()]
+    for p, _ in before:
+        p.requires_grad_(id(p) in learns)
+    try:
+        yield
+    finally:
+        for p, flag in before:
+            p.requires_grad_(flag)

@@ -4,7 +4,7 @@ The run, in order: check every option (a bad one is one line, before anything st
 build the environments and measure the bare VecEnv's steps per second, which also checks
 that rewards are finite; then train with stable-baselines3, validating on fixed held-out
 seeds and writing checkpoints as it goes; at the end write the policy folders, the
-learning curve and the run's record.
+learning curve, the run's record and its summary (`lgmd_sim.training.summary`).
 
 Layout of ``DIR``:
 
@@ -44,17 +44,17 @@ from lgmd_sim.fileio import write_text_atomic
 from lgmd_sim.policies.config import PolicyConfig
 from lgmd_sim.policies.folder import ALGOS, OBS
 from lgmd_sim.runs import RunFolder, RunResult
+from lgmd_sim.training.summary import summary_markdown, validation_rows
 
 if TYPE_CHECKING:
     from lgmd_sim.training.curriculum import Curriculum
 
-__all__ = ["RESUMABLE", "VALIDATION_SEED", "TrainConfig", "resumable", "summary_markdown",
-           "train"]
+__all__ = ["RESUMABLE", "VALIDATION_SEED", "TrainConfig", "resumable", "train"]
 
 #: The first validation seed; training seeds stay below it, test seeds start at 1000.
 VALIDATION_SEED = 900
 #: Options a resumed run may change; the others must be as recorded.
-RESUMABLE = ("steps", "envs")
+RESUMABLE = ("steps", "envs", "hp", "value_warmup")
 
 
 @dataclass(frozen=True)
@@ -70,6 +70,8 @@ class TrainConfig:
             truth that the Oracle reads, with the proprioception and goal).
         model, preset: the LGMD model of "features", MODEL or MODEL/PRESET (with front
             ends), and its preset (None: the model's default); both None otherwise.
+        grid: (rows, columns) of the S-layer grid of "features"
+            (`lgmd_sim.envs.wrappers.LGMDFeatures`).
         resolution: the frame size the environment renders.
         jitter: the jitter level of the training episodes.
         steps: environment steps in all, over every environment and session.
@@ -78,7 +80,9 @@ class TrainConfig:
         eval_every, eval_seeds: validate every N steps on this many held-out seeds (from
             `VALIDATION_SEED`).
         checkpoint_every: write a checkpoint every N steps.
-        hp: hyperparameter overrides, each "KEY=VALUE" (`lgmd_sim.training.algos`).
+        hp: hyperparameter overrides, each "KEY=VALUE" (`lgmd_sim.training.algos`); a
+            resumed run may add some (a later one wins), not ``policy_kwargs`` (the
+            checkpoint's network has its shape).
         reward: reward parameters of the training environments, each "KEY=VALUE"
             (`lgmd_sim.training.envs.parse_reward`); validation keeps the environment's.
         curriculum: a curriculum (`lgmd_sim.training.curriculum`: a built-in name or a
@@ -91,6 +95,10 @@ class TrainConfig:
             before RL; None: RL from the start. PPO only.
         imitation_steps: environment steps of the DAgger rounds (part of `steps`).
         dagger_rounds: DAgger rounds, each ``imitation_steps / dagger_rounds`` steps.
+        value_warmup: environment steps of PPO after the DAgger rounds in which only the
+            value function learns (`lgmd_sim.training.dagger.critic_only`), part of
+            `steps`; 0: none. Given when resuming a run past its DAgger rounds that had
+            none, the warm-up starts there; it runs once.
     """
 
     algo: str = "ppo"
@@ -98,6 +106,7 @@ class TrainConfig:
     obs: str = "features"
     model: str | None = "feedback"
     preset: str | None = None
+    grid: tuple[int, int] = (1, 3)
     resolution: str | tuple[int, int] = "rl"
     jitter: float = 1.0
     steps: int = 300_000
@@ -112,6 +121,7 @@ class TrainConfig:
     teacher: str | None = None
     imitation_steps: int = 100_000
     dagger_rounds: int = 10
+    value_warmup: int = 0
 
     def __post_init__(self) -> None:
         import gymnasium as gym
@@ -134,6 +144,14 @@ class TrainConfig:
                 str(self.model) if self.preset is None else f"{self.model}/{self.preset}")
         else:
             model = preset = None
+        grid = tuple(self.grid) if isinstance(self.grid, list | tuple) else ()
+        if not (len(grid) == 2 and all(isinstance(v, int) and not isinstance(v, bool)
+                                       and v >= 1 for v in grid)):
+            raise ValueError(f"--grid must be rows x columns of positive integers, got "
+                             f"{self.grid!r}")
+        if self.obs != "features" and grid != (1, 3):
+            raise ValueError(f"--grid is the S-layer grid of --obs features, not {self.obs}")
+        object.__setattr__(self, "grid", grid)
         object.__setattr__(self, "model", model)
         object.__setattr__(self, "preset", preset)
         object.__setattr__(self, "resolution", options.resolution(self.resolution))
@@ -154,15 +172,24 @@ class TrainConfig:
         for key in ("imitation_steps", "dagger_rounds"):
             options.check_positive(getattr(self, key), f"--{key.replace('_', '-')}",
                                    integer=True)
+        if not (isinstance(self.value_warmup, int) and not isinstance(self.value_warmup, bool)
+                and self.value_warmup >= 0):
+            raise ValueError(f"--value-warmup must be a non-negative integer, got "
+                             f"{self.value_warmup!r}")
+        if self.value_warmup and self.teacher is None:
+            raise ValueError("--value-warmup warms the value function up after DAgger: it "
+                             "needs --teacher")
         if self.teacher is not None:
             from lgmd_sim.training.dagger import Teacher
 
             if self.algo != "ppo":
                 raise ValueError(f"--teacher needs --algo ppo (its policy is fitted to the "
                                  f"teacher's actions), not {self.algo}")
-            if self.imitation_steps >= self.steps:
-                raise ValueError(f"--imitation-steps {self.imitation_steps} must be fewer "
-                                 f"than --steps {self.steps} (RL fine-tuning takes the rest)")
+            if self.imitation_steps + self.value_warmup >= self.steps:
+                warmup = f" and --value-warmup {self.value_warmup}" if self.value_warmup else ""
+                raise ValueError(f"--imitation-steps {self.imitation_steps}{warmup} must be "
+                                 f"fewer than --steps {self.steps} (RL fine-tuning takes the "
+                                 "rest)")
             if self.imitation_steps < self.dagger_rounds * self.envs:
                 raise ValueError(f"--imitation-steps {self.imitation_steps} must be at least "
                                  f"--dagger-rounds x --envs ({self.dagger_rounds * self.envs}): "
@@ -172,7 +199,7 @@ class TrainConfig:
     def policy(self) -> PolicyConfig:
         """The configuration of the policy it trains."""
         return PolicyConfig(self.algo, self.obs, self.env, self.resolution,
-                            float(self.jitter), self.model, self.preset)
+                            float(self.jitter), self.model, self.preset, grid=self.grid)
 
     def as_json(self) -> dict[str, Any]:
         """The configuration as the run folder records it."""
@@ -282,7 +309,9 @@ def _train(out: Path, config: TrainConfig, kwargs: dict[str, Any], first_seed: i
     folder = RunFolder(out, config.as_json(), command, resume=bool(resumed),
                        what="training run",
                        resume_hint=f"add --resume {out} to continue it",
-                       changeable=RESUMABLE, start=False)
+                       changeable=RESUMABLE, start=False,
+                       # a run recorded before an option existed ran at its default
+                       defaults={f.name: f.default for f in dataclasses.fields(TrainConfig)})
     curriculum, stage = config.stages, resumed.get("stage", 0)
     envs = make_vec_env(policy, config.envs, config.overrides(stage))
     validation = None
@@ -290,7 +319,8 @@ def _train(out: Path, config: TrainConfig, kwargs: dict[str, Any], first_seed: i
         bare = bare_speed(envs, policy.env_id)
         earlier = len(folder.sessions) - 1
         if earlier:
-            venv, model = _load_checkpoint(checkpoints, envs.venv, policy.algo)
+            venv, model = _load_checkpoint(checkpoints, envs.venv, policy.algo,
+                                           algos.parse_overrides(config.hp, policy.algo))
             model.set_random_seed(config.seed + earlier)
         else:
             venv = normalized(envs.venv, policy.obs, policy.algo, kwargs)
@@ -328,8 +358,10 @@ def _train(out: Path, config: TrainConfig, kwargs: dict[str, Any], first_seed: i
         stages = callbacks.StageCallback(curriculum, stage) if curriculum else None
 
         # what checkpoints name, besides the step count: DAgger's round and labels
-        # (`_imitate` keeps them), the curriculum's stage
-        resume_at = {key: resumed.get(key, 0) for key in ("imitation_round", "labels")
+        # (`_imitate` keeps them), the step the value warm-up ends at (0: not started),
+        # the curriculum's stage
+        resume_at = {key: resumed.get(key, 0) for key in ("imitation_round", "labels",
+                                                          "critic_until")
                      } if config.teacher else {}
 
         def state() -> dict[str, Any]:
@@ -342,6 +374,21 @@ def _train(out: Path, config: TrainConfig, kwargs: dict[str, Any], first_seed: i
         # the RL phase's own time: validations and checkpoints of the rounds are not in it
         rl_from, rl_other_s = model.num_timesteps, validate.seconds + checkpoint.seconds
         learn_s, stats = 0.0, callbacks.EpisodeStats()
+        if config.value_warmup and not resume_at["critic_until"]:
+            resume_at["critic_until"] = model.num_timesteps + config.value_warmup
+        if config.teacher and model.num_timesteps < resume_at["critic_until"]:
+            from lgmd_sim.training.dagger import critic_only
+
+            learn_start = time.perf_counter()
+            # the update counter tells the warm-up's updates apart in the logs
+            steps, updates = [model.num_timesteps], [model._n_updates]
+            with critic_only(model.policy):
+                model.learn(total_timesteps=resume_at["critic_until"] - model.num_timesteps,
+                            reset_num_timesteps=False,
+                            callback=[progress, stats, validate, checkpoint])
+            learn_s += time.perf_counter() - learn_start
+            folder.session["value_warmup"] = {"steps": [*steps, model.num_timesteps],
+                                              "n_updates": [*updates, model._n_updates]}
         while True:
             learn_start, stage_from = time.perf_counter(), model.num_timesteps
             model.learn(total_timesteps=config.steps - model.num_timesteps,
@@ -388,7 +435,7 @@ def _train(out: Path, config: TrainConfig, kwargs: dict[str, Any], first_seed: i
     write_text_atomic(out / "summary.md", summary_markdown(out))
     files = ["policy.npz", "policy.json", "best/", "learning_curve.png", "summary.md",
              "run.json", "logs/", "checkpoints/"]
-    return RunResult(out, _validation_rows(out), files)
+    return RunResult(out, validation_rows(out), files)
 
 
 def _imitate(config: TrainConfig, model: Any, venv: Any, envs: Any, checkpoints: Path,
@@ -431,14 +478,18 @@ def _imitate(config: TrainConfig, model: Any, venv: Any, envs: Any, checkpoints:
     return time.perf_counter() - start
 
 
-def _load_checkpoint(folder: Path, venv: Any, algo: str) -> tuple[Any, Any]:
-    """The VecNormalize (around `venv`) and the model of the checkpoint in `folder`."""
+def _load_checkpoint(folder: Path, venv: Any, algo: str, overrides: Mapping[str, Any]
+                     ) -> tuple[Any, Any]:
+    """The VecNormalize (around `venv`) and the model of the checkpoint in `folder`, with
+    the hyperparameter `overrides` (a resumed run may add some) over the saved ones."""
     from stable_baselines3.common.vec_env import VecNormalize
 
     cls = getattr(require("stable_baselines3", "rl"), ALGOS[algo])
     try:
         normalized = VecNormalize.load(str(folder / "vecnormalize.pkl"), venv)
-        model = cls.load(folder / "model.zip", env=normalized, device="cpu")
+        # the network's shape is the checkpoint's: TrainConfig refuses a new one
+        model = cls.load(folder / "model.zip", env=normalized, device="cpu",
+                         **{k: v for k, v in overrides.items() if k != "policy_kwargs"})
         normalized.training = True  # saved frozen between DAgger rounds
     except (AssertionError, ValueError) as exc:  # SB3 asserts that the spaces match
         raise ValueError(f"the checkpoint in {folder} does not fit the environment as it is "
@@ -480,65 +531,3 @@ class _Best:
                           policies.Normalizer.of(model.get_vec_normalize_env()),
                           steps=step, command=self.command, validation=self.last,
                           version=__version__)
-
-
-def summary_markdown(folder: Path) -> str:
-    """The run in `folder` as Markdown: what was trained, how fast, how it validated."""
-    record = json.loads((folder / "run.json").read_text())
-    o = record["config"]
-    detector = f", {o['model']}/{o['preset']}" if o["model"] else ""
-    shaped = f"; training reward {', '.join(o['reward'])}" if o.get("reward") else ""
-    lines = [f"# {folder.name}: {o['algo'].upper()} on {o['obs']}{detector}, {o['env']} at "
-             f"jitter {o['jitter']:g}, {o['envs']} environments{shaped}", "",
-             "| session | steps | wall time (min) | training steps/s | bare VecEnv steps/s "
-             "| ratio |", "|---:|---:|---:|---:|---:|---:|"]
-    for i, s in enumerate(record["sessions"]):
-        if "throughput" in s:
-            t = s["throughput"]
-            lines.append(f"| {i} | {s['steps'][0]:,} to {s['steps'][1]:,} | "
-                         f"{s['wall_time_s'] / 60:.1f} | {t['training_steps_per_s']:.0f} | "
-                         f"{t['bare_vec_env_steps_per_s']:.0f} | {t['ratio']:.2f} |")
-    stages = [(i, st) for i, s in enumerate(record["sessions"]) for st in s.get("stages", [])]
-    if stages:
-        n = len(record["curriculum"]["stage"])
-        lines += ["", f"Curriculum {o['curriculum']} (a stage is passed at its success rate "
-                  f"over the last {record['curriculum']['window']} training episodes):", "",
-                  "| session | stage | environment | steps | episodes | success rate | "
-                  "passed |", "|---:|---|---|---:|---:|---:|---|"]
-        for i, st in stages:
-            env = ", ".join(f"{k}={v}" for k, v in st["overrides"].items()) or "the task's"
-            rate = "-" if st["success_rate"] is None else f"{st['success_rate']:.2f}"
-            lines.append(f"| {i} | {st['stage'] + 1 if st['stage'] < n else 'task'} | {env} | "
-                         f"{st['steps'][0]:,} to {st['steps'][1]:,} | {st['episodes']} | "
-                         f"{rate} | {'yes' if st['passed'] else 'no'} |")
-    rounds = [(i, r) for i, s in enumerate(record["sessions"]) for r in s.get("imitation", [])]
-    if rounds:
-        lines += ["", f"DAgger from {o['teacher']} ({o['imitation_steps']:,} steps in "
-                  f"{o['dagger_rounds']} rounds; beta: the share of steps the teacher "
-                  "drove; validation after each round):", "",
-                  "| session | round | beta | at step | labels | cloning loss | "
-                  "val success | val collisions |", "|---:|---:|---:|---:|---:|---:|---:|---:|"]
-        for i, r in rounds:
-            lines.append(f"| {i} | {r['round']} | {r['beta']:.2f} | {r['steps']:,} | "
-                         f"{r['labels']:,} | {r['bc_loss']:.3f} | {r['val_success']:.2f} | "
-                         f"{r['val_collision']:.2f} |")
-    lines += ["", f"Validation ({o['eval_seeds']} held-out seeds from {VALIDATION_SEED}, "
-              f"deterministic policy):", "",
-              "| policy | at step | success rate | collision rate | mean distance (m) | "
-              "mean return |", "|---|---:|---:|---:|---:|---:|"]
-    for r in _validation_rows(folder):
-        lines.append(f"| {r['policy']} | {r['step']:,} | {r['success_rate']:.2f} | "
-                     f"{r['collision_rate']:.2f} | {r['mean_distance_m']:.2f} | "
-                     f"{r['mean_reward']:.2f} |")
-    return "\n".join(lines) + "\n"
-
-
-def _validation_rows(folder: Path) -> list[dict[str, Any]]:
-    """The last validation of the final policy and of the best one, where there was one."""
-    rows = []
-    for name, file in (("final", folder / "policy.json"),
-                       ("best", folder / "best" / "policy.json")):
-        v = json.loads(file.read_text())["trained"].get("validation") if file.is_file() else None
-        if v:
-            rows.append({"policy": name, "step": v["step"], **v["scores"]})
-    return rows
