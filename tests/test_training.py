@@ -5,6 +5,7 @@ shipped policy, and bad input refused in one line before anything starts."""
 from __future__ import annotations
 
 import csv
+import itertools
 import json
 import shutil
 import sys
@@ -162,6 +163,43 @@ def test_resume_continues_the_step_count(run, tmp_path):
     assert json.loads((out / "policy.json").read_text())["trained"]["steps"] == 384
     rows = list(csv.DictReader((out / "logs" / "session-1" / "progress.csv").open()))
     assert min(int(r["time/total_timesteps"]) for r in rows) > 256
+
+
+def test_validation_plays_the_episodes_eval_plays_on_its_seeds(tmp_path):
+    """Two validation environments play seeds 900 and 901 as the policy's controller does
+    alone (`lgmd-sim eval`): the same distance travelled, to the last digit (a batch of
+    observations rounds the CNN's actions differently, and the robot drives on them)."""
+    from stable_baselines3 import PPO
+    from stable_baselines3.common.vec_env import VecNormalize
+
+    from lgmd_sim.training.callbacks import run_episodes
+    from lgmd_sim.training.envs import normalized_keys
+
+    out = tmp_path / "pixels"
+    assert _train(out, "--obs", "pixels", "--env", "lgmd_sim/RoughTerrainObstacles-v0",
+                  "--steps", "64", "--envs", "1", "--eval-seeds", "1") == 0
+    policy = controllers.make("policy", path=str(out))
+    config = policy.policy.config
+    short = {"time_limit": 3.0}
+    alone = []
+    for seed in (900, 901):
+        env = policy.wrap_env(base_env(config, **short))
+        steps = list(controllers.rollout(env, policy, seed=seed))
+        alone.append(sum(float(np.linalg.norm(np.subtract(b.info["carrier_pos"][:2],
+                                                           a.info["carrier_pos"][:2])))
+                         for a, b in itertools.pairwise(steps)))
+        env.close()
+    envs = make_vec_env(config, 2, short)
+    stats = VecNormalize.load(str(out / "checkpoints" / "vecnormalize.pkl"), envs.venv)
+    envs.venv = VecNormalize(envs.venv, training=False, norm_reward=False,
+                             norm_obs_keys=normalized_keys(envs.venv, "pixels"))
+    envs.venv.obs_rms = stats.obs_rms
+    model = PPO.load(out / "checkpoints" / "model.zip", device="cpu")
+    try:
+        validated = [e["distance_m"] for e in run_episodes(model, envs, [900, 901])]
+    finally:
+        envs.close()
+    assert min(alone) > 0 and validated == alone
 
 
 def test_pixels_stack_small_grey_frames_channels_first():

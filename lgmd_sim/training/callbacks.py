@@ -114,7 +114,9 @@ def _task_rewards(rewards: np.ndarray, infos: Sequence[dict[str, Any]]) -> np.nd
 def run_episodes(model: Any, envs: VecEnvs, seeds: Sequence[int]) -> list[dict[str, Any]]:
     """One episode per seed, the policy deterministic: return (of the unshaped task reward),
     success, collision and distance travelled of each. `seeds` must be consecutive; the
-    environments play ``num_envs`` of them at a time."""
+    environments play ``num_envs`` of them at a time, and the policy acts on each
+    environment's observation alone, as the controller of ``lgmd-sim eval`` does: a batch
+    rounds differently (about 1e-7), which a closed loop can grow into another episode."""
     venv, n = envs.venv, envs.venv.num_envs
     results = []
     for start in range(0, len(seeds), n):
@@ -125,7 +127,9 @@ def run_episodes(model: Any, envs: VecEnvs, seeds: Sequence[int]) -> list[dict[s
         playing = np.arange(n) < len(batch)
         ret, dist = np.zeros(n), np.zeros(n)
         while playing.any():
-            actions, _ = model.predict(obs, deterministic=True)
+            actions = np.concatenate([
+                model.predict({k: v[i:i + 1] for k, v in obs.items()}, deterministic=True)[0]
+                for i in range(n)])
             obs, rewards, dones, infos = venv.step(actions)
             now = np.array([info["carrier_pos"][:2] for info in infos])
             ret += np.where(playing, _task_rewards(rewards, infos), 0.0)

@@ -106,7 +106,7 @@ class TrainConfig:
     obs: str = "features"
     model: str | None = "feedback"
     preset: str | None = None
-    grid: tuple[int, int] = (1, 3)
+    grid: tuple[int, int] = PolicyConfig.grid
     resolution: str | tuple[int, int] = "rl"
     jitter: float = 1.0
     steps: int = 300_000
@@ -149,7 +149,7 @@ class TrainConfig:
                                        and v >= 1 for v in grid)):
             raise ValueError(f"--grid must be rows x columns of positive integers, got "
                              f"{self.grid!r}")
-        if self.obs != "features" and grid != (1, 3):
+        if self.obs != "features" and grid != PolicyConfig.grid:
             raise ValueError(f"--grid is the S-layer grid of --obs features, not {self.obs}")
         object.__setattr__(self, "grid", grid)
         object.__setattr__(self, "model", model)
