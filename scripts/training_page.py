@@ -29,7 +29,7 @@ from results_page import seed_ranges
 
 from lgmd_sim.fileio import write_files
 from lgmd_sim.metrics import wilson_interval
-from lgmd_sim.training.summary import summary_markdown
+from lgmd_sim.training.summary import summary_markdown, validation_rows
 
 ROOT = Path(__file__).resolve().parents[1]
 PAGE = ROOT / "docs" / "training.md"
@@ -190,6 +190,46 @@ def targets(cells: dict, obs: dict[str, str]) -> list[str]:
     return out
 
 
+def _last_validation(run: Path) -> dict | None:
+    """The last validation in a run's logs (a copy that keeps its records but no policy)."""
+    rows = [r for log in sorted((run / "logs").glob("session-*/progress.csv"),
+                                key=lambda f: int(f.parent.name.split("-")[1]))
+            for r in csv.DictReader(log.open(newline="")) if r.get("eval/success_rate")]
+    if not rows:
+        return None
+    last = rows[-1]
+    return {"step": int(last["time/total_timesteps"]),
+            "success_rate": float(last["eval/success_rate"]),
+            "collision_rate": float(last["eval/collision_rate"])}
+
+
+def fine_tuning(runs: list[Path], records: dict[str, dict]) -> list[str]:
+    """Per run that went on by RL after its DAgger rounds: the validation at the last
+    round against the final one, with what the RL phase changed (a value warm-up,
+    hyperparameters added)."""
+    out = []
+    for run in runs:
+        record = records[run.name]
+        rounds = [r for s in record["sessions"] for r in s.get("imitation", [])]
+        final = next((r for r in validation_rows(run) if r["policy"] == "final"),
+                     None) or _last_validation(run)
+        if not rounds or final is None or final["step"] <= rounds[-1]["steps"]:
+            continue
+        warmups = [s["value_warmup"]["steps"] for s in record["sessions"]
+                   if "value_warmup" in s]
+        how = [f"a value warm-up from {a:,} to {b:,} steps" for a, b in warmups]
+        how += [f"--hp {item}" for item in record["config"].get("hp", [])]
+        last = rounds[-1]
+        out.append(f"- {run.name}: {last['val_success']:.2f} successes and "
+                   f"{last['val_collision']:.2f} collisions at the last DAgger round "
+                   f"({last['steps']:,} steps); {final['success_rate']:.2f} and "
+                   f"{final['collision_rate']:.2f} after PPO, at {final['step']:,} steps"
+                   + (f" ({'; '.join(how)})" if how else "") + ".")
+    if out:
+        out = ["Validation (seeds 900 and up) before and after PPO fine-tuning:", "", *out, ""]
+    return out
+
+
 def run_summary(run: Path) -> str:
     """A training run's summary without its title, made anew from its folder (a run's
     summary.md is as old as its last session)."""
@@ -302,6 +342,7 @@ def main() -> None:
         curve = _copy(run / "learning_curve.png", f"learning_curve_{run.name}.png", figures)
         lines += ["```bash", *(s["command"] for s in record["sessions"]), "```", "",
                   run_summary(run), "", f"![learning curve of {run.name}]({curve})", ""]
+    lines += fine_tuning(args.train, records)
     configs = {name: record.get("config") or record["options"]
                for name, record in records.items()}
     rows, cells, best = table(args.eval, args.bench, {
