@@ -29,6 +29,8 @@ from results_page import seed_ranges
 
 from lgmd_sim.fileio import write_files
 from lgmd_sim.metrics import wilson_interval
+from lgmd_sim.policies.config import PolicyConfig
+from lgmd_sim.training.curve import read_logs
 from lgmd_sim.training.summary import summary_markdown, validation_rows
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -155,8 +157,9 @@ STUDENT_COLLISIONS = {1.0: 0.10}
 def about(config: dict) -> str:
     """What a training run's policy sees and who taught it, from its recorded options."""
     model = "/".join(v for v in (config["model"], config["preset"]) if v)
-    grid = config.get("grid", [1, 3])
-    sees = (f"{model} features" + (f", grid {grid[0]}x{grid[1]}" if grid != [1, 3] else "")
+    grid = tuple(config.get("grid", PolicyConfig.grid))
+    sees = (f"{model} features" + (f", grid {grid[0]}x{grid[1]}"
+                                   if grid != PolicyConfig.grid else "")
             if config["obs"] == "features" else config["obs"])
     return sees + (f", DAgger from {Path(config['teacher']).name}" if config.get("teacher")
                    else "")
@@ -192,15 +195,12 @@ def targets(cells: dict, obs: dict[str, str]) -> list[str]:
 
 def _last_validation(run: Path) -> dict | None:
     """The last validation in a run's logs (a copy that keeps its records but no policy)."""
-    rows = [r for log in sorted((run / "logs").glob("session-*/progress.csv"),
-                                key=lambda f: int(f.parent.name.split("-")[1]))
-            for r in csv.DictReader(log.open(newline="")) if r.get("eval/success_rate")]
-    if not rows:
+    logs = read_logs(run)
+    if "eval/success_rate" not in logs:
         return None
-    last = rows[-1]
-    return {"step": int(last["time/total_timesteps"]),
-            "success_rate": float(last["eval/success_rate"]),
-            "collision_rate": float(last["eval/collision_rate"])}
+    (step, success), (_, collisions) = (logs[f"eval/{k}_rate"][-1]
+                                        for k in ("success", "collision"))
+    return {"step": int(step), "success_rate": success, "collision_rate": collisions}
 
 
 def fine_tuning(runs: list[Path], records: dict[str, dict]) -> list[str]:

@@ -35,11 +35,8 @@ def resolution(text: str) -> str | list[int]:
 
     if text in RESOLUTIONS:
         return text
-    try:
-        size = [int(v) for v in text.lower().split("x")]
-    except ValueError:
-        size = []
-    if len(size) != 2 or resolution_check(size):
+    size = _pair(text)
+    if size is None or resolution_check(size):
         raise argparse.ArgumentTypeError(
             f"must be {', '.join(RESOLUTIONS)} or HEIGHTxWIDTH (e.g. 270x480), got {text!r}")
     return size
@@ -47,13 +44,19 @@ def resolution(text: str) -> str | list[int]:
 
 def grid(text: str) -> list[int]:
     """ROWSxCOLUMNS of positive integers (a grid of cells over the frame)."""
-    try:
-        cells = [int(v) for v in text.lower().split("x")]
-    except ValueError:
-        cells = []
-    if len(cells) != 2 or min(cells) < 1:
+    cells = _pair(text)
+    if cells is None or min(cells) < 1:
         raise argparse.ArgumentTypeError(f"must be ROWSxCOLUMNS (e.g. 3x5), got {text!r}")
     return cells
+
+
+def _pair(text: str) -> list[int] | None:
+    """AxB as two integers, or None where it is not that."""
+    try:
+        pair = [int(v) for v in text.lower().split("x")]
+    except ValueError:
+        return None
+    return pair if len(pair) == 2 else None
 
 
 def add_parallel_options(p: argparse.ArgumentParser, unit: str = "episodes") -> None:

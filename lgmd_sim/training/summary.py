@@ -10,6 +10,8 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
+from lgmd_sim.policies.config import PolicyConfig
+
 __all__ = ["summary_markdown", "update_sizes", "validation_rows"]
 
 
@@ -18,7 +20,7 @@ def summary_markdown(folder: Path) -> str:
     record = json.loads((folder / "run.json").read_text())
     o = record["config"]
     detector = f", {o['model']}/{o['preset']}" if o["model"] else ""
-    if o.get("grid", [1, 3]) != [1, 3]:
+    if tuple(o.get("grid", PolicyConfig.grid)) != PolicyConfig.grid:
         detector += f", S-layer grid {o['grid'][0]}x{o['grid'][1]}"
     shaped = f"; training reward {', '.join(o['reward'])}" if o.get("reward") else ""
     lines = [f"# {folder.name}: {o['algo'].upper()} on {o['obs']}{detector}, {o['env']} at "
@@ -57,8 +59,7 @@ def summary_markdown(folder: Path) -> str:
                          f"{r['val_collision']:.2f} |")
     lines += update_sizes(folder, record)
     lines += ["", f"Validation ({o['eval_seeds']} held-out seeds from "
-              f"{record['seeds']['validation'][0]}, "
-              f"deterministic policy):", "",
+              f"{record['seeds']['validation'][0]}, deterministic policy):", "",
               "| policy | at step | success rate | collision rate | mean distance (m) | "
               "mean return |", "|---|---:|---:|---:|---:|---:|"]
     for r in validation_rows(folder):
