@@ -288,18 +288,19 @@ def stop_again_when_swallowed(stops: Mapping[type[BaseException], int]
     """Make sure a signal that stops this process does: `stops` are the exceptions its
     handlers raise, each with its signal. Raised where Python cannot pass it on (a C
     callback, as numba's compiler makes, a ``__del__``, a weakref callback), one would be
-    printed and swallowed, and the process go on: instead the signal comes again a moment
-    later, quietly. Installs a `sys.unraisablehook`; returns the one it replaces."""
+    printed and swallowed, and the process go on, as would a ctypes.ArgumentError naming
+    one there (`stop_again_if_swallowed`): instead the signal comes again a moment later,
+    quietly. Installs a `sys.unraisablehook`; returns the one it replaces."""
     previous = sys.unraisablehook
 
     def hook(unraisable: Any) -> None:
-        for stop, signum in stops.items():
-            if issubclass(unraisable.exc_type, stop):
-                again = threading.Timer(0.01, os.kill, (os.getpid(), signum))
-                again.daemon = True
-                again.start()
-                return
-        previous(unraisable)
+        signum = _stop_of(unraisable.exc_type, unraisable.exc_value, stops)
+        if signum is None:
+            previous(unraisable)
+            return
+        again = threading.Timer(0.01, os.kill, (os.getpid(), signum))
+        again.daemon = True
+        again.start()
 
     hook.stops = dict(stops)  # type: ignore[attr-defined]  # for stop_again_if_swallowed
     sys.unraisablehook = hook
@@ -312,15 +313,24 @@ def stop_again_if_swallowed(exc: BaseException) -> None:
     signal again, so that the handler stops the program as it would have (it raises during
     the wait). The stops are those `stop_again_when_swallowed` installed, and Ctrl-C's
     KeyboardInterrupt always; anything else returns."""
-    if not isinstance(exc, ctypes.ArgumentError):
-        return
     stops = {KeyboardInterrupt: signal.SIGINT, **getattr(sys.unraisablehook, "stops", {})}
-    named = str(exc).partition(": ")[2].partition(":")[0]  # ctypes gives the class's name
+    signum = _stop_of(type(exc), exc, stops) if isinstance(exc, ctypes.ArgumentError) else None
+    if signum is not None:
+        os.kill(os.getpid(), signum)
+        time.sleep(1.0)
+
+
+def _stop_of(kind: type[BaseException], exc: BaseException | None,
+             stops: Mapping[type[BaseException], int]) -> int | None:
+    """The signal of the stop that `exc` (of class `kind`) is, or that it names as a
+    ctypes.ArgumentError (ctypes gives the class's name: "argument 3: Terminated: "), among
+    `stops`; None for anything else."""
+    named = (str(exc).partition(": ")[2].partition(":")[0]
+             if issubclass(kind, ctypes.ArgumentError) else None)
     for stop, signum in stops.items():
-        if stop.__name__ == named:
-            os.kill(os.getpid(), signum)
-            time.sleep(1.0)
-            return
+        if issubclass(kind, stop) or stop.__name__ == named:
+            return signum
+    return None
 
 
 @dataclass

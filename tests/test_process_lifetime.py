@@ -357,3 +357,35 @@ def test_a_stop_while_a_temporary_folder_is_removed_still_removes_it(monkeypatch
             (folder / "episode.avi").write_bytes(b"x")
     assert not folder.exists() and len(calls) == 2
     assert list(tmp_path.iterdir()) == []
+
+
+def test_a_stop_in_a_renderers_gl_call_at_its_collection_stops_the_run(monkeypatch):
+    """The lost SIGTERM of a CI run: a renderer collected while ctypes converts its GL
+    call's arguments gets the stop as a ctypes.ArgumentError, which its ``__del__`` (and
+    Python, for MuJoCo's own) would swallow; the signal comes again and stops the run."""
+    import ctypes
+    import gc
+
+    from lgmd_sim.cli import Terminated, _terminate
+    from lgmd_sim.parallel import stop_again_when_swallowed
+    from lgmd_sim.world.render import OffscreenRenderer
+
+    def gl_call_stopped(self):
+        raise ctypes.ArgumentError("argument 1: Terminated: ")
+
+    monkeypatch.setattr(OffscreenRenderer, "close", gl_call_stopped)
+    previous = signal.signal(signal.SIGTERM, _terminate)
+    mask = signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGTERM})
+    previous_hook = stop_again_when_swallowed({Terminated: signal.SIGTERM})
+    try:
+        for swallowed in (OffscreenRenderer.__del__, gl_call_stopped):
+            monkeypatch.setattr(OffscreenRenderer, "__del__", swallowed)
+            renderer = object.__new__(OffscreenRenderer)
+            with pytest.raises(Terminated):
+                del renderer  # its __del__ runs here, where nothing can raise
+                gc.collect()
+                time.sleep(3)  # the signal comes again meanwhile
+    finally:
+        sys.unraisablehook = previous_hook
+        signal.pthread_sigmask(signal.SIG_SETMASK, mask)
+        signal.signal(signal.SIGTERM, previous)

@@ -135,8 +135,8 @@ class OffscreenRenderer:
     def __del__(self) -> None:
         try:
             self.close()
-        except Exception:  # at interpreter exit EGL may already be torn down
-            pass
+        except Exception as exc:  # at interpreter exit EGL may already be torn down
+            stop_again_if_swallowed(exc)  # but a stop that came in a GL call must stop us
 
 
 def _release_gl_before_fork() -> None:
