@@ -230,6 +230,18 @@ def test_eval_runs_the_policy_beside_the_hand_made_controllers(run, tmp_path, ca
         assert (out / name).is_file()
 
 
+def test_eval_by_default_runs_reactive_with_the_detector_the_policy_observes(run):
+    from lgmd_sim.cli import build_parser
+    from lgmd_sim.cli.eval import config_from_args
+
+    _, trained, _ = policy_lib.load_config(run)
+    config = config_from_args(build_parser().parse_args(["eval", str(run)]))
+    assert config.detectors is None and config.seeds == policies.EVAL_SEEDS
+    assert config.bench().detectors == ((trained.model, trained.preset),)
+    given = config_from_args(build_parser().parse_args(["eval", str(run), "--models", "lgmd2"]))
+    assert [m for m, _ in given.bench().detectors] == ["lgmd2"]
+
+
 def test_the_shipped_policy_acts_in_its_environment():
     assert policies.DEFAULT in policies.available()
     folder, config, data = policy_lib.load_config("shipped")

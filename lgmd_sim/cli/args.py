@@ -92,24 +92,27 @@ def print_result(table: str, result: Any) -> int:
     return 0
 
 
-def add_detector_options(p: argparse.ArgumentParser) -> None:
-    """--models and --presets: the detectors a benchmark compares."""
-    p.add_argument("--models", default="all",
+def add_detector_options(p: argparse.ArgumentParser, default: str | None = "all",
+                         means: str = "all, each at its default preset") -> None:
+    """--models and --presets: the detectors a benchmark compares (--models `default`,
+    which `means` what the help says)."""
+    p.add_argument("--models", default=default,
                    help="'all' or a comma-separated list of MODEL or MODEL/PRESET, each "
-                   "optionally with front ends (e.g. lgmd1/calibrated+image); default all, "
-                   "each at its default preset")
+                   f"optionally with front ends (e.g. lgmd1/calibrated+image); default {means}")
     p.add_argument("--presets", default=None,
                    help="comma-separated presets: each model listed without a preset runs "
                    "each of these it has (its default when it has none of them)")
 
 
-def add_closed_loop_options(p: argparse.ArgumentParser, jitter: str) -> None:
-    """The closed-loop benchmark's episodes: --jitter (default `jitter`), --seeds,
-    --first-seed, --cruise and --horizon (`lgmd-sim bench closed-loop`, `lgmd-sim eval`)."""
+def add_closed_loop_options(p: argparse.ArgumentParser, jitter: str, seeds: int = 50
+                            ) -> None:
+    """The closed-loop benchmark's episodes: --jitter (default `jitter`), --seeds (default
+    `seeds`), --first-seed, --cruise and --horizon (`lgmd-sim bench closed-loop`,
+    `lgmd-sim eval`)."""
     p.add_argument("--jitter", default=jitter,
                    help=f"comma-separated jitter levels (default {jitter})")
-    p.add_argument("--seeds", type=positive_int, default=50,
-                   help="episodes per cell (default 50)")
+    p.add_argument("--seeds", type=positive_int, default=seeds,
+                   help=f"episodes per cell (default {seeds})")
     p.add_argument("--first-seed", type=non_negative_int, default=1000,
                    help="the first episode seed; seeds are consecutive (default 1000: "
                    "never a training or validation seed of `lgmd-sim train`)")

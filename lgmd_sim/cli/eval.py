@@ -15,6 +15,7 @@ from lgmd_sim.cli.args import (
     run_folder_kwargs,
 )
 from lgmd_sim.extras import install_command
+from lgmd_sim.policies import EVAL_SEEDS
 
 
 def add(sub: argparse._SubParsersAction) -> None:
@@ -41,8 +42,10 @@ def add(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--controllers", default="straight,oracle,reactive",
                    help="the hand-made controllers beside the policies, comma-separated, or "
                    "none (default straight,oracle,reactive)")
-    add_detector_options(p)
-    add_closed_loop_options(p, jitter="1,2")
+    add_detector_options(p, default=None, means="the LGMD models the policies observe, "
+                         "at their presets (all, each at its default preset, when none "
+                         "observes one)")
+    add_closed_loop_options(p, jitter="1,2", seeds=EVAL_SEEDS)
     add_run_folder_options(p, "eval-out")
     add_parallel_options(p)
 
@@ -55,7 +58,8 @@ def config_from_args(args: argparse.Namespace) -> Any:
         options.comma_list(args.controllers))
     return EvalConfig(
         policies=tuple(args.policies), controllers=hand_made,
-        detectors=options.detectors(args.models, args.presets),
+        detectors=None if args.models is args.presets is None
+        else options.detectors(args.models or "all", args.presets),
         jitter=options.jitter_levels(args.jitter), seeds=args.seeds,
         first_seed=args.first_seed, cruise=args.cruise, horizon=args.horizon)
 

@@ -19,6 +19,7 @@ from typing import Any
 from lgmd_sim.bench.closed_loop import ClosedLoopConfig
 from lgmd_sim.bench.episode import Cell
 from lgmd_sim.fileio import write_text_atomic
+from lgmd_sim.policies import EVAL_SEEDS
 from lgmd_sim.runs import RunResult
 
 __all__ = ["EvalConfig", "eval_markdown", "evaluate"]
@@ -35,7 +36,13 @@ class EvalConfig:
             frame size, in which every cell then runs.
         controllers: hand-made controllers beside them (`lgmd_sim.controllers`, not
             "policy"); () for none.
-        detectors, jitter, seeds, first_seed, cruise, horizon: as in
+        detectors: ReactiveAvoid's detectors, (model, preset) pairs; None: the LGMD
+            models the policies observe, at their presets (every model at its default
+            preset when no policy observes one), so the reactive cells are the bar a
+            policy on those features must clear.
+        seeds: episodes per cell (`lgmd_sim.policies.EVAL_SEEDS`: those of the
+            evaluation a shipped policy's POLICY.md quotes, so the defaults reproduce it).
+        jitter, first_seed, cruise, horizon: as in
             `lgmd_sim.bench.closed_loop.ClosedLoopConfig`.
     """
 
@@ -43,7 +50,7 @@ class EvalConfig:
     controllers: tuple[str, ...] = ("straight", "oracle", "reactive")
     detectors: tuple[tuple[str, str], ...] | None = None
     jitter: tuple[float, ...] = (1.0, 2.0)
-    seeds: int = 50
+    seeds: int = EVAL_SEEDS
     first_seed: int = 1000
     cruise: float = 0.6
     horizon: float = 2.0
@@ -75,6 +82,7 @@ class EvalConfig:
     def bench(self) -> ClosedLoopConfig:
         """The closed-loop benchmark that evaluates the policies: their cells beside the
         hand-made controllers', in the environment they were trained in."""
+        from lgmd_sim import options
         from lgmd_sim.envs.catalogue import scenarios
         from lgmd_sim.extras import require
         from lgmd_sim.policies import load_config, name_of
@@ -96,13 +104,16 @@ class EvalConfig:
             raise ValueError(f"policy {names[0]} was trained in {trained.env_id}, which is "
                              "not a scenario of the catalogue (lgmd-sim envs lists them)")
         scenario = by_id[trained.env_id]
+        observed = [c.model if c.preset is None else f"{c.model}/{c.preset}"
+                    for _, c, _ in loaded if c.model]
         extra = tuple(Cell(scenario, float(j), "policy",
                            params=(("path", str(folder.resolve())),), tag=name)
                       for j in self.jitter
                       for (folder, _, _), name in zip(loaded, names, strict=True))
         return ClosedLoopConfig(
             scenarios=(scenario,), jitter=self.jitter, controllers=self.controllers,
-            detectors=self.detectors, seeds=self.seeds, first_seed=self.first_seed,
+            detectors=self.detectors or (options.detectors(observed) if observed else None),
+            seeds=self.seeds, first_seed=self.first_seed,
             resolution=trained.resolution, cruise=self.cruise, horizon=self.horizon,
             extra=extra)
 
