@@ -19,6 +19,7 @@ from __future__ import annotations
 import argparse
 import csv
 import json
+import shlex
 import shutil
 import sys
 from collections import defaultdict
@@ -27,9 +28,11 @@ from pathlib import Path
 
 from results_page import seed_ranges
 
+from lgmd_sim import policies
 from lgmd_sim.fileio import write_files
 from lgmd_sim.metrics import wilson_interval
 from lgmd_sim.policies.config import PolicyConfig
+from lgmd_sim.policies.folder import MODEL_FILE
 from lgmd_sim.training.curve import read_logs
 from lgmd_sim.training.summary import summary_markdown, validation_rows
 
@@ -110,14 +113,14 @@ def table(eval_runs: list[Path], benches: list[Path], notes: dict[str, str] | No
     return lines, cells, best
 
 
-def reading(cells: dict, best: dict[float, str], policies: list[str], trained_at: float
+def reading(cells: dict, best: dict[float, str], names: list[str], trained_at: float
             ) -> list[str]:
     """Sentences from the table: each policy against the best reactive detector, and the
     policies against each other at the training jitter and at the others."""
     out = []
     for jitter in sorted({j for j, _ in cells}):
         ref = cells.get((jitter, best.get(jitter, "")))
-        for name in policies:
+        for name in names:
             c = cells[(jitter, f"policy: {name}")]
             text = (f"- jitter {jitter:g}{' (trained)' if jitter == trained_at else ' (unseen)'}"
                     f", {name}: {100 * c['collided'] / c['n']:.0f}% collisions, "
@@ -131,8 +134,8 @@ def reading(cells: dict, best: dict[float, str], policies: list[str], trained_at
                          f"{100 * ref['reached'] / ref['n']:.0f}%. Target (no more collisions "
                          f"and more successes): {'met' if fewer and more else 'not met'}")
             out.append(text + ".")
-    if len(policies) == 2:  # the two feature sets against each other, level by level
-        a, b = policies
+    if len(names) == 2:  # the two feature sets against each other, level by level
+        a, b = names
         for jitter in sorted({j for j, _ in cells}):
             ca, cb = cells[(jitter, f"policy: {a}")], cells[(jitter, f"policy: {b}")]
             verdict = "the same successes, collisions and progress"
@@ -227,6 +230,35 @@ def fine_tuning(runs: list[Path], records: dict[str, dict]) -> list[str]:
                    + (f" ({'; '.join(how)})" if how else "") + ".")
     if out:
         out = ["Validation (seeds 900 and up) before and after PPO fine-tuning:", "", *out, ""]
+    return out
+
+
+def shipped(eval_runs: list[Path], train_runs: list[Path]) -> list[str]:
+    """Per shipped policy an evaluation ran: the training run it was released from (the
+    same policy.npz) and whether it played that run's episodes of the other evaluations,
+    seed by seed (an end, a distance, a frame count)."""
+    played: dict[str, dict[tuple[str, str], tuple[str, ...]]] = defaultdict(dict)
+    for run in eval_runs:
+        for r in _episodes(run):
+            if r["controller"] == "policy":
+                played[r["tag"]].setdefault((r["jitter"], r["seed"]), (
+                    r["collided"], r["goal_reached"], r["distance_m"], r["frames"]))
+    out = []
+    for name in sorted(set(played) & set(policies.available())):
+        weights = (policies.path(name) / MODEL_FILE).read_bytes()
+        source = next((run.name for run in train_runs if (run / MODEL_FILE).is_file()
+                       and (run / MODEL_FILE).read_bytes() == weights), None)
+        if source is None:
+            out.append(f"- The shipped policy {name} is none of the training runs' final "
+                       "policies.")
+            continue
+        mine, theirs = played[name], played.get(source, {})
+        both = sorted(set(mine) & set(theirs))
+        differ = sum(mine[k] != theirs[k] for k in both)
+        out.append(f"- The shipped policy {name} is {source}'s final policy (the same "
+                   f"{MODEL_FILE}); on the {len(both)} episodes both evaluations played, "
+                   + ("it played every one as " + source + " did." if not differ else
+                      f"{differ} ended otherwise than {source}'s."))
     return out
 
 
@@ -332,8 +364,10 @@ def main() -> None:
     lines = [RESULTS, "", machines(records, evaluation, benches)]
     if speed := speeds(records):
         lines[-1] += " " + speed
-    lines += ["", "Made by `scripts/training_page.py` from the runs: every figure and sentence "
-              "below is computed from the runs' own files.", "", "### Training runs", ""]
+    command = shlex.join(["python", "scripts/training_page.py", *sys.argv[1:]])
+    lines += ["", "Made from the runs by the command below: every figure and sentence below "
+              "is computed from the runs' own files.", "", "```bash", command, "```", "",
+              "### Training runs", ""]
     trained_at = None
     for run in args.train:
         record = records[run.name]
@@ -348,7 +382,7 @@ def main() -> None:
     rows, cells, best = table(args.eval, args.bench, {
         f"policy: {name}": about(config) for name, config in configs.items()})
     names = [c["tag"] for e in evaluations for c in e["config"]["extra"]]
-    policies = list(dict.fromkeys(names))
+    evaluated = list(dict.fromkeys(names))
     lines += ["### Evaluation on held-out seeds", "", "```bash", evaluation["command"]]
     lines += [record["command"] for record in benches.values()
               if record["command"] != evaluation["command"]]  # the evaluation as its bench
@@ -357,9 +391,10 @@ def main() -> None:
               "the one with the fewest collisions (then the most successes) over all the "
               "closed-loop benchmark's seeds at that jitter level, shown here on the "
               "evaluation's seeds.", "", *rows, "",
-              *reading(cells, best, policies, trained_at), "", "### Targets", "",
+              *reading(cells, best, evaluated, trained_at), "",
+              *shipped(args.eval, args.train), "", "### Targets", "",
               *targets(cells, {name: _policy_obs(evaluations, name, configs)
-                               for name in policies}), ""]
+                               for name in evaluated}), ""]
     if len(args.eval) > 1:
         lines += [f"The figures are the first evaluation's (`{args.eval[0].name}`).", ""]
     for fig in ("collisions_vs_jitter.png", "trajectories.png"):

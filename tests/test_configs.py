@@ -37,6 +37,7 @@ def test_the_command_makes_the_config_python_would():
     (lambda: ClosedLoopConfig(cruise=2.0), "--cruise must be in [-1, 1]"),
     (lambda: ClosedLoopConfig(horizon=float("nan")), "--horizon must be a number > 0"),
     (lambda: ClosedLoopConfig(seeds=0), "--seeds must be a positive integer"),
+    (lambda: ClosedLoopConfig(top_views=0), "--top-views must be a positive integer"),
     (lambda: ClosedLoopConfig(controllers=("pilot",)), "unknown controller(s) 'pilot'"),
     (lambda: ClosedLoopConfig(detectors=(("lgmd1", "nope"),)), "unknown preset 'nope'"),
     (lambda: ClosedLoopConfig(resolution="huge"), "--resolution"),

@@ -199,3 +199,14 @@ def test_error_bars_of_equal_rates_stand_side_by_side(drawn):
     for level in levels:
         near = [x for x in xs if abs(x - level) < 0.1 * span]
         assert len(near) >= len(CELLS) and len(set(np.round(near, 6))) == len(CELLS), near
+
+
+def test_trajectories_draw_a_row_of_panels_per_seed(tmp_path, monkeypatch):
+    made, save = {}, figures._save
+    monkeypatch.setattr(figures, "_save", lambda fig, path: (save(fig, path),
+                                                             made.__setitem__(path.name, fig)))
+    two_seeds = examples() + [{**r, "seed": 1001} for r in examples()]
+    figures.closed_loop(tmp_path, summary_rows(), two_seeds)
+    titles = sorted(a.get_title() for a in made["trajectories.png"].axes if a.get_lines())
+    assert titles == sorted(f"RoughTerrainObstacles, jitter {j:g}, seed {s}"
+                            for s in (1000, 1001) for j in JITTERS)

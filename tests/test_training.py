@@ -230,7 +230,8 @@ def test_eval_runs_the_policy_beside_the_hand_made_controllers(run, tmp_path, ca
         assert (out / name).is_file()
 
 
-def test_eval_by_default_runs_reactive_with_the_detector_the_policy_observes(run):
+def test_eval_by_default_runs_reactive_with_the_detector_the_policy_observes_and_draws_seeds(
+        run):
     from lgmd_sim.cli import build_parser
     from lgmd_sim.cli.eval import config_from_args
 
@@ -238,6 +239,7 @@ def test_eval_by_default_runs_reactive_with_the_detector_the_policy_observes(run
     config = config_from_args(build_parser().parse_args(["eval", str(run)]))
     assert config.detectors is None and config.seeds == policies.EVAL_SEEDS
     assert config.bench().detectors == ((trained.model, trained.preset),)
+    assert config.bench().top_views == policies.EVAL_TOP_VIEWS > 1  # beside the Oracle
     given = config_from_args(build_parser().parse_args(["eval", str(run), "--models", "lgmd2"]))
     assert [m for m, _ in given.bench().detectors] == ["lgmd2"]
 

@@ -55,6 +55,8 @@ class ClosedLoopConfig:
             turn away to, each a cell of its own: "halves" (one LGMD over the whole view,
             the side from its S layer's halves) or "eyes" (two LGMDs over overlapping
             left and right parts of the view, away from the more excited).
+        top_views: how many of the seeds, the first ones, the trajectories figure draws
+            from above (a row of panels each).
     """
 
     scenarios: tuple[str, ...] = ("RoughTerrainObstacles",)
@@ -68,6 +70,7 @@ class ClosedLoopConfig:
     horizon: float = 2.0
     extra: tuple[Cell, ...] = ()
     sides: tuple[str, ...] = (DEFAULT_SIDE,)
+    top_views: int = 1
 
     def __post_init__(self) -> None:
         from lgmd_sim.envs.catalogue import scenarios
@@ -84,6 +87,7 @@ class ClosedLoopConfig:
         set_("detectors", options.detectors("all") if self.detectors is None
              else options.check_detectors(self.detectors))
         options.check_positive(self.seeds, "--seeds", integer=True)
+        options.check_positive(self.top_views, "--top-views", integer=True)
         options.check_seed(self.first_seed, "--first-seed")
         set_("resolution", options.resolution(self.resolution))
         options.check_range(self.cruise, "--cruise", -1, 1)
@@ -134,6 +138,8 @@ class ClosedLoopConfig:
         if self.sides != (DEFAULT_SIDE,) and any(
                 "side" in controller_class(c).Params.names() for c in self.controllers):
             out["sides"] = sorted(self.sides, key=lambda side: (side != DEFAULT_SIDE, side))
+        if self.top_views != 1:  # only then, so that a run from before it still resumes
+            out["top_views"] = self.top_views
         if self.extra:
             out["extra"] = [{"scenario": c.scenario, "jitter": c.jitter,
                              "controller": c.controller, "params": dict(c.params),
@@ -186,7 +192,7 @@ def run(config: ClosedLoopConfig, out: str | Path, *, resume: bool = False,
     episode_options = {"resolution": config.resolution, "cruise": config.cruise,
                        "horizon": config.horizon}
     jobs = [Job(cell.key(seed), episode, {"cell": cell, "seed": seed, **episode_options,
-                                         "top_view": seed == seeds[0]})
+                                         "top_view": seed in seeds[:config.top_views]})
             for cell in cells for seed in seeds if cell.key(seed) not in done]
     run_jobs(jobs, lambda job, record: folder.store(job.key, record), workers=workers,
              ray_address=ray_address, progress=progress, desc="closed-loop")

@@ -150,7 +150,8 @@ def closed_loop_figures(rows: Sequence[dict[str, Any]], examples: Sequence[dict[
 def closed_loop(folder: Path, rows: Sequence[dict[str, Any]],
                 examples: Sequence[dict[str, Any]]) -> None:
     """The closed-loop figures (`closed_loop_figures`) from the summary rows and the
-    records that carry a top view (one seed per cell, each with its row's "cell" label);
+    records that carry a top view (the first seeds of each cell, each record with its row's
+    "cell" label; an encounter map shows the first seed);
     each cell has one style in every figure. A roam task (no goal, so no success) shows
     the share of encounters avoided where a goal task shows its success rate, and has
     figures of its own: the arena's rates and where each encounter happened."""
@@ -165,11 +166,12 @@ def closed_loop(folder: Path, rows: Sequence[dict[str, Any]],
     if roam:
         _vs_jitter(folder / ARENA_VS_JITTER, [r for r in rows if r["scenario"] in roam],
                    styles, dict.fromkeys(roam, _ARENA_PANELS))
+        first = min((e["seed"] for e in examples), default=None)  # a map shows one seed
         for sc in roam:
             for j in sorted({e["jitter"] for e in examples if e["scenario"] == sc}):
                 _encounter_map(folder / encounters_figure(sc, j),
-                               [e for e in examples
-                                if (e["scenario"], e["jitter"]) == (sc, j)], styles)
+                               [e for e in examples if (e["scenario"], e["jitter"], e["seed"])
+                                == (sc, j, first)], styles)
 
 
 def _vs_jitter(path: Path, rows: Sequence[dict[str, Any]], styles: dict[str, dict[str, Any]],
@@ -300,30 +302,32 @@ def map_bounds(group: Sequence[dict[str, Any]]) -> np.ndarray:
 
 def _trajectories(path: Path, examples: Sequence[dict[str, Any]], scenarios: list[str],
                   styles: dict[str, dict[str, Any]]) -> None:
-    """Top views of one seed per jitter level: terrain, obstacles, each controller's path;
-    the axes span what is drawn (one extent per scenario, shared by its panels)."""
-    panels = sorted({(r["scenario"], r["jitter"]) for r in examples})
-    jitters = sorted({j for _, j in panels})
+    """Top views of the seeds with one, a row per scenario and seed and a column per
+    jitter level: terrain, obstacles, each controller's path; the axes span what is drawn
+    (one extent per scenario, shared by its panels)."""
+    panels = sorted({(r["scenario"], r["seed"], r["jitter"]) for r in examples})
+    jitters = sorted({j for *_, j in panels})
     order = list(styles)
-    groups = {p: sorted((r for r in examples if (r["scenario"], r["jitter"]) == p),
+    groups = {p: sorted((r for r in examples if (r["scenario"], r["seed"], r["jitter"]) == p),
                         key=lambda r: order.index(r["cell"])) for p in panels}
     extents = {}
     for sc in scenarios:
-        boxes = [map_bounds(g) for (s, _), g in groups.items() if s == sc]
+        boxes = [map_bounds(g) for (s, _, _), g in groups.items() if s == sc]
         if boxes:
             extents[sc] = np.array([np.min([b[0] for b in boxes], axis=0),
                                     np.max([b[1] for b in boxes], axis=0)])
+    rows_of = sorted({(sc, seed) for sc, seed, _ in panels}, key=lambda r: (
+        list(extents).index(r[0]), r[1]))
     width = 4.6  # inches per panel; its height follows the extent (equal axes)
-    heights = [float(np.clip(width * np.divide(*np.diff(e, axis=0)[0][::-1]), 1.6, 6.0))
-               for e in extents.values()]
+    heights = [float(np.clip(width * np.divide(*np.diff(extents[sc], axis=0)[0][::-1]),
+                             1.6, 6.0)) for sc, _ in rows_of]
     fig = figure(figsize=(width * len(jitters) + 3.2, sum(heights) + 0.9 * len(heights)))
-    axes = fig.subplots(len(extents), len(jitters), squeeze=False,
+    axes = fig.subplots(len(rows_of), len(jitters), squeeze=False,
                         height_ratios=heights)
-    rows_of = list(extents)
     for ax in axes.ravel():
         ax.axis("off")  # panels without a top view stay empty
-    for (sc, j), group in groups.items():
-        ax = axes[rows_of.index(sc), jitters.index(j)]
+    for (sc, seed, j), group in groups.items():
+        ax = axes[rows_of.index((sc, seed)), jitters.index(j)]
         ax.axis("on")
         view = group[0]["top_view"]
         draw_world(ax, view)
@@ -349,7 +353,7 @@ def _trajectories(path: Path, examples: Sequence[dict[str, Any]], scenarios: lis
         ax.set_xlim(x0, x1)
         ax.set_ylim(y0, y1)
         ax.set_aspect("equal")
-        ax.set_title(f"{sc}, jitter {j:g}, seed {group[0]['seed']}", fontsize="small")
+        ax.set_title(f"{sc}, jitter {j:g}, seed {seed}", fontsize="small")
         ax.set_xlabel("x (m)")
         ax.set_ylabel("y (m)")
     _legend(fig, styles, "marker: the path's end;\nx: its first collision;\nequal paths nest as "

@@ -104,11 +104,11 @@ def add_detector_options(p: argparse.ArgumentParser, default: str | None = "all"
                    "each of these it has (its default when it has none of them)")
 
 
-def add_closed_loop_options(p: argparse.ArgumentParser, jitter: str, seeds: int = 50
-                            ) -> None:
+def add_closed_loop_options(p: argparse.ArgumentParser, jitter: str, seeds: int = 50,
+                            top_views: int = 1) -> None:
     """The closed-loop benchmark's episodes: --jitter (default `jitter`), --seeds (default
-    `seeds`), --first-seed, --cruise and --horizon (`lgmd-sim bench closed-loop`,
-    `lgmd-sim eval`)."""
+    `seeds`), --first-seed, --cruise, --horizon and --top-views (default `top_views`)
+    (`lgmd-sim bench closed-loop`, `lgmd-sim eval`)."""
     p.add_argument("--jitter", default=jitter,
                    help=f"comma-separated jitter levels (default {jitter})")
     p.add_argument("--seeds", type=positive_int, default=seeds,
@@ -121,3 +121,6 @@ def add_closed_loop_options(p: argparse.ArgumentParser, jitter: str, seeds: int 
     p.add_argument("--horizon", type=float, default=2.0,
                    help="an alarm is false when no obstacle is within this time to "
                    "collision (s, default 2)")
+    p.add_argument("--top-views", type=positive_int, default=top_views,
+                   help="how many of the seeds, the first ones, trajectories.png draws from "
+                   f"above, a row of panels each (default {top_views})")

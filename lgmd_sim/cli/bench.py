@@ -111,7 +111,8 @@ def closed_loop_config(args: argparse.Namespace) -> Any:
         controllers=tuple(options.comma_list(args.controllers)),
         detectors=options.detectors(args.models, args.presets), seeds=args.seeds,
         first_seed=args.first_seed, resolution=args.resolution, cruise=args.cruise,
-        horizon=args.horizon, sides=tuple(options.comma_list(args.sides)))
+        horizon=args.horizon, sides=tuple(options.comma_list(args.sides)),
+        top_views=args.top_views)
 
 
 def open_loop_config(args: argparse.Namespace) -> Any:

@@ -15,7 +15,7 @@ from lgmd_sim.cli.args import (
     run_folder_kwargs,
 )
 from lgmd_sim.extras import install_command
-from lgmd_sim.policies import EVAL_SEEDS
+from lgmd_sim.policies import EVAL_SEEDS, EVAL_TOP_VIEWS
 
 
 def add(sub: argparse._SubParsersAction) -> None:
@@ -45,7 +45,7 @@ def add(sub: argparse._SubParsersAction) -> None:
     add_detector_options(p, default=None, means="the LGMD models the policies observe, "
                          "at their presets (all, each at its default preset, when none "
                          "observes one)")
-    add_closed_loop_options(p, jitter="1,2", seeds=EVAL_SEEDS)
+    add_closed_loop_options(p, jitter="1,2", seeds=EVAL_SEEDS, top_views=EVAL_TOP_VIEWS)
     add_run_folder_options(p, "eval-out")
     add_parallel_options(p)
 
@@ -61,7 +61,8 @@ def config_from_args(args: argparse.Namespace) -> Any:
         detectors=None if args.models is args.presets is None
         else options.detectors(args.models or "all", args.presets),
         jitter=options.jitter_levels(args.jitter), seeds=args.seeds,
-        first_seed=args.first_seed, cruise=args.cruise, horizon=args.horizon)
+        first_seed=args.first_seed, cruise=args.cruise, horizon=args.horizon,
+        top_views=args.top_views)
 
 
 def run(args: argparse.Namespace) -> int:

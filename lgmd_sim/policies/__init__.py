@@ -27,14 +27,16 @@ from pathlib import Path
 from lgmd_sim.policies.config import Normalizer, PolicyConfig
 from lgmd_sim.policies.folder import LoadedPolicy, load, load_config, name_of, resolve, save
 
-__all__ = ["DEFAULT", "EVAL_SEEDS", "LoadedPolicy", "Normalizer", "PolicyConfig", "available",
-           "load", "load_config", "name_of", "path", "resolve", "save"]
+__all__ = ["DEFAULT", "EVAL_SEEDS", "EVAL_TOP_VIEWS", "LoadedPolicy", "Normalizer",
+           "PolicyConfig", "available", "load", "load_config", "name_of", "path", "resolve", "save"]
 
 #: The shipped policy that `lgmd-sim eval` (and the "policy" controller) use by default.
 DEFAULT = "sac-feedback"
 #: Episodes per cell of `lgmd-sim eval` by default: those of the evaluation that a shipped
 #: policy's POLICY.md and docs/training.md quote, so that the defaults reproduce its rows.
 EVAL_SEEDS = 30
+#: Seeds of it drawn from above in its trajectories figure: the policies beside the Oracle.
+EVAL_TOP_VIEWS = 3
 _HERE = Path(__file__).resolve().parent
 
 

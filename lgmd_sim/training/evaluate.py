@@ -19,7 +19,7 @@ from typing import Any
 from lgmd_sim.bench.closed_loop import ClosedLoopConfig
 from lgmd_sim.bench.episode import Cell
 from lgmd_sim.fileio import write_text_atomic
-from lgmd_sim.policies import EVAL_SEEDS
+from lgmd_sim.policies import EVAL_SEEDS, EVAL_TOP_VIEWS
 from lgmd_sim.runs import RunResult
 
 __all__ = ["EvalConfig", "eval_markdown", "evaluate"]
@@ -42,8 +42,9 @@ class EvalConfig:
             policy on those features must clear.
         seeds: episodes per cell (`lgmd_sim.policies.EVAL_SEEDS`: those of the
             evaluation a shipped policy's POLICY.md quotes, so the defaults reproduce it).
-        jitter, first_seed, cruise, horizon: as in
-            `lgmd_sim.bench.closed_loop.ClosedLoopConfig`.
+        jitter, first_seed, cruise, horizon, top_views: as in
+            `lgmd_sim.bench.closed_loop.ClosedLoopConfig` (`top_views` by default
+            `lgmd_sim.policies.EVAL_TOP_VIEWS`).
     """
 
     policies: tuple[str, ...] = ("shipped",)
@@ -54,6 +55,7 @@ class EvalConfig:
     first_seed: int = 1000
     cruise: float = 0.6
     horizon: float = 2.0
+    top_views: int = EVAL_TOP_VIEWS
 
     def __post_init__(self) -> None:
         from lgmd_sim import controllers, options
@@ -115,7 +117,7 @@ class EvalConfig:
             detectors=self.detectors or (options.detectors(observed) if observed else None),
             seeds=self.seeds, first_seed=self.first_seed,
             resolution=trained.resolution, cruise=self.cruise, horizon=self.horizon,
-            extra=extra)
+            extra=extra, top_views=self.top_views)
 
 
 def evaluate(config: EvalConfig, out: str | Path, *, resume: bool = False,
