@@ -160,10 +160,12 @@ STUDENT_COLLISIONS = {1.0: 0.10}
 def about(config: dict) -> str:
     """What a training run's policy sees and who taught it, from its recorded options."""
     model = "/".join(v for v in (config["model"], config["preset"]) if v)
-    grid = tuple(config.get("grid", PolicyConfig.grid))
-    sees = (f"{model} features" + (f", grid {grid[0]}x{grid[1]}"
-                                   if grid != PolicyConfig.grid else "")
-            if config["obs"] == "features" else config["obs"])
+    grid, frames = (tuple(config.get("grid", PolicyConfig.grid)),
+                    config.get("grid_history", PolicyConfig.grid_history))
+    sees = (f"{model} features" + (
+        f", grid {grid[0]}x{grid[1]}" + (f" over {frames} frames" if frames > 1 else "")
+        if (grid, frames) != (PolicyConfig.grid, PolicyConfig.grid_history) else "")
+        if config["obs"] == "features" else config["obs"])
     return sees + (f", DAgger from {Path(config['teacher']).name}" if config.get("teacher")
                    else "")
 

@@ -160,6 +160,11 @@ def test_the_reactive_teacher_manoeuvres_on_the_students_own_alarm_away_from_its
                                [p.avoid_speed, -p.avoid_turn])
     np.testing.assert_allclose(teacher.act(1, right, {"time": 0.1, "goal_bearing": 0.1}),
                                [p.avoid_speed, p.avoid_turn])  # each environment its own
+    # with a grid history, the newest grid decides (right now, whatever came before)
+    teacher.reset(1)
+    older_left = {**right, "lgmd_grid": np.concatenate([left["lgmd_grid"], right["lgmd_grid"]])}
+    np.testing.assert_allclose(teacher.act(1, older_left, {"time": 0.1, "goal_bearing": 0.1}),
+                               [p.avoid_speed, p.avoid_turn])
 
 
 def test_the_reactive_teacher_needs_the_students_features():

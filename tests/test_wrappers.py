@@ -21,7 +21,7 @@ from lgmd_sim.envs.wrappers import (
 SIZE = (32, 48)
 NOISE = "gaussian:0.003,saltpepper:0.003"
 #: several models, a short history and a 2 x 2 grid: every part of the observation
-LGMD = {"model": ["feedback", "lgmd2"], "history": 3, "grid": (2, 2)}
+LGMD = {"model": ["feedback", "lgmd2"], "history": 3, "grid": (2, 2), "grid_history": 2}
 
 
 def make(time_limit: float = 0.2, scenario: str = "HandheldApproach", **kw) -> gym.Env:
@@ -93,6 +93,24 @@ def test_history_alarm_and_grid_follow_the_model_frame_by_frame(name):
     obs, _ = env.reset(seed=1)  # new streams, history back at rest
     assert obs["lgmd_potential"].tolist() == [0.5] * 4
     env.close()
+
+
+def test_a_grid_history_holds_the_last_grids_oldest_first_and_starts_at_the_first():
+    env = LGMDObservation(make(0.5), model="lgmd1", grid=(2, 3), grid_history=3)
+    present = LGMDObservation(make(0.5), model="lgmd1", grid=(2, 3))
+    obs, _ = env.reset(seed=1)
+    assert env.observation_space["lgmd_grid"].shape == (18,)
+    np.testing.assert_array_equal(obs["lgmd_grid"], np.full(18, 1 / 6, np.float32))
+    grids = [present.reset(seed=1)[0]["lgmd_grid"]] * 3  # a new stream: its first grid
+    for _ in range(5):
+        obs = env.step([0.0, 0.0])[0]
+        grids = [*grids[1:], present.step([0.0, 0.0])[0]["lgmd_grid"]]
+        np.testing.assert_array_equal(obs["lgmd_grid"], np.concatenate(grids))
+    assert obs["lgmd_grid"][:6].tolist() != obs["lgmd_grid"][-6:].tolist()  # they move
+    obs, _ = env.reset(seed=2)
+    np.testing.assert_array_equal(obs["lgmd_grid"], np.full(18, 1 / 6, np.float32))
+    env.close()
+    present.close()
 
 
 def test_several_models_are_concatenated_in_the_order_given_and_the_frame_can_go():

@@ -43,6 +43,9 @@ def add(sub: argparse._SubParsersAction) -> None:
                    help="the S-layer grid of --obs features: rows x columns of cells, each "
                    "holding its share of the layer's activity (default 1x3: left, centre, "
                    "right)")
+    p.add_argument("--grid-history", type=int, metavar="K",
+                   help="how many of the last grids --obs features observes, oldest first "
+                   "(default 1: the present frame's; more show where the activity grows)")
     p.add_argument("--resolution", type=resolution,
                    help="frame size the environment renders: rl (120x160, default, as the "
                    "benchmark), paper, small or HxW")

@@ -30,7 +30,8 @@ class PolicyConfig:
         resolution: the frame size the environment renders (a preset name or [H, W]).
         jitter: the jitter level it was trained at.
         model, preset: the LGMD model and its preset (features).
-        history, grid: the potentials observed and the S-layer grid (features).
+        history, grid, grid_history: the potentials observed, the S-layer grid and how
+            many of the last grids are observed (features).
         frame_size, frame_stack: the observed frames (pixels).
     """
 
@@ -43,6 +44,7 @@ class PolicyConfig:
     preset: str | None = None
     history: int = 8
     grid: tuple[int, int] = (1, 3)
+    grid_history: int = 1
     frame_size: tuple[int, int] = (60, 80)
     frame_stack: int = 4
 

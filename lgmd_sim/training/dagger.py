@@ -73,12 +73,12 @@ class AlarmAvoid(Avoider):
     def _trigger(self, obs: Mapping[str, np.ndarray], info: Mapping[str, Any]) -> float | None:
         alarm, cells = np.asarray(obs["lgmd_alarm"]), np.asarray(obs["lgmd_grid"])
         rows, cols = self.grid
-        if alarm.size != 1 or cells.size != rows * cols:
+        if alarm.size != 1 or cells.size % (rows * cols):
             raise ValueError(f"AlarmAvoid reads one model's features: got {alarm.size} "
                              f"alarms and {cells.size} grid cells for a {rows} x {cols} grid")
         if not alarm[0]:
             return None
-        cells, half = cells.reshape(rows, cols), cols // 2
+        cells, half = cells[-rows * cols:].reshape(rows, cols), cols // 2  # the newest grid
         return float(cells[:, :half].sum() - cells[:, cols - half:].sum())  # > 0: left
 
 

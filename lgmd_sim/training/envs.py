@@ -102,7 +102,8 @@ def make_vec_env(config: PolicyConfig, n_envs: int,
     venv = base
     if config.obs == "features":
         venv = VecLGMDObservation(base, config.model, preset=config.preset,
-                                  history=config.history, grid=config.grid, keep_frame=False)
+                                  history=config.history, grid=config.grid,
+                                  grid_history=config.grid_history, keep_frame=False)
     return VecEnvs(base, vec_env.VecMonitor(venv))
 
 

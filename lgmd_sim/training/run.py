@@ -72,6 +72,7 @@ class TrainConfig:
             ends), and its preset (None: the model's default); both None otherwise.
         grid: (rows, columns) of the S-layer grid of "features"
             (`lgmd_sim.envs.wrappers.LGMDFeatures`).
+        grid_history: how many of the last grids "features" observes (1: the present).
         resolution: the frame size the environment renders.
         jitter: the jitter level of the training episodes.
         steps: environment steps in all, over every environment and session.
@@ -107,6 +108,7 @@ class TrainConfig:
     model: str | None = "feedback"
     preset: str | None = None
     grid: tuple[int, int] = PolicyConfig.grid
+    grid_history: int = PolicyConfig.grid_history
     resolution: str | tuple[int, int] = "rl"
     jitter: float = 1.0
     steps: int = 300_000
@@ -152,6 +154,12 @@ class TrainConfig:
         if self.obs != "features" and grid != PolicyConfig.grid:
             raise ValueError(f"--grid is the S-layer grid of --obs features, not {self.obs}")
         object.__setattr__(self, "grid", grid)
+        if not (isinstance(self.grid_history, int) and not isinstance(self.grid_history, bool)
+                and self.grid_history >= 1):
+            raise ValueError(f"--grid-history must be a positive integer, got "
+                             f"{self.grid_history!r}")
+        if self.obs != "features" and self.grid_history != PolicyConfig.grid_history:
+            raise ValueError(f"--grid-history is of --obs features, not {self.obs}")
         object.__setattr__(self, "model", model)
         object.__setattr__(self, "preset", preset)
         object.__setattr__(self, "resolution", options.resolution(self.resolution))
@@ -199,7 +207,8 @@ class TrainConfig:
     def policy(self) -> PolicyConfig:
         """The configuration of the policy it trains."""
         return PolicyConfig(self.algo, self.obs, self.env, self.resolution,
-                            float(self.jitter), self.model, self.preset, grid=self.grid)
+                            float(self.jitter), self.model, self.preset, grid=self.grid,
+                            grid_history=self.grid_history)
 
     def as_json(self) -> dict[str, Any]:
         """The configuration as the run folder records it."""

@@ -20,8 +20,11 @@ def summary_markdown(folder: Path) -> str:
     record = json.loads((folder / "run.json").read_text())
     o = record["config"]
     detector = f", {o['model']}/{o['preset']}" if o["model"] else ""
-    if tuple(o.get("grid", PolicyConfig.grid)) != PolicyConfig.grid:
-        detector += f", S-layer grid {o['grid'][0]}x{o['grid'][1]}"
+    grid, frames = (tuple(o.get("grid", PolicyConfig.grid)),
+                    o.get("grid_history", PolicyConfig.grid_history))
+    if (grid, frames) != (PolicyConfig.grid, PolicyConfig.grid_history):
+        detector += f", S-layer grid {grid[0]}x{grid[1]}" + (
+            f" over the last {frames} frames" if frames > 1 else "")
     shaped = f"; training reward {', '.join(o['reward'])}" if o.get("reward") else ""
     lines = [f"# {folder.name}: {o['algo'].upper()} on {o['obs']}{detector}, {o['env']} at "
              f"jitter {o['jitter']:g}, {o['envs']} environments{shaped}", "",

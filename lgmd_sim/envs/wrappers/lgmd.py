@@ -52,7 +52,10 @@ class LGMDFeatures:
       the cell's share of the activity (1 / cells each where S is 0 everywhere, as on the
       first frame). Shares rather than raw means because the scale of S differs by orders
       of magnitude between models, presets and frame sizes, while a share is comparable
-      and bounded in [0, 1]; how strong the activity is, is the potential's job.
+      and bounded in [0, 1]; how strong the activity is, is the potential's job. With
+      ``grid_history`` k > 1 it holds the last k grids, oldest first (k * rows * cols per
+      model): where the activity grows, cell by cell; a reset fills them with the first
+      frame's.
 
     Bounds: potentials and grid in [0, 1] (potentials are sigmoids, mostly [0.5, 1)),
     alarms in {0, 1}. 1-D Boxes, as stable-baselines3's MultiInputPolicy and its
@@ -71,6 +74,7 @@ class LGMDFeatures:
         history: number of membrane potentials observed, newest last.
         grid: (rows, cols) of the S-layer summary, or None for none (and no layer maps
             computed: faster).
+        grid_history: number of grids observed, newest last.
         keep_frame: keep the camera frame in the observation; False drops it, for
             compact observations (MLP policies).
         **params: the models' parameter overrides (see ``lgmd-sim models NAME``).
@@ -78,8 +82,8 @@ class LGMDFeatures:
 
     def __init__(self, n_envs: int, model: str | Sequence[str] = "feedback", *,
                  preset: str | None = None, history: int = 8,
-                 grid: tuple[int, int] | None = (1, 3), keep_frame: bool = True,
-                 **params: Any) -> None:
+                 grid: tuple[int, int] | None = (1, 3), grid_history: int = 1,
+                 keep_frame: bool = True, **params: Any) -> None:
         if not _count(n_envs):
             raise ValueError(f"n_envs must be a positive integer, got {n_envs!r}")
         names = [model] if isinstance(model, str) else model
@@ -87,8 +91,9 @@ class LGMDFeatures:
             raise ValueError(f"model must be a model name or a list of them, got {model!r}")
         if len(set(names)) < len(names):
             raise ValueError(f"model names a model twice: {list(names)}")
-        if not _count(history):
-            raise ValueError(f"history must be a positive integer, got {history!r}")
+        for name, value in (("history", history), ("grid_history", grid_history)):
+            if not _count(value):
+                raise ValueError(f"{name} must be a positive integer, got {value!r}")
         if grid is not None and not (isinstance(grid, Sequence) and len(grid) == 2
                                      and all(_count(v) for v in grid)):
             raise ValueError(f"grid must be (rows, cols) of positive integers or None, "
@@ -105,8 +110,9 @@ class LGMDFeatures:
         #: The last step's outputs, per environment and model: (n_envs, n_models).
         self.potential = np.full((n, m), REST)
         self.alarm = np.zeros((n, m), bool)
-        self._shares = np.zeros((n, m, cells), np.float32)
-        unit = {"lgmd_potential": m * int(history), "lgmd_alarm": m, "lgmd_grid": m * cells}
+        self._shares = np.zeros((n, m, int(grid_history), cells), np.float32)
+        unit = {"lgmd_potential": m * int(history), "lgmd_alarm": m,
+                "lgmd_grid": m * int(grid_history) * cells}
         self.spaces = {k: spaces.Box(0.0, 1.0, (size,), np.float32)
                        for k, size in unit.items() if size}
 
@@ -152,7 +158,10 @@ class LGMDFeatures:
                              rotation=None if infos is None else model.rotation_from(infos))
             potential[:, k], alarm[:, k] = out.potential, out.alarm
             if self.grid is not None:
-                shares[:, k] = self._cell_shares(out.layers["S"])
+                newest = self._cell_shares(out.layers["S"])
+                # a new stream's older grids are its first: no motion before it
+                older = np.where(new[:, None, None], newest[:, None], self._shares[:, k, 1:])
+                shares[:, k] = np.concatenate([older, newest[:, None]], axis=1)
         history = np.where(new[:, None, None], np.float32(REST), self._history)
         self._history = np.concatenate([history[..., 1:], potential[..., None]], axis=-1,
                                        dtype=np.float32)
@@ -233,21 +242,24 @@ class LGMDObservation(gym.Wrapper, gym.utils.RecordConstructorArgs):
         preset: the models' parameter set (None: each model's default).
         history: number of membrane potentials observed, newest last.
         grid: (rows, cols) of the S-layer summary, or None for none.
+        grid_history: number of grids observed, newest last.
         keep_frame: keep the camera frame in the observation.
         **params: the models' parameter overrides.
     """
 
     def __init__(self, env: gym.Env, model: str | Sequence[str] = "feedback",
                  preset: str | None = None, history: int = 8,
-                 grid: tuple[int, int] | None = (1, 3), keep_frame: bool = True,
-                 **params: Any) -> None:
+                 grid: tuple[int, int] | None = (1, 3), grid_history: int = 1,
+                 keep_frame: bool = True, **params: Any) -> None:
         # recorded for env.spec, so that gym.make(env.spec) rebuilds the wrapper
         gym.utils.RecordConstructorArgs.__init__(self, model=model, preset=preset,
                                                  history=history, grid=grid,
+                                                 grid_history=grid_history,
                                                  keep_frame=keep_frame, **params)
         gym.Wrapper.__init__(self, env)
         self.features = LGMDFeatures(1, model, preset=preset, history=history, grid=grid,
-                                     keep_frame=keep_frame, **params)
+                                     grid_history=grid_history, keep_frame=keep_frame,
+                                     **params)
         self.observation_space = self.features.observation_space(env.observation_space)
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None
@@ -282,20 +294,22 @@ class LGMDVectorObservation(VectorWrapper):
 
     Args:
         env: a vector environment of jitter environments.
-        model, preset, history, grid, keep_frame, **params: as `LGMDObservation`.
+        model, preset, history, grid, grid_history, keep_frame, **params: as
+            `LGMDObservation`.
     """
 
     def __init__(self, env: VectorEnv, model: str | Sequence[str] = "feedback",
                  preset: str | None = None, history: int = 8,
-                 grid: tuple[int, int] | None = (1, 3), keep_frame: bool = True,
-                 **params: Any) -> None:
+                 grid: tuple[int, int] | None = (1, 3), grid_history: int = 1,
+                 keep_frame: bool = True, **params: Any) -> None:
         super().__init__(env)
         self._mode = AutoresetMode(env.metadata.get("autoreset_mode", AutoresetMode.NEXT_STEP))
         if self._mode == AutoresetMode.DISABLED:
             raise ValueError("env: autoreset mode 'Disabled' is not supported (it resets "
                              "environments apart); use next-step or same-step autoreset")
         self.features = LGMDFeatures(env.num_envs, model, preset=preset, history=history,
-                                     grid=grid, keep_frame=keep_frame, **params)
+                                     grid=grid, grid_history=grid_history,
+                                     keep_frame=keep_frame, **params)
         self.single_observation_space = self.features.observation_space(
             env.single_observation_space)
         self.observation_space = batch_space(self.single_observation_space, env.num_envs)

@@ -36,16 +36,18 @@ class VecLGMDObservation(_vec_env.VecEnvWrapper):
         preset: the models' parameter set (None: each model's default).
         history: number of membrane potentials observed, newest last.
         grid: (rows, cols) of the S-layer summary, or None for none.
+        grid_history: number of grids observed, newest last.
         keep_frame: keep the camera frame in the observation.
         **params: the models' parameter overrides.
     """
 
     def __init__(self, venv: Any, model: str | Sequence[str] = "feedback",
                  preset: str | None = None, history: int = 8,
-                 grid: tuple[int, int] | None = (1, 3), keep_frame: bool = True,
-                 **params: Any) -> None:
+                 grid: tuple[int, int] | None = (1, 3), grid_history: int = 1,
+                 keep_frame: bool = True, **params: Any) -> None:
         features = LGMDFeatures(venv.num_envs, model, preset=preset, history=history,
-                                grid=grid, keep_frame=keep_frame, **params)
+                                grid=grid, grid_history=grid_history, keep_frame=keep_frame,
+                                **params)
         super().__init__(venv, observation_space=features.observation_space(
             venv.observation_space))
         self.features = features
