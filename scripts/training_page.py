@@ -31,10 +31,9 @@ from results_page import seed_ranges
 from lgmd_sim import policies
 from lgmd_sim.fileio import write_files
 from lgmd_sim.metrics import wilson_interval
-from lgmd_sim.policies.config import PolicyConfig
 from lgmd_sim.policies.folder import MODEL_FILE
 from lgmd_sim.training.curve import read_logs
-from lgmd_sim.training.summary import summary_markdown, validation_rows
+from lgmd_sim.training.summary import grid_text, summary_markdown, validation_rows
 
 ROOT = Path(__file__).resolve().parents[1]
 PAGE = ROOT / "docs" / "training.md"
@@ -160,12 +159,9 @@ STUDENT_COLLISIONS = {1.0: 0.10}
 def about(config: dict) -> str:
     """What a training run's policy sees and who taught it, from its recorded options."""
     model = "/".join(v for v in (config["model"], config["preset"]) if v)
-    grid, frames = (tuple(config.get("grid", PolicyConfig.grid)),
-                    config.get("grid_history", PolicyConfig.grid_history))
-    sees = (f"{model} features" + (
-        f", grid {grid[0]}x{grid[1]}" + (f" over {frames} frames" if frames > 1 else "")
-        if (grid, frames) != (PolicyConfig.grid, PolicyConfig.grid_history) else "")
-        if config["obs"] == "features" else config["obs"])
+    sees = config["obs"]
+    if sees == "features":
+        sees = f"{model} features" + (f", {grid_text(config)}" if grid_text(config) else "")
     return sees + (f", DAgger from {Path(config['teacher']).name}" if config.get("teacher")
                    else "")
 

@@ -58,7 +58,7 @@ def config_from_args(args: argparse.Namespace) -> Any:
         options.comma_list(args.controllers))
     return EvalConfig(
         policies=tuple(args.policies), controllers=hand_made,
-        detectors=None if args.models is args.presets is None
+        detectors=None if args.models is None and args.presets is None
         else options.detectors(args.models or "all", args.presets),
         jitter=options.jitter_levels(args.jitter), seeds=args.seeds,
         first_seed=args.first_seed, cruise=args.cruise, horizon=args.horizon,

@@ -12,7 +12,17 @@ from typing import Any
 
 from lgmd_sim.policies.config import PolicyConfig
 
-__all__ = ["summary_markdown", "update_sizes", "validation_rows"]
+__all__ = ["grid_text", "summary_markdown", "update_sizes", "validation_rows"]
+
+
+def grid_text(config: dict[str, Any]) -> str:
+    """The S-layer grid a run's recorded options chose, in words; "" for the default."""
+    grid, frames = (tuple(config.get("grid", PolicyConfig.grid)),
+                    config.get("grid_history", PolicyConfig.grid_history))
+    if (grid, frames) == (PolicyConfig.grid, PolicyConfig.grid_history):
+        return ""
+    return f"S-layer grid {grid[0]}x{grid[1]}" + (f" over the last {frames} frames"
+                                                  if frames > 1 else "")
 
 
 def summary_markdown(folder: Path) -> str:
@@ -20,11 +30,8 @@ def summary_markdown(folder: Path) -> str:
     record = json.loads((folder / "run.json").read_text())
     o = record["config"]
     detector = f", {o['model']}/{o['preset']}" if o["model"] else ""
-    grid, frames = (tuple(o.get("grid", PolicyConfig.grid)),
-                    o.get("grid_history", PolicyConfig.grid_history))
-    if (grid, frames) != (PolicyConfig.grid, PolicyConfig.grid_history):
-        detector += f", S-layer grid {grid[0]}x{grid[1]}" + (
-            f" over the last {frames} frames" if frames > 1 else "")
+    if grid_text(o):
+        detector += f", {grid_text(o)}"
     shaped = f"; training reward {', '.join(o['reward'])}" if o.get("reward") else ""
     lines = [f"# {folder.name}: {o['algo'].upper()} on {o['obs']}{detector}, {o['env']} at "
              f"jitter {o['jitter']:g}, {o['envs']} environments{shaped}", "",
