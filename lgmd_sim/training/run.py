@@ -44,7 +44,7 @@ from lgmd_sim.fileio import write_text_atomic
 from lgmd_sim.policies.config import PolicyConfig
 from lgmd_sim.policies.folder import ALGOS, OBS
 from lgmd_sim.runs import RunFolder, RunResult
-from lgmd_sim.training.summary import summary_markdown, validation_rows
+from lgmd_sim.training.summary import summary_markdown, trained, validation_rows
 
 if TYPE_CHECKING:
     from lgmd_sim.training.curriculum import Curriculum
@@ -438,8 +438,7 @@ def _train(out: Path, config: TrainConfig, kwargs: dict[str, Any], first_seed: i
     policies.save(out, model, policy, policies.Normalizer.of(venv),
                   steps=model.num_timesteps, command=command,
                   validation=best.last, version=__version__)
-    curve.learning_curve(out, f"{out.name}: {policy.algo.upper()} on {policy.obs}"
-                         + (f" ({policy.model}/{policy.preset})" if policy.model else ""))
+    curve.learning_curve(out, f"{out.name}: {trained(config.as_json())}")
     folder.finish()
     write_text_atomic(out / "summary.md", summary_markdown(out))
     files = ["policy.npz", "policy.json", "best/", "learning_curve.png", "summary.md",

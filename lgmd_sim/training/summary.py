@@ -12,7 +12,7 @@ from typing import Any
 
 from lgmd_sim.policies.config import PolicyConfig
 
-__all__ = ["grid_text", "summary_markdown", "update_sizes", "validation_rows"]
+__all__ = ["grid_text", "summary_markdown", "trained", "update_sizes", "validation_rows"]
 
 
 def grid_text(config: dict[str, Any]) -> str:
@@ -25,15 +25,22 @@ def grid_text(config: dict[str, Any]) -> str:
                                                   if frames > 1 else "")
 
 
+def trained(config: dict[str, Any]) -> str:
+    """The algorithm and what the policy sees, from a run's recorded options ("PPO on
+    features, lgmd1/robot-image, S-layer grid 3x5")."""
+    text = f"{config['algo'].upper()} on {config['obs']}"
+    for part in ("/".join(v for v in (config["model"], config["preset"]) if v),
+                 grid_text(config)):
+        text += f", {part}" if part else ""
+    return text
+
+
 def summary_markdown(folder: Path) -> str:
     """The run in `folder` as Markdown: what was trained, how fast, how it validated."""
     record = json.loads((folder / "run.json").read_text())
     o = record["config"]
-    detector = f", {o['model']}/{o['preset']}" if o["model"] else ""
-    if grid_text(o):
-        detector += f", {grid_text(o)}"
     shaped = f"; training reward {', '.join(o['reward'])}" if o.get("reward") else ""
-    lines = [f"# {folder.name}: {o['algo'].upper()} on {o['obs']}{detector}, {o['env']} at "
+    lines = [f"# {folder.name}: {trained(o)}, {o['env']} at "
              f"jitter {o['jitter']:g}, {o['envs']} environments{shaped}", "",
              "| session | steps | wall time (min) | training steps/s | bare VecEnv steps/s "
              "| ratio |", "|---:|---:|---:|---:|---:|---:|"]
