@@ -1,15 +1,17 @@
-"""Release a training run's final policy as a shipped policy: lgmd_sim/policies/NAME/.
+"""Release a training run's final (or best) policy as a shipped policy:
+lgmd_sim/policies/NAME/.
 
-    .venv/bin/python scripts/ship_policy.py runs/train/sac-feedback --eval runs/eval-190k
+    .venv/bin/python scripts/ship_policy.py runs/train/RUN --eval runs/eval --name NAME
 
-Copies the run's policy.npz and policy.json (a policy folder: arrays and JSON, no pickle)
-into the package and writes POLICY.md beside them: the command that started the
-training, the run's summary (its sessions and validation), and the run's rows of the
-evaluation's table (the rows of docs/training.md, whose page scripts/training_page.py
-writes from the same runs). NAME (--name) defaults to
-the policy `lgmd-sim eval` and the "policy" controller use (lgmd_sim.policies.DEFAULT),
-so releasing a run without --name replaces it. The three files move into place together
-(lgmd_sim.fileio.write_files): a failed release leaves the shipped policy as it was.
+Copies the run's policy.npz and policy.json (with --best, those of RUN/best, its best
+validation; a policy folder: arrays and JSON, no pickle) into the package and writes
+POLICY.md beside them: the command that started the training, the run's summary (its
+sessions and validation), and that policy's rows of the evaluation's table (the rows of
+docs/training.md, whose page scripts/training_page.py writes from the same runs). NAME
+(--name) defaults to the policy `lgmd-sim eval` and the "policy" controller use
+(lgmd_sim.policies.DEFAULT), so releasing a run without --name replaces it. The three
+files move into place together (lgmd_sim.fileio.write_files): a failed release leaves
+the shipped policy as it was.
 Run the tests afterwards (tests/test_training.py checks the shipped policy acts in its
 environment; tests/test_packaging.py that it travels in the wheel).
 """
@@ -26,38 +28,44 @@ from training_page import ROOT, run_summary, table
 
 from lgmd_sim.fileio import write_files
 from lgmd_sim.policies import DEFAULT
-from lgmd_sim.policies.folder import CONFIG_FILE, MODEL_FILE
+from lgmd_sim.policies.folder import CONFIG_FILE, MODEL_FILE, name_of
 
 POLICIES = ROOT / "lgmd_sim" / "policies"
 
 
-def policy_md(run: Path, eval_run: Path, name: str) -> str:
-    """POLICY.md of `run` shipped as `name`: its first command, its summary, and its rows
-    of the evaluation's table, renamed to `name`."""
-    rows, _, _ = table(eval_run, [])  # the policy's own rows do not depend on the benches
-    tag = f"policy: {run.name}"
+def policy_md(run: Path, eval_run: Path, name: str, best: bool = False) -> str:
+    """POLICY.md of `run`'s final (or `best`) policy shipped as `name`: the run's first
+    command, its summary, and the policy's rows of the evaluation's table, renamed to
+    `name`."""
+    rows, _, _ = table([eval_run], [])  # the policy's own rows do not depend on the benches
+    tag = f"policy: {name_of(run / 'best') if best else run.name}"
     mine = [line.replace(tag, f"policy: {name}") for line in rows[2:] if tag in line]
     if not mine:
-        raise SystemExit(f"ship_policy.py: {eval_run} holds no rows of {run.name} (its "
-                         f"controllers: tag {run.name!r} expected); evaluate it with "
-                         f"`lgmd-sim eval {run}` first")
+        raise SystemExit(f"ship_policy.py: {eval_run} holds no rows of {tag} (its "
+                         f"controllers); evaluate it with `lgmd-sim eval "
+                         f"{run / 'best' if best else run}` first")
     command = json.loads((run / "run.json").read_text())["sessions"][0]["command"]
-    return (f"# {name}\n\nTrained by\n\n```bash\n{command}\n```\n\n{run_summary(run)}\n\n"
+    which = "its best policy by validation (`best/`)" if best else "its final policy"
+    return (f"# {name}\n\nThe training run's {which}, trained by\n\n```bash\n{command}\n"
+            f"```\n\n{run_summary(run)}\n\n"
             "Evaluated on held-out seeds by `lgmd-sim eval` (all rows: docs/training.md):\n\n"
             + "\n".join([*rows[:2], *mine]) + "\n")
 
 
-def ship(run: Path, eval_run: Path, name: str = DEFAULT) -> Path:
-    """Write lgmd_sim/policies/`name`/ from `run` and its evaluation; the folder."""
-    missing = [f for f in (MODEL_FILE, CONFIG_FILE, "run.json", "summary.md")
-               if not (run / f).is_file()]
+def ship(run: Path, eval_run: Path, name: str = DEFAULT, best: bool = False) -> Path:
+    """Write lgmd_sim/policies/`name`/ from `run`'s final (or `best`) policy and its
+    evaluation; the folder."""
+    source = run / "best" if best else run
+    missing = [str(f.relative_to(run)) for f in (source / MODEL_FILE, source / CONFIG_FILE,
+                                                 run / "run.json", run / "summary.md")
+               if not f.is_file()]
     if missing:
         raise SystemExit(f"ship_policy.py: {run} is not a finished training run (no "
                          f"{', '.join(missing)})")
     folder = POLICIES / name
-    text = policy_md(run, eval_run, name)
-    write_files({folder / MODEL_FILE: _copier(run / MODEL_FILE),
-                 folder / CONFIG_FILE: _copier(run / CONFIG_FILE),
+    text = policy_md(run, eval_run, name, best)
+    write_files({folder / MODEL_FILE: _copier(source / MODEL_FILE),
+                 folder / CONFIG_FILE: _copier(source / CONFIG_FILE),
                  folder / "POLICY.md": lambda tmp: tmp.write_text(text)})
     return folder
 
@@ -76,8 +84,10 @@ def main() -> None:
     parser.add_argument("--name", default=DEFAULT,
                         help=f"the shipped policy's name (default {DEFAULT}, the one "
                         "`lgmd-sim eval` uses)")
+    parser.add_argument("--best", action="store_true",
+                        help="the run's best policy by validation (RUN/best), not its final")
     args = parser.parse_args()
-    print(f"shipped {ship(args.run, args.eval, args.name).relative_to(ROOT)}")
+    print(f"shipped {ship(args.run, args.eval, args.name, args.best).relative_to(ROOT)}")
 
 
 if __name__ == "__main__":

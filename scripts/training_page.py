@@ -31,7 +31,7 @@ from results_page import seed_ranges
 from lgmd_sim import policies
 from lgmd_sim.fileio import write_files
 from lgmd_sim.metrics import wilson_interval
-from lgmd_sim.policies.folder import MODEL_FILE
+from lgmd_sim.policies.folder import MODEL_FILE, name_of
 from lgmd_sim.training.curve import read_logs
 from lgmd_sim.training.summary import grid_text, summary_markdown, validation_rows
 
@@ -232,31 +232,33 @@ def fine_tuning(runs: list[Path], records: dict[str, dict]) -> list[str]:
 
 
 def shipped(eval_runs: list[Path], train_runs: list[Path]) -> list[str]:
-    """Per shipped policy an evaluation ran: the training run it was released from (the
-    same policy.npz) and whether it played that run's episodes of the other evaluations,
-    seed by seed (an end, a distance, a frame count)."""
+    """Per shipped policy an evaluation ran: the training run's final or best policy it
+    was released from (the same policy.npz) and whether it played that policy's episodes
+    of the other evaluations, seed by seed (an end, a distance, a frame count)."""
     played: dict[str, dict[tuple[str, str], tuple[str, ...]]] = defaultdict(dict)
     for run in eval_runs:
         for r in _episodes(run):
             if r["controller"] == "policy":
                 played[r["tag"]].setdefault((r["jitter"], r["seed"]), (
                     r["collided"], r["goal_reached"], r["distance_m"], r["frames"]))
+    folders = [f for run in train_runs for f in (run, run / "best")
+               if (f / MODEL_FILE).is_file()]
     out = []
     for name in sorted(set(played) & set(policies.available())):
         weights = (policies.path(name) / MODEL_FILE).read_bytes()
-        source = next((run.name for run in train_runs if (run / MODEL_FILE).is_file()
-                       and (run / MODEL_FILE).read_bytes() == weights), None)
+        source = next((f for f in folders if (f / MODEL_FILE).read_bytes() == weights), None)
         if source is None:
             out.append(f"- The shipped policy {name} is none of the training runs' final "
-                       "policies.")
+                       "or best policies.")
             continue
-        mine, theirs = played[name], played.get(source, {})
+        tag = name_of(source)
+        mine, theirs = played[name], played.get(tag, {})
         both = sorted(set(mine) & set(theirs))
         differ = sum(mine[k] != theirs[k] for k in both)
-        out.append(f"- The shipped policy {name} is {source}'s final policy (the same "
-                   f"{MODEL_FILE}); on the {len(both)} episodes both evaluations played, "
-                   + ("it played every one as " + source + " did." if not differ else
-                      f"{differ} ended otherwise than {source}'s."))
+        out.append(f"- The shipped policy {name} is {tag} (the same {MODEL_FILE}); on the "
+                   f"{len(both)} episodes both evaluations played, "
+                   + (f"it played every one as {tag} did." if not differ else
+                      f"{differ} ended otherwise than {tag}'s."))
     return out
 
 
