@@ -39,7 +39,7 @@ def policy_md(run: Path, eval_run: Path, name: str, best: bool = False) -> str:
     `name`."""
     rows, _, _ = table([eval_run], [])  # the policy's own rows do not depend on the benches
     tag = f"policy: {name_of(run / 'best') if best else run.name}"
-    mine = [line.replace(tag, f"policy: {name}") for line in rows[2:] if tag in line]
+    mine = [line.replace(tag, f"policy: {name}") for line in rows[2:] if f"| {tag} |" in line]
     if not mine:
         raise SystemExit(f"ship_policy.py: {eval_run} holds no rows of {tag} (its "
                          f"controllers); evaluate it with `lgmd-sim eval "

@@ -52,14 +52,15 @@ def _label(r: dict[str, str]) -> str:
 
 
 def _cells(rows: list[dict[str, str]]) -> dict[tuple[float, str], dict[str, float]]:
-    """Per (jitter, controller label): episodes, collisions, successes, mean distance."""
+    """Per (jitter, controller label): episodes, collisions, successes, mean distance and
+    mean progress to the goal (NaN for a task without a goal)."""
     groups: dict[tuple[float, str], list[dict[str, str]]] = defaultdict(list)
     for r in rows:
         groups[(float(r["jitter"]), _label(r))].append(r)
     return {key: {"n": len(rs), "collided": sum(r["collided"] == "True" for r in rs),
                   "reached": sum(r["goal_reached"] == "True" for r in rs),
                   "distance": sum(float(r["distance_m"]) for r in rs) / len(rs),
-                  "progress": sum(float(r["progress"]) for r in rs) / len(rs)}
+                  "progress": sum(float(r["progress"] or "nan") for r in rs) / len(rs)}
             for key, rs in groups.items()}
 
 

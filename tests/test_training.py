@@ -341,3 +341,22 @@ def test_speed_train_reports_each_row_against_the_bare_vec_env(capsys):
         assert bare > 0 and training > 0
         assert ratio == pytest.approx(training / bare, abs=0.01 + 0.01 * ratio)
         assert row[5] == "-"  # the target is for 2 environments
+
+
+def test_ship_policy_releases_a_runs_best_policy_with_its_rows(run, tmp_path, monkeypatch):
+    import importlib
+    from pathlib import Path
+
+    monkeypatch.syspath_prepend(str(Path(__file__).resolve().parents[1] / "scripts"))
+    ship_policy = importlib.import_module("ship_policy")
+    monkeypatch.setattr(ship_policy, "POLICIES", tmp_path / "policies")
+    out = tmp_path / "eval"
+    assert cli.main(["eval", str(run / "best"), "--controllers", "none", "--jitter", "1",
+                     "--seeds", "1", "--workers", "1", "--out", str(out), "--no-progress"]) == 0
+    folder = ship_policy.ship(run, out, "mine", best=True)
+    assert (folder / "policy.npz").read_bytes() == (run / "best" / "policy.npz").read_bytes()
+    text = (folder / "POLICY.md").read_text()
+    assert "best policy by validation" in text and "| 1 | policy: mine |" in text
+    with pytest.raises(SystemExit, match="holds no rows of policy: tiny "):
+        ship_policy.ship(run, out, "other")  # its final policy was not evaluated
+    assert not (tmp_path / "policies" / "other").exists()
