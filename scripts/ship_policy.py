@@ -45,8 +45,8 @@ def policy_md(run: Path, eval_run: Path, name: str, best: bool = False) -> str:
                          f"controllers); evaluate it with `lgmd-sim eval "
                          f"{run / 'best' if best else run}` first")
     command = json.loads((run / "run.json").read_text())["sessions"][0]["command"]
-    which = "its best policy by validation (`best/`)" if best else "its final policy"
-    return (f"# {name}\n\nThe training run's {which}, trained by\n\n```bash\n{command}\n"
+    which = "The best policy by validation (`best/`)" if best else "The final policy"
+    return (f"# {name}\n\n{which} of the training run started by\n\n```bash\n{command}\n"
             f"```\n\n{run_summary(run)}\n\n"
             "Evaluated on held-out seeds by `lgmd-sim eval` (all rows: docs/training.md):\n\n"
             + "\n".join([*rows[:2], *mine]) + "\n")

@@ -253,6 +253,7 @@ def shipped(eval_runs: list[Path], train_runs: list[Path]) -> list[str]:
                        "or best policies.")
             continue
         tag = name_of(source)
+        out.append(_chosen(tag, train_runs))
         mine, theirs = played[name], played.get(tag, {})
         both = sorted(set(mine) & set(theirs))
         differ = sum(mine[k] != theirs[k] for k in both)
@@ -261,6 +262,53 @@ def shipped(eval_runs: list[Path], train_runs: list[Path]) -> list[str]:
                    + (f"it played every one as {tag} did." if not differ else
                       f"{differ} ended otherwise than {tag}'s."))
     return out
+
+
+def agreement(eval_runs: list[Path]) -> list[str]:
+    """Per evaluation after the first: how many of its episodes an earlier one played too,
+    and how many of those ended otherwise (an end, a distance, a frame count), with the
+    machines' processors: one command plays the same episodes on one machine, and need
+    not on another, whose floating-point results the closed loop grows into another path."""
+    seen: dict[tuple[str, ...], dict[str, tuple[str, ...]]] = defaultdict(dict)
+    out = []
+    for run in eval_runs:
+        cpu = json.loads((run / "run.json").read_text())["machine"].get("cpu", "?")
+        mine = {tuple(r[k] for k in ("jitter", "seed", "controller", "model", "preset", "tag")):
+                (r["collided"], r["goal_reached"], r["distance_m"], r["frames"])
+                for r in _episodes(run)}
+        by_cpu: dict[str, list[bool]] = defaultdict(list)
+        for key, ended in mine.items():
+            for theirs, earlier in seen.get(key, {}).items():
+                by_cpu[theirs].append(ended != earlier)
+        for theirs, differ in sorted(by_cpu.items()):
+            out.append(f"- {run.name} ({cpu}) played {len(differ)} episodes that an earlier "
+                       f"evaluation on {'the same processor' if theirs == cpu else theirs} "
+                       f"played: {sum(differ)} of them ended otherwise.")
+        for key, ended in mine.items():
+            seen[key].setdefault(cpu, ended)
+    return out
+
+
+def _chosen(tag: str, train_runs: list[Path]) -> str:
+    """Whether policy `tag` has the highest validation score (successes minus collisions)
+    of the students' (--obs features) final and best policies: the rule that chooses the
+    shipped one on validation seeds, never on the evaluation's."""
+    scores = {}
+    for run in train_runs:
+        record = json.loads((run / "run.json").read_text())
+        if (record.get("config") or record["options"])["obs"] != "features":
+            continue
+        for row in validation_rows(run):
+            label = run.name if row["policy"] == "final" else name_of(run / "best")
+            scores[label] = row["success_rate"] - row["collision_rate"]
+    top = max(scores.values())
+    leaders = [label for label, score in scores.items() if score == top]
+    verdict = ("so it was chosen" if tag in leaders else
+               f"not the shipped {tag}, whose is {scores.get(tag, float('nan')):.2f}")
+    return (f"- Chosen on validation: of the {len(scores)} final and best policies of the "
+            f"students on LGMD features, {', '.join(leaders)} "
+            f"{'has' if len(leaders) == 1 else 'have'} the highest validation score "
+            f"(successes minus collisions on the validation seeds, {top:.2f}), {verdict}.")
 
 
 def run_summary(run: Path) -> str:
@@ -393,7 +441,7 @@ def main() -> None:
               "closed-loop benchmark's seeds at that jitter level, shown here on the "
               "evaluation's seeds.", "", *rows, "",
               *reading(cells, best, evaluated, trained_at), "",
-              *shipped(args.eval, args.train), "", "### Targets", "",
+              *shipped(args.eval, args.train), "", *agreement(args.eval), "", "### Targets", "",
               *targets(cells, {name: _policy_obs(evaluations, name, configs)
                                for name in evaluated}), ""]
     if len(args.eval) > 1:

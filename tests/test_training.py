@@ -356,7 +356,7 @@ def test_ship_policy_releases_a_runs_best_policy_with_its_rows(run, tmp_path, mo
     folder = ship_policy.ship(run, out, "mine", best=True)
     assert (folder / "policy.npz").read_bytes() == (run / "best" / "policy.npz").read_bytes()
     text = (folder / "POLICY.md").read_text()
-    assert "best policy by validation" in text and "| 1 | policy: mine |" in text
+    assert "The best policy by validation" in text and "| 1 | policy: mine |" in text
     with pytest.raises(SystemExit, match="holds no rows of policy: tiny "):
         ship_policy.ship(run, out, "other")  # its final policy was not evaluated
     assert not (tmp_path / "policies" / "other").exists()
