@@ -266,9 +266,10 @@ def shipped(eval_runs: list[Path], train_runs: list[Path]) -> list[str]:
 
 def agreement(eval_runs: list[Path]) -> list[str]:
     """Per evaluation after the first: how many of its episodes an earlier one played too,
-    and how many of those ended otherwise (an end, a distance, a frame count), with the
-    machines' processors: one command plays the same episodes on one machine, and need
-    not on another, whose floating-point results the closed loop grows into another path."""
+    how many of those went otherwise (a distance, a frame count) and how many to another
+    end (a collision, the goal), with the machines' processors: one command plays the
+    same episodes on one machine, and need not on another, whose floating-point results
+    the closed loop grows into another path."""
     seen: dict[tuple[str, ...], dict[str, tuple[str, ...]]] = defaultdict(dict)
     out = []
     for run in eval_runs:
@@ -276,14 +277,16 @@ def agreement(eval_runs: list[Path]) -> list[str]:
         mine = {tuple(r[k] for k in ("jitter", "seed", "controller", "model", "preset", "tag")):
                 (r["collided"], r["goal_reached"], r["distance_m"], r["frames"])
                 for r in _episodes(run)}
-        by_cpu: dict[str, list[bool]] = defaultdict(list)
+        by_cpu: dict[str, list[tuple[bool, bool]]] = defaultdict(list)
         for key, ended in mine.items():
             for theirs, earlier in seen.get(key, {}).items():
-                by_cpu[theirs].append(ended != earlier)
+                by_cpu[theirs].append((ended != earlier, ended[:2] != earlier[:2]))
         for theirs, differ in sorted(by_cpu.items()):
             out.append(f"- {run.name} ({cpu}) played {len(differ)} episodes that an earlier "
                        f"evaluation on {'the same processor' if theirs == cpu else theirs} "
-                       f"played: {sum(differ)} of them ended otherwise.")
+                       f"played: {sum(d for d, _ in differ)} of them went otherwise (another "
+                       f"distance or length), {sum(o for _, o in differ)} to another end (a "
+                       "collision or the goal where the other had not).")
         for key, ended in mine.items():
             seen[key].setdefault(cpu, ended)
     return out

@@ -27,7 +27,7 @@ def _evaluation(folder: Path, cpu: str, ends: dict[int, str]) -> Path:
     return folder
 
 
-def test_agreement_counts_the_episodes_two_evaluations_ended_otherwise(tmp_path, monkeypatch):
+def test_agreement_counts_the_episodes_two_evaluations_played_otherwise(tmp_path, monkeypatch):
     monkeypatch.syspath_prepend(str(ROOT / "scripts"))
     page = importlib.import_module("training_page")
     first = _evaluation(tmp_path / "a", "Intel", {1000: "8.1", 1001: "8.2"})
@@ -35,6 +35,8 @@ def test_agreement_counts_the_episodes_two_evaluations_ended_otherwise(tmp_path,
     other = _evaluation(tmp_path / "c", "AMD", {1000: "8.1", 1001: "7.9"})
     assert page.agreement([first, again, other]) == [
         "- b (Intel) played 2 episodes that an earlier evaluation on the same processor "
-        "played: 0 of them ended otherwise.",
+        "played: 0 of them went otherwise (another distance or length), 0 to another end (a "
+        "collision or the goal where the other had not).",
         "- c (AMD) played 2 episodes that an earlier evaluation on Intel played: 1 of them "
-        "ended otherwise."]
+        "went otherwise (another distance or length), 0 to another end (a collision or the "
+        "goal where the other had not)."]
