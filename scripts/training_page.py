@@ -160,9 +160,9 @@ STUDENT_COLLISIONS = {1.0: 0.10}
 def about(config: dict) -> str:
     """What a training run's policy sees and who taught it, from its recorded options."""
     model = "/".join(v for v in (config["model"], config["preset"]) if v)
-    sees = config["obs"]
+    sees, grid = config["obs"], grid_text(config)
     if sees == "features":
-        sees = f"{model} features" + (f", {grid_text(config)}" if grid_text(config) else "")
+        sees = f"{model} features" + (f", {grid}" if grid else "")
     return sees + (f", DAgger from {Path(config['teacher']).name}" if config.get("teacher")
                    else "")
 
@@ -232,16 +232,23 @@ def fine_tuning(runs: list[Path], records: dict[str, dict]) -> list[str]:
     return out
 
 
-def shipped(eval_runs: list[Path], train_runs: list[Path]) -> list[str]:
+def _outcome(r: dict[str, str]) -> tuple[str, ...]:
+    """How an episode went: its end (a collision, the goal) first, then its distance and
+    frame count."""
+    return r["collided"], r["goal_reached"], r["distance_m"], r["frames"]
+
+
+def shipped(eval_runs: list[Path], train_runs: list[Path], configs: dict[str, dict]
+            ) -> list[str]:
     """Per shipped policy an evaluation ran: the training run's final or best policy it
     was released from (the same policy.npz) and whether it played that policy's episodes
-    of the other evaluations, seed by seed (an end, a distance, a frame count)."""
+    of the other evaluations, seed by seed (`_outcome`); `configs`: the training runs'
+    recorded options by name."""
     played: dict[str, dict[tuple[str, str], tuple[str, ...]]] = defaultdict(dict)
     for run in eval_runs:
         for r in _episodes(run):
             if r["controller"] == "policy":
-                played[r["tag"]].setdefault((r["jitter"], r["seed"]), (
-                    r["collided"], r["goal_reached"], r["distance_m"], r["frames"]))
+                played[r["tag"]].setdefault((r["jitter"], r["seed"]), _outcome(r))
     folders = [f for run in train_runs for f in (run, run / "best")
                if (f / MODEL_FILE).is_file()]
     out = []
@@ -253,7 +260,7 @@ def shipped(eval_runs: list[Path], train_runs: list[Path]) -> list[str]:
                        "or best policies.")
             continue
         tag = name_of(source)
-        out.append(_chosen(tag, train_runs))
+        out.append(_chosen(tag, train_runs, configs))
         mine, theirs = played[name], played.get(tag, {})
         both = sorted(set(mine) & set(theirs))
         differ = sum(mine[k] != theirs[k] for k in both)
@@ -275,8 +282,7 @@ def agreement(eval_runs: list[Path]) -> list[str]:
     for run in eval_runs:
         cpu = json.loads((run / "run.json").read_text())["machine"].get("cpu", "?")
         mine = {tuple(r[k] for k in ("jitter", "seed", "controller", "model", "preset", "tag")):
-                (r["collided"], r["goal_reached"], r["distance_m"], r["frames"])
-                for r in _episodes(run)}
+                _outcome(r) for r in _episodes(run)}
         by_cpu: dict[str, list[tuple[bool, bool]]] = defaultdict(list)
         for key, ended in mine.items():
             for theirs, earlier in seen.get(key, {}).items():
@@ -292,17 +298,16 @@ def agreement(eval_runs: list[Path]) -> list[str]:
     return out
 
 
-def _chosen(tag: str, train_runs: list[Path]) -> str:
+def _chosen(tag: str, train_runs: list[Path], configs: dict[str, dict]) -> str:
     """Whether policy `tag` has the highest validation score (successes minus collisions)
     of the students' (--obs features) final and best policies: the rule that chooses the
     shipped one on validation seeds, never on the evaluation's."""
     scores = {}
     for run in train_runs:
-        record = json.loads((run / "run.json").read_text())
-        if (record.get("config") or record["options"])["obs"] != "features":
+        if configs[run.name]["obs"] != "features":
             continue
         for row in validation_rows(run):
-            label = run.name if row["policy"] == "final" else name_of(run / "best")
+            label = name_of(run if row["policy"] == "final" else run / "best")
             scores[label] = row["success_rate"] - row["collision_rate"]
     top = max(scores.values())
     leaders = [label for label, score in scores.items() if score == top]
@@ -444,7 +449,8 @@ def main() -> None:
               "closed-loop benchmark's seeds at that jitter level, shown here on the "
               "evaluation's seeds.", "", *rows, "",
               *reading(cells, best, evaluated, trained_at), "",
-              *shipped(args.eval, args.train), "", *agreement(args.eval), "", "### Targets", "",
+              *shipped(args.eval, args.train, configs), "", *agreement(args.eval), "",
+              "### Targets", "",
               *targets(cells, {name: _policy_obs(evaluations, name, configs)
                                for name in evaluated}), ""]
     if len(args.eval) > 1:
