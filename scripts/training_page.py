@@ -33,6 +33,8 @@ from lgmd_sim.fileio import write_files
 from lgmd_sim.metrics import wilson_interval
 from lgmd_sim.policies.folder import MODEL_FILE, name_of
 from lgmd_sim.training.curve import read_logs
+from lgmd_sim.training.evaluate import EvalConfig
+from lgmd_sim.training.run import VALIDATION_SEED
 from lgmd_sim.training.summary import grid_text, summary_markdown, validation_rows
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -238,12 +240,12 @@ def _outcome(r: dict[str, str]) -> tuple[str, ...]:
     return r["collided"], r["goal_reached"], r["distance_m"], r["frames"]
 
 
-def shipped(eval_runs: list[Path], train_runs: list[Path], configs: dict[str, dict]
+def shipped(eval_runs: list[Path], train_runs: list[Path], choice_run: Path | None
             ) -> list[str]:
     """Per shipped policy an evaluation ran: the training run's final or best policy it
-    was released from (the same policy.npz) and whether it played that policy's episodes
-    of the other evaluations, seed by seed (`_outcome`); `configs`: the training runs'
-    recorded options by name."""
+    was released from (the same policy.npz), the rule that chose it (`choice`, when
+    `choice_run` is given) and whether it played that policy's episodes of the other
+    evaluations, seed by seed (`_outcome`)."""
     played: dict[str, dict[tuple[str, str], tuple[str, ...]]] = defaultdict(dict)
     for run in eval_runs:
         for r in _episodes(run):
@@ -260,7 +262,8 @@ def shipped(eval_runs: list[Path], train_runs: list[Path], configs: dict[str, di
                        "or best policies.")
             continue
         tag = name_of(source)
-        out.append(_chosen(tag, train_runs, configs))
+        if choice_run is not None:
+            out += [*choice(choice_run, tag), ""]
         mine, theirs = played[name], played.get(tag, {})
         both = sorted(set(mine) & set(theirs))
         differ = sum(mine[k] != theirs[k] for k in both)
@@ -298,25 +301,42 @@ def agreement(eval_runs: list[Path]) -> list[str]:
     return out
 
 
-def _chosen(tag: str, train_runs: list[Path], configs: dict[str, dict]) -> str:
-    """Whether policy `tag` has the highest validation score (successes minus collisions)
-    of the students' (--obs features) final and best policies: the rule that chooses the
-    shipped one on validation seeds, never on the evaluation's."""
-    scores = {}
-    for run in train_runs:
-        if configs[run.name]["obs"] != "features":
-            continue
-        for row in validation_rows(run):
-            label = name_of(run if row["policy"] == "final" else run / "best")
-            scores[label] = row["success_rate"] - row["collision_rate"]
-    top = max(scores.values())
-    leaders = [label for label, score in scores.items() if score == top]
-    verdict = ("so it was chosen" if tag in leaders else
-               f"not the shipped {tag}, whose is {scores.get(tag, float('nan')):.2f}")
-    return (f"- Chosen on validation: of the {len(scores)} final and best policies of the "
-            f"students on LGMD features, {', '.join(leaders)} "
-            f"{'has' if len(leaders) == 1 else 'have'} the highest validation score "
-            f"(successes minus collisions on the validation seeds, {top:.2f}), {verdict}.")
+def choice(run: Path, tag: str) -> list[str]:
+    """The rule that chose the shipped policy, from `run`: an ``lgmd-sim eval`` of the
+    candidate policies on validation seeds (below the evaluation's), never on the
+    evaluation's. A candidate's score: successes minus collisions, as rates, averaged over
+    the jitter levels; the highest is shipped. `tag`: the shipped policy's name there (the
+    training run's policy it was released from)."""
+    record = json.loads((run / "run.json").read_text())
+    first, n = record["config"]["seeds"]
+    if first < VALIDATION_SEED or first + n > EvalConfig.first_seed:
+        sys.exit(f"training_page.py: the choice {run} ran seeds {first} to {first + n - 1}; "
+                 f"a choice runs validation seeds ({VALIDATION_SEED} to "
+                 f"{EvalConfig.first_seed - 1})")
+    cells = _cells([r for r in _episodes(run) if r["controller"] == "policy"])
+    jitters = sorted({j for j, _ in cells})
+    labels = list(dict.fromkeys(label for _, label in cells))
+    score = {label: sum((cells[j, label]["reached"] - cells[j, label]["collided"])
+                        / cells[j, label]["n"] for j in jitters) / len(jitters)
+             for label in labels}
+    top = max(score.values())
+    lines = ["", "```bash", record["command"], "```", "",
+             "| candidate | " + " | ".join(f"jitter {j:g}: successes / collisions %"
+                                           for j in jitters) + " | score |",
+             "|---|" + "---:|" * (len(jitters) + 1)]
+    for label in sorted(labels, key=lambda k: -score[k]):
+        lines.append(f"| {label} | " + " | ".join(
+            f"{100 * cells[j, label]['reached'] / cells[j, label]['n']:.0f} / "
+            f"{100 * cells[j, label]['collided'] / cells[j, label]['n']:.0f}"
+            for j in jitters) + f" | {score[label]:.2f} |")
+    leaders = [label for label in labels if score[label] == top]
+    verdict = ("so it was shipped" if f"policy: {tag}" in leaders else
+               f"but the shipped one is {tag}")
+    return [f"- Chosen on validation: the {len(labels)} candidates below played seeds "
+            f"{first} to {first + n - 1} (validation seeds: no training episode and no "
+            f"evaluation episode) at each jitter level; {', '.join(leaders)} "
+            f"{'has' if len(leaders) == 1 else 'have'} the highest score (successes minus "
+            f"collisions, averaged over the jitter levels, {top:.2f}), {verdict}.", *lines]
 
 
 def run_summary(run: Path) -> str:
@@ -407,6 +427,9 @@ def main() -> None:
     parser.add_argument("--eval", type=Path, nargs="+", required=True,
                         help="evaluations on the same seeds and jitter levels: one table")
     parser.add_argument("--bench", type=Path, nargs="*", default=[])
+    parser.add_argument("--choice", type=Path,
+                        help="an lgmd-sim eval of the candidate policies on validation "
+                        "seeds: the rule that chose the shipped one")
     args = parser.parse_args()
     figures: dict[Path, Path] = {}
     records = {run.name: json.loads((run / "run.json").read_text()) for run in args.train}
@@ -449,7 +472,7 @@ def main() -> None:
               "closed-loop benchmark's seeds at that jitter level, shown here on the "
               "evaluation's seeds.", "", *rows, "",
               *reading(cells, best, evaluated, trained_at), "",
-              *shipped(args.eval, args.train, configs), "", *agreement(args.eval), "",
+              *shipped(args.eval, args.train, args.choice), "", *agreement(args.eval), "",
               "### Targets", "",
               *targets(cells, {name: _policy_obs(evaluations, name, configs)
                                for name in evaluated}), ""]

@@ -295,3 +295,37 @@ def test_a_student_resumed_past_its_rounds_warms_its_value_function_up_once(tmp_
                      "--hp", "policy_kwargs={'net_arch': [8]}"]) == 2
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and "keeps its network (policy_kwargs)" in err
+
+
+@pytest.mark.parametrize("student_actions", dagger.STUDENT_ACTIONS)
+def test_the_student_drives_by_its_mean_or_a_sample_and_is_fitted_the_epochs_asked(
+        monkeypatch, student_actions):
+    from stable_baselines3 import PPO
+    from stable_baselines3.common.vec_env import VecNormalize
+
+    envs = make_vec_env(CONFIG, 1, SHORT)
+    try:
+        venv = VecNormalize(envs.venv, norm_reward=False)
+        model = PPO("MultiInputPolicy", venv, n_steps=64, batch_size=64, seed=0)
+        predicted, fitted = [], []
+        predict = model.predict
+        monkeypatch.setattr(model, "predict", lambda obs, deterministic: (
+            predicted.append(deterministic) or predict(obs, deterministic=deterministic)))
+        monkeypatch.setattr(dagger, "fit", lambda *a, epochs, **k: fitted.append(epochs) or 0.0)
+        dagger.imitate(model, venv, lambda: envs.base.reset_infos,
+                       dagger.Teacher("oracle", 1, CONFIG), dagger.Labels(), rounds=2,
+                       steps=20, first_round=0, seed=0, after_round=lambda *a: None,
+                       epochs=7, student_actions=student_actions)
+    finally:
+        envs.close()
+    assert predicted and set(predicted) == {student_actions == "mean"}
+    assert fitted == [7, 7]
+
+
+def test_a_bad_dagger_option_is_one_line_naming_it():
+    from lgmd_sim.training.run import TrainConfig
+
+    with pytest.raises(ValueError, match="--dagger-student must be one of sample, mean"):
+        TrainConfig(obs="privileged", model=None, teacher="oracle", dagger_student="greedy")
+    with pytest.raises(ValueError, match="--dagger-epochs"):
+        TrainConfig(obs="privileged", model=None, teacher="oracle", dagger_epochs=0)

@@ -93,6 +93,13 @@ def add(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--dagger-rounds", type=int, metavar="K",
                    help="DAgger rounds (default 10): the teacher drives round 0, then less "
                    "and less, none from half the rounds on")
+    p.add_argument("--dagger-epochs", type=int, metavar="N",
+                   help="cloning's epochs over all the labels kept, after each DAgger round "
+                   "(default 4)")
+    p.add_argument("--dagger-student", choices=("sample", "mean"),
+                   help="how the student acts on the steps it drives in the DAgger rounds: "
+                   "sample its Gaussian (default) or take its mean, the action validation and "
+                   "lgmd-sim eval execute")
     p.add_argument("--value-warmup", type=int, metavar="N",
                    help="after DAgger, N environment steps of PPO in which only the value "
                    "function learns, so that fine-tuning starts from advantages that mean "

@@ -40,8 +40,8 @@ from lgmd_sim.controllers.avoid import Avoider, AvoidParams
 from lgmd_sim.fileio import write_files
 from lgmd_sim.policies.config import PolicyConfig
 
-__all__ = ["ENT_WEIGHT", "FIT_BATCH", "FIT_EPOCHS", "FIT_LEARNING_RATE", "AlarmAvoid", "Labels",
-           "Teacher", "beta", "collect", "critic_only", "fit", "imitate"]
+__all__ = ["ENT_WEIGHT", "FIT_BATCH", "FIT_EPOCHS", "FIT_LEARNING_RATE", "STUDENT_ACTIONS",
+           "AlarmAvoid", "Labels", "Teacher", "beta", "collect", "critic_only", "fit", "imitate"]
 
 #: Weight of the entropy bonus in the cloning loss (imitation's default).
 ENT_WEIGHT = 1e-3
@@ -251,33 +251,42 @@ def fit(policy: Any, obs: Mapping[str, np.ndarray], actions: np.ndarray, *, epoc
     return loss_sum
 
 
-#: Cloning's epochs over the aggregate after each round, minibatch size and Adam's step
-#: size (imitation's BC defaults but the epochs: the aggregate grows each round, so a few
-#: passes over all of it refit every label).
+#: Cloning's epochs over the aggregate after each round (the default of
+#: ``--dagger-epochs``), minibatch size and Adam's step size (imitation's BC defaults but
+#: the epochs: the aggregate grows each round, so a few passes over all of it refit every
+#: label).
 FIT_EPOCHS, FIT_BATCH, FIT_LEARNING_RATE = 4, 256, 3e-4
+
+#: How the student acts on the steps it drives in a round (``--dagger-student``): "sample"
+#: draws from its Gaussian, as RL explores; "mean" takes its mean, the action validation
+#: and evaluation execute, so the rounds visit the states the deterministic policy
+#: reaches (imitation's DAgger samples; a wide Gaussian then drives elsewhere).
+STUDENT_ACTIONS = ("sample", "mean")
 
 
 def imitate(model: Any, venv: Any, reset_infos: Callable[[], Sequence[Mapping[str, Any]]],
             teacher: Teacher, labels: Labels, *, rounds: int, steps: int, first_round: int,
-            seed: int, after_round: Callable[[int, float, float], None]) -> None:
+            seed: int, after_round: Callable[[int, float, float], None],
+            epochs: int = FIT_EPOCHS, student_actions: str = "sample") -> None:
     """Rounds `first_round` to ``rounds - 1`` of DAgger on `model`'s policy (a
     stable-baselines3 PPO model) in `venv` (its training VecNormalize), ``steps / rounds``
-    environment steps each, `labels` the aggregate so far (extended in place). The
-    observation statistics are those after round 0 (the teacher driving) in every fit.
-    After each round, `model.num_timesteps` counts its steps and ``after_round(round,
-    beta, loss)`` runs (validation, checkpoint, record)."""
+    environment steps each, `labels` the aggregate so far (extended in place), the student
+    acting by `student_actions` (`STUDENT_ACTIONS`) and fitted for `epochs` epochs after
+    each round. The observation statistics are those after round 0 (the teacher driving)
+    in every fit. After each round, `model.num_timesteps` counts its steps and
+    ``after_round(round, beta, loss)`` runs (validation, checkpoint, record)."""
     vector_steps = steps // rounds // venv.num_envs  # at least 1: TrainConfig checks
     rng = np.random.default_rng([seed, first_round])
     for k in range(first_round, rounds):
         venv.training = k == 0  # the normalisation learns from round 0 only
 
         def student(norm: Mapping[str, np.ndarray]) -> np.ndarray:
-            return model.predict(norm, deterministic=False)[0]
+            return model.predict(norm, deterministic=student_actions == "mean")[0]
 
         obs, actions, _ = collect(venv, reset_infos, student, teacher, vector_steps,
                                   beta(k, rounds), rng)
         labels.extend(obs, actions)
-        loss = fit(model.policy, labels.obs, labels.actions, epochs=FIT_EPOCHS,
+        loss = fit(model.policy, labels.obs, labels.actions, epochs=epochs,
                    batch_size=FIT_BATCH, learning_rate=FIT_LEARNING_RATE, seed=seed + k,
                    normalize=venv.normalize_obs)
         model.num_timesteps += vector_steps * venv.num_envs

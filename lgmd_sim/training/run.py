@@ -44,6 +44,7 @@ from lgmd_sim.fileio import write_text_atomic
 from lgmd_sim.policies.config import PolicyConfig
 from lgmd_sim.policies.folder import ALGOS, OBS
 from lgmd_sim.runs import RunFolder, RunResult
+from lgmd_sim.training.dagger import FIT_EPOCHS, STUDENT_ACTIONS
 from lgmd_sim.training.summary import summary_markdown, trained, validation_rows
 
 if TYPE_CHECKING:
@@ -96,6 +97,9 @@ class TrainConfig:
             before RL; None: RL from the start. PPO only.
         imitation_steps: environment steps of the DAgger rounds (part of `steps`).
         dagger_rounds: DAgger rounds, each ``imitation_steps / dagger_rounds`` steps.
+        dagger_epochs: cloning's epochs over the labels kept after each round.
+        dagger_student: how the student acts on the steps it drives in the rounds,
+            "sample" or "mean" (`lgmd_sim.training.dagger.STUDENT_ACTIONS`).
         value_warmup: environment steps of PPO after the DAgger rounds in which only the
             value function learns (`lgmd_sim.training.dagger.critic_only`), part of
             `steps`; 0: none. Given when resuming a run past its DAgger rounds that had
@@ -123,6 +127,8 @@ class TrainConfig:
     teacher: str | None = None
     imitation_steps: int = 100_000
     dagger_rounds: int = 10
+    dagger_epochs: int = FIT_EPOCHS
+    dagger_student: str = "sample"
     value_warmup: int = 0
 
     def __post_init__(self) -> None:
@@ -177,9 +183,12 @@ class TrainConfig:
         object.__setattr__(self, "reward", tuple(self.reward))
         parse_reward(self.reward)
         self.stages  # noqa: B018  (loads the curriculum once: a bad one is one line now)
-        for key in ("imitation_steps", "dagger_rounds"):
+        for key in ("imitation_steps", "dagger_rounds", "dagger_epochs"):
             options.check_positive(getattr(self, key), f"--{key.replace('_', '-')}",
                                    integer=True)
+        if self.dagger_student not in STUDENT_ACTIONS:
+            raise ValueError(f"--dagger-student must be one of {', '.join(STUDENT_ACTIONS)}, "
+                             f"got {self.dagger_student!r}")
         if not (isinstance(self.value_warmup, int) and not isinstance(self.value_warmup, bool)
                 and self.value_warmup >= 0):
             raise ValueError(f"--value-warmup must be a non-negative integer, got "
@@ -482,7 +491,8 @@ def _imitate(config: TrainConfig, model: Any, venv: Any, envs: Any, checkpoints:
 
     dagger.imitate(model, venv, lambda: envs.base.reset_infos, teacher, labels,
                    rounds=config.dagger_rounds, steps=config.imitation_steps,
-                   first_round=first, seed=config.seed, after_round=after_round)
+                   first_round=first, seed=config.seed, after_round=after_round,
+                   epochs=config.dagger_epochs, student_actions=config.dagger_student)
     return time.perf_counter() - start
 
 

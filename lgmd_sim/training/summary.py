@@ -11,6 +11,7 @@ from pathlib import Path
 from typing import Any
 
 from lgmd_sim.policies.config import PolicyConfig
+from lgmd_sim.training.dagger import FIT_EPOCHS
 
 __all__ = ["grid_text", "summary_markdown", "trained", "update_sizes", "validation_rows"]
 
@@ -65,8 +66,12 @@ def summary_markdown(folder: Path) -> str:
                          f"{rate} | {'yes' if st['passed'] else 'no'} |")
     rounds = [(i, r) for i, s in enumerate(record["sessions"]) for r in s.get("imitation", [])]
     if rounds:
+        how = "".join([f"; {o['dagger_epochs']} epochs of cloning a round"
+                       if o.get("dagger_epochs", FIT_EPOCHS) != FIT_EPOCHS else "",
+                       "; the student driving by its mean action"
+                       if o.get("dagger_student") == "mean" else ""])
         lines += ["", f"DAgger from {o['teacher']} ({o['imitation_steps']:,} steps in "
-                  f"{o['dagger_rounds']} rounds; beta: the share of steps the teacher "
+                  f"{o['dagger_rounds']} rounds{how}; beta: the share of steps the teacher "
                   "drove; validation after each round):", "",
                   "| session | round | beta | at step | labels | cloning loss | "
                   "val success | val collisions |", "|---:|---:|---:|---:|---:|---:|---:|---:|"]
