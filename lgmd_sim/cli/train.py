@@ -96,7 +96,7 @@ def add(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--dagger-epochs", type=int, metavar="N",
                    help="cloning's epochs over all the labels kept, after each DAgger round "
                    "(default 4)")
-    p.add_argument("--dagger-student", choices=("sample", "mean"),
+    p.add_argument("--dagger-student", metavar="sample|mean",
                    help="how the student acts on the steps it drives in the DAgger rounds: "
                    "sample its Gaussian (default) or take its mean, the action validation and "
                    "lgmd-sim eval execute")
