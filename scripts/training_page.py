@@ -247,10 +247,13 @@ def shipped(eval_runs: list[Path], train_runs: list[Path], choice_run: Path | No
     `choice_run` is given) and whether it played that policy's episodes of the other
     evaluations, seed by seed (`_outcome`)."""
     played: dict[str, dict[tuple[str, str], tuple[str, ...]]] = defaultdict(dict)
+    cpu_of: dict[str, str] = {}  # the processor of the evaluation that played a tag first
     for run in eval_runs:
+        cpu = json.loads((run / "run.json").read_text())["machine"].get("cpu", "?")
         for r in _episodes(run):
             if r["controller"] == "policy":
                 played[r["tag"]].setdefault((r["jitter"], r["seed"]), _outcome(r))
+                cpu_of.setdefault(r["tag"], cpu)
     folders = [f for run in train_runs for f in (run, run / "best")
                if (f / MODEL_FILE).is_file()]
     out = []
@@ -267,8 +270,11 @@ def shipped(eval_runs: list[Path], train_runs: list[Path], choice_run: Path | No
         mine, theirs = played[name], played.get(tag, {})
         both = sorted(set(mine) & set(theirs))
         differ = sum(mine[k] != theirs[k] for k in both)
+        where = ("" if cpu_of[name] == cpu_of.get(tag, cpu_of[name]) else
+                 f" ({name} on {cpu_of[name]}, {tag} on {cpu_of[tag]}: another processor, "
+                 "whose floating-point results the closed loop grows into other paths)")
         out.append(f"- The shipped policy {name} is {tag} (the same {MODEL_FILE}); on the "
-                   f"{len(both)} episodes both evaluations played, "
+                   f"{len(both)} episodes both evaluations played{where}, "
                    + (f"it played every one as {tag} did." if not differ else
                       f"{differ} ended otherwise than {tag}'s."))
     return out

@@ -31,7 +31,7 @@ __all__ = ["DEFAULT", "EVAL_SEEDS", "EVAL_TOP_VIEWS", "LoadedPolicy", "Normalize
            "PolicyConfig", "available", "load", "load_config", "name_of", "path", "resolve", "save"]
 
 #: The shipped policy that `lgmd-sim eval` (and the "policy" controller) use by default.
-DEFAULT = "lgmd1-student"
+DEFAULT = "feedback-student"
 #: Episodes per cell of `lgmd-sim eval` by default: those of the evaluation that a shipped
 #: policy's POLICY.md and docs/training.md quote, so that the defaults reproduce its rows.
 EVAL_SEEDS = 30
