@@ -10,12 +10,13 @@ keeps every finished job; calling it again with the rest resumes.
 What is costly to set up and can serve one job after another (an environment, with its
 compiled scene and its GL context) a job takes from `kept`: made once in each process of
 the run and handed to the run's later jobs there, so that a pool's throughput is that of
-its episodes, not of their set-up.
+its episodes, not of their set-up. A `Pool` keeps its workers, and so what they keep,
+from one `run_jobs` call to the next.
 
-The workers end with the run, whatever ends it: an error, SIGTERM or Ctrl-C here stop
-them within seconds (SIGTERM, which lets a job remove its temporaries, then SIGKILL), and
-they stop by themselves when this process ends, even killed outright (on Linux at once,
-elsewhere after their job).
+The workers end with the run (a `Pool`'s when it closes), whatever ends it: an error,
+SIGTERM or Ctrl-C here stop them within seconds (SIGTERM, which lets a job remove its
+temporaries, then SIGKILL), and they stop by themselves when this process ends, even
+killed outright (on Linux at once, elsewhere after their job).
 
 >>> from lgmd_sim.parallel import Job, run_jobs
 >>> jobs = [Job(f"seed{s}", my_episode, {"seed": s}) for s in range(50)]
@@ -41,7 +42,7 @@ from multiprocessing.context import BaseContext
 from multiprocessing.process import BaseProcess
 from typing import Any, TypeVar
 
-__all__ = ["KEEP", "Job", "WorkerDied", "default_workers", "kept", "run_jobs",
+__all__ = ["KEEP", "Job", "Pool", "WorkerDied", "default_workers", "kept", "run_jobs",
            "stop_again_if_swallowed", "stop_again_when_swallowed"]
 
 T = TypeVar("T")
@@ -181,7 +182,8 @@ class _Progress:
 
 def run_jobs(jobs: Sequence[Job], on_result: Callable[[Job, Any], None], *,
              workers: int | None = None, ray_address: str | None = None,
-             progress: bool | None = None, desc: str = "running", unit: str = "episode",
+             pool: Pool | None = None, progress: bool | None = None,
+             desc: str = "running", unit: str = "episode",
              count: Callable[[Any], int] | None = None, item_unit: str = "frame") -> None:
     """Run every job; call ``on_result(job, result)`` here as each finishes.
 
@@ -193,6 +195,8 @@ def run_jobs(jobs: Sequence[Job], on_result: Callable[[Job, Any], None], *,
         ray_address: run the jobs as Ray tasks instead: "local" starts a Ray instance
             on this machine, "auto" or "HOST:PORT" joins a running cluster (needs the
             ``ray`` extra).
+        pool: run the jobs on this started `Pool` (not with `workers` or
+            `ray_address`), which stays up for the caller's next runs.
         progress: show a progress bar on stderr (None: only on a terminal).
         desc, unit: the progress bar's label and what a job is called.
         count: the number of items (frames) in a result: the bar then shows items/s too.
@@ -201,13 +205,17 @@ def run_jobs(jobs: Sequence[Job], on_result: Callable[[Job, Any], None], *,
     Raises:
         WorkerDied: a worker ended while running a job (the job is named); the results
             of the jobs that finished before have been handed to ``on_result``.
-        ValueError: duplicate keys, or a bad ``workers`` value.
+        ValueError: duplicate keys, a bad ``workers`` value, or `pool` with `workers`
+            or `ray_address`.
     """
     keys = [job.key for job in jobs]
     if len(set(keys)) != len(keys):
         raise ValueError("run_jobs: job keys must be unique")
     if workers is not None and (not isinstance(workers, int) or workers < 1):
         raise ValueError(f"workers must be a positive integer, got {workers!r}")
+    if pool is not None and (workers is not None or ray_address is not None):
+        raise ValueError("run_jobs: a pool runs the jobs on its own workers: give pool, "
+                         "or workers or ray_address, not both")
     if not jobs:
         return
     bar = _Progress(len(jobs), desc, unit, progress, item_unit if count else None)
@@ -217,14 +225,17 @@ def run_jobs(jobs: Sequence[Job], on_result: Callable[[Job, Any], None], *,
         bar.advance(count(result) if count else 0)
 
     try:
-        if ray_address is not None:
+        if pool is not None:
+            pool.run(jobs, store)
+        elif ray_address is not None:
             _run_on_ray(jobs, store, ray_address)
         elif (workers or default_workers()) == 1 or len(jobs) == 1:
             with _keeping():
                 for job in jobs:
                     store(job, _call(job.fn, job.kwargs))
         else:
-            _run_on_pool(jobs, store, min(workers or default_workers(), len(jobs)))
+            with Pool(min(workers or default_workers(), len(jobs))) as own:
+                own.run(jobs, store)
     finally:
         bar.close()
 
@@ -402,31 +413,77 @@ def _stops_held() -> Iterator[None]:
             os.kill(os.getpid(), s)  # now, to the handlers of the run
 
 
-def _run_on_pool(jobs: Sequence[Job], on_result: Callable[[Job, Any], None], workers: int
-                 ) -> None:
-    # Fresh interpreters (spawn): a fork would copy this process's threads and GL state.
-    # One pipe per worker and no threads here: a signal ends the run at once, and a
-    # worker dying part-way through sending a result is an end of file, never a hang.
-    context = multiprocessing.get_context("spawn")
-    pool: list[_Worker] = []
-    queue = deque(jobs)
-    try:
-        for _ in range(workers):
-            _start_worker(context, pool)
-        while queue or any(worker.job is not None for worker in pool):
-            # A job to each idle worker, none queued behind a running one: at the end of
-            # a run a worker would wait idle while another still had two jobs to run.
-            for worker in pool:
-                if queue and worker.job is None:
-                    worker.send(queue.popleft())
-            ready = wait([worker.conn for worker in pool if worker.job is not None])
-            for worker in sorted((w for w in pool if w.conn in ready),
-                                 key=lambda w: w.job.key):
-                result = worker.receive()
-                job, worker.job = worker.job, None
-                on_result(job, result)
-    finally:
-        _stop(pool)
+class Pool:
+    """Local worker processes that live across runs: each started once (a fresh
+    interpreter, its imports, and through `kept` its environments with their GL
+    contexts), then given the jobs of one `run_jobs` call after another, so that a job
+    that comes later pays no start-up. `run_jobs` with ``workers=N`` starts one for its
+    own jobs; pass one as ``pool=`` to share it between calls (a job's two phases) or to
+    start it before a timed span. An error or a stop during a run ends its workers: the
+    pool is then closed, and a later run raises.
+
+    >>> with Pool(2) as pool:
+    ...     run_jobs(clips, store_clip, pool=pool)
+    ...     run_jobs(scores, store_score, pool=pool)  # the same two processes
+    """
+
+    def __init__(self, workers: int) -> None:
+        if not isinstance(workers, int) or workers < 1:
+            raise ValueError(f"workers must be a positive integer, got {workers!r}")
+        # Fresh interpreters (spawn): a fork would copy this process's threads and GL
+        # state. One pipe per worker and no threads here: a signal ends the run at once,
+        # and a worker dying part-way through sending a result is an end of file, never a
+        # hang.
+        context = multiprocessing.get_context("spawn")
+        self._workers: list[_Worker] = []
+        self._closed = False
+        try:
+            for _ in range(workers):
+                _start_worker(context, self._workers)
+        except BaseException:
+            self.close()
+            raise
+
+    @property
+    def size(self) -> int:
+        """Its number of worker processes."""
+        return len(self._workers)
+
+    def run(self, jobs: Sequence[Job], on_result: Callable[[Job, Any], None]) -> None:
+        """Every job on the workers, ``on_result(job, result)`` here as each finishes."""
+        if self._closed:
+            raise RuntimeError("this Pool is closed (its run failed or it was closed)")
+        queue = deque(jobs)
+        ok = False
+        try:
+            while queue or any(worker.job is not None for worker in self._workers):
+                # A job to each idle worker, none queued behind a running one: at the end
+                # of a run a worker would wait idle while another still had two jobs.
+                for worker in self._workers:
+                    if queue and worker.job is None:
+                        worker.send(queue.popleft())
+                ready = wait([w.conn for w in self._workers if w.job is not None])
+                for worker in sorted((w for w in self._workers if w.conn in ready),
+                                     key=lambda w: w.job.key):
+                    result = worker.receive()
+                    job, worker.job = worker.job, None
+                    on_result(job, result)
+            ok = True
+        finally:
+            if not ok:
+                self.close()
+
+    def close(self) -> None:
+        """End the workers (those busy with a job too); closing again does nothing."""
+        if not self._closed:
+            self._closed = True
+            _stop(self._workers)
+
+    def __enter__(self) -> Pool:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
 
 
 def _stop(pool: Sequence[_Worker]) -> None:

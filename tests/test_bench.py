@@ -193,6 +193,7 @@ def test_speed_closed_loop_prints_both_tables(capsys):
     assert {f"ReactiveAvoid({name})" for name in models.available()} <= rows
     assert "share of the time in the environment's step" in out
     assert "closed-loop episodes" in out and "the environment alone" in out
+    assert "Start-up before the timing" in out  # the pools warmed, outside the timing
 
 
 def test_open_loop_runs_detectors_with_front_ends(tmp_path):

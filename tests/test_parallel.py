@@ -1,4 +1,5 @@
-"""lgmd_sim.parallel: the same results in process and on a pool; a dead worker named."""
+"""lgmd_sim.parallel: the same results in process and on a pool; a dead worker named; a
+Pool's workers kept from run to run."""
 
 from __future__ import annotations
 
@@ -7,7 +8,7 @@ import signal
 
 import pytest
 
-from lgmd_sim.parallel import Job, WorkerDied, run_jobs
+from lgmd_sim.parallel import Job, Pool, WorkerDied, run_jobs
 
 
 def square(x: int) -> dict[str, int]:  # importable by spawned workers (tests/ is on sys.path)
@@ -47,3 +48,29 @@ def test_bad_arguments():
         run_jobs([Job("a", square, {"x": 1})] * 2, lambda *a: None)
     with pytest.raises(ValueError, match="workers"):
         run_jobs([Job("a", square, {"x": 1})], lambda *a: None, workers=0)
+
+
+def test_a_pool_keeps_its_workers_from_run_to_run():
+    with Pool(2) as pool:
+        first = _collect([Job(f"a{x}", square, {"x": x}) for x in range(4)], pool=pool)
+        second = _collect([Job(f"b{x}", square, {"x": x}) for x in range(4)], pool=pool)
+    assert {k[1:]: v["square"] for k, v in first.items()} == {
+        k[1:]: v["square"] for k, v in second.items()}
+    pids = {v["pid"] for v in first.values()}
+    assert len(pids) == 2 and {v["pid"] for v in second.values()} == pids
+
+
+def test_a_failed_run_closes_its_pool():
+    with Pool(2) as pool:
+        with pytest.raises(WorkerDied, match="dies"):
+            _collect([Job("dies", die, {"x": 0})], pool=pool)
+        with pytest.raises(RuntimeError, match="closed"):
+            _collect([Job("after", square, {"x": 1})], pool=pool)
+
+
+def test_a_pool_is_not_given_with_workers_or_ray():
+    with Pool(1) as pool:
+        with pytest.raises(ValueError, match="not both"):
+            run_jobs([Job("a", square, {"x": 1})], lambda *a: None, pool=pool, workers=2)
+    with pytest.raises(ValueError, match="workers"):
+        Pool(0)

@@ -81,9 +81,9 @@ def add(sub: argparse._SubParsersAction) -> None:
                    help="rl (120x160, default), paper, small or HxW")
     b.add_argument("--steps", type=positive_int, default=600,
                    help="steps timed per run (default %(default)s)")
-    b.add_argument("--episodes", type=positive_int, default=12,
-                   help="episodes per worker count (default %(default)s; worker start-up "
-                   "is counted: enough episodes make it small)")
+    b.add_argument("--episodes", type=positive_int, default=24,
+                   help="timed episodes per worker count (default %(default)s; each pool "
+                   "is started and warmed before the timing)")
     b.add_argument("--markdown", action="store_true", help="print the table as Markdown")
 
     b = speed.add_parser(
