@@ -81,7 +81,7 @@ def drive(seed: int, jitter: float, detectors: list[str],
 
     specs = {d: models.parse_spec(d) for d in detectors}
     built = {d: models.make(name, preset=preset) for d, (name, preset) in specs.items()}
-    env = gym.make(SCENARIO, jitter=jitter, resolution=resolution)
+    env = gym.make(SCENARIO, jitter=jitter, resolution=resolution, ssim=True)
     rec: dict[str, list] = {k: [] for k in ("frames", "s", "dist", "ttc", "shake", "ssim")}
     potentials: dict[str, list[float]] = {d: [] for d in detectors}
     collision = None

@@ -34,7 +34,7 @@ def label(img: np.ndarray, text: str) -> np.ndarray:
 
 
 def episode(env_id: str, seed: int, **overrides) -> tuple[list[np.ndarray], list[dict]]:
-    env = gym.make(env_id, resolution="paper", **overrides)
+    env = gym.make(env_id, resolution="paper", ssim=True, **overrides)
     steps = list(rollout(env, Straight(heading_gain=0.0), seed=seed))
     env.close()
     return [s.obs["frame"] for s in steps], [s.info for s in steps]

@@ -24,7 +24,7 @@ def measure(env_id: str, jitter: float, seeds: int, steps: int, resolution: str
     """Mean ISI and RMS camera angular speed (rad/s) over `seeds` episodes."""
     isis, rates = [], []
     for seed in range(seeds):
-        env = gym.make(env_id, resolution=resolution, jitter=jitter)
+        env = gym.make(env_id, resolution=resolution, jitter=jitter, ssim=True)
         frames = itertools.islice(rollout(env, Straight(heading_gain=0.0), seed=seed),
                                   1, steps + 1)  # the frames after the reset frame
         ssim, spin = zip(*((s.info["ssim"], np.linalg.norm(s.info["camera_angvel"]))

@@ -21,8 +21,9 @@ def make(**overrides) -> gym.Env:
 
 
 def run(frame: str) -> tuple[list, gym.Env]:
-    """Reset, then STEPS seeded random actions (resetting after an episode's end)."""
-    env = make(frame=frame)
+    """Reset, then STEPS seeded random actions (resetting after an episode's end), with
+    the SSIM asked for."""
+    env = make(frame=frame, ssim=True)
     actions = np.random.default_rng(0).uniform(-1, 1, (STEPS, 2))
     out = [env.reset(seed=3)]
     for a in actions:

@@ -25,7 +25,7 @@ def drive(world: JitterWorld, steps: int, v: float = 1.0, omega: float = 0.0) ->
 
 
 def isi(params: SceneParams, steps: int, seed: int = 0) -> float:
-    world = JitterWorld(params)
+    world = JitterWorld(params, ssim=True)
     try:
         world.reset(seed=seed)
         return float(np.mean([t["ssim"] for t in drive(world, steps)]))
@@ -141,7 +141,7 @@ def test_camera_is_rigid_on_the_robot_over_rough_ground():
 
 
 def test_tripod_ignores_commands_and_holds_still():
-    world = JitterWorld(SceneParams(carrier="tripod", jitter=0.0, resolution=SMALL))
+    world = JitterWorld(SceneParams(carrier="tripod", jitter=0.0, resolution=SMALL), ssim=True)
     world.reset(seed=0)
     start = world.truth["camera_pos"].copy()
     frame0 = world.rgb.copy()
@@ -314,3 +314,50 @@ def test_shadows_and_multisampling_can_be_switched_on():
         frames.append(world.rgb.copy())
         world.close()
     assert not np.array_equal(*frames)
+
+
+@pytest.mark.parametrize("params", [
+    SceneParams(carrier="robot", jitter=1.0, resolution=SMALL, n_obstacles=4,
+                obstacle_ahead=3.0, scenery=0),
+    SceneParams(carrier="tripod", jitter=0.0, resolution=SMALL, mover="ball",
+                mover_distance=6.0, mover_speed=30.0),
+], ids=["robot-among-obstacles", "fast-ball"])
+def test_contacts_skipped_only_where_no_touch_can_be(params, monkeypatch):
+    """`_may_touch` skips reading the contacts in frames where no carrier geom can reach a
+    threat's: the collisions are those found reading them at every physics step."""
+    def collisions(always: bool) -> tuple[list[bool], int]:
+        world = JitterWorld(params)
+        skipped = 0
+        may_touch = world._may_touch
+
+        def counted() -> bool:
+            nonlocal skipped
+            near = may_touch()
+            skipped += not near
+            return True if always else near
+
+        monkeypatch.setattr(world, "_may_touch", counted)
+        world.reset(seed=1)
+        hits = [t["collision"] for t in drive(world, 90, v=1.0)]
+        world.close()
+        return hits, skipped
+
+    (hits, skipped), (every, _) = collisions(False), collisions(True)
+    assert any(hits) and hits == every
+    assert skipped > 10  # the frames far from any threat read no contact
+
+
+def test_ssim_is_in_the_truth_only_when_asked_and_changes_nothing_else():
+    params = SceneParams(carrier="robot", jitter=1.0, resolution=SMALL, n_obstacles=2)
+    truths = {}
+    for asked in (False, True):
+        world = JitterWorld(params, ssim=asked)
+        world.reset(seed=4)
+        truths[asked] = [world.truth, *drive(world, 5)]
+        world.close()
+    assert all("ssim" not in t for t in truths[False])
+    assert math.isnan(truths[True][0]["ssim"]) and all(0 < t["ssim"] <= 1
+                                                        for t in truths[True][1:])
+    for plain, with_ssim in zip(truths[False], truths[True], strict=True):
+        assert plain.keys() == with_ssim.keys() - {"ssim"}
+        assert all(np.array_equal(plain[k], with_ssim[k]) for k in plain)

@@ -252,7 +252,7 @@ def make_episode(spec: EpisodeSpec) -> EpisodeResult:
     columns: dict[str, list] = {name: [] for name in layout.label_schema(spec.models,
                                                                          spec.noise).names}
     nan3 = np.full(3, np.nan, np.float32)
-    with episode_env(spec.scenario, **spec.overrides) as env:
+    with episode_env(spec.scenario, ssim=True, **spec.overrides) as env:  # ssim: a label
         params = env.unwrapped.params
         with scratch_folder("lgmd-sim-episode") as tmp:
             video = tmp / f"episode{fmt.suffix}"

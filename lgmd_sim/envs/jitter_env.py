@@ -53,9 +53,9 @@ class JitterEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
       ``pose_rotation``, and from its IMU, ``imu_rotation`` (the camera's angular velocity
       integrated over the frame's physics steps, with ``gyro_noise`` and ``gyro_bias``),
       the most threatening obstacle's (or arena wall's; one touched in the frame first)
-      index, distance, bearing, closing
-      speed and time to collision, collision flag and first collision frame, SSIM with
-      the previous frame (NaN when ``frame="none"``), goal distance and bearing,
+      index, distance, bearing, closing speed and time to collision, collision flag and
+      first collision frame, with ``ssim=True`` ``ssim`` (the SSIM with the previous
+      frame; NaN on the reset frame and when ``frame="none"``), goal distance and bearing,
       ``task_reward`` (on steps), ``goal_reached`` and its alias
       ``is_success`` (the key stable-baselines3 logs as the success rate).
 
@@ -63,20 +63,23 @@ class JitterEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         scenario: a catalogue scenario name (envs/<name>.toml) or None for the defaults.
         render_mode: None or "rgb_array" (the camera view, rendered on demand when
             ``frame="none"``; the chase view when ``render_camera="chase"``).
+        ssim: put each frame's SSIM with the previous one in ``info["ssim"]``. Off unless
+            asked: it costs about a twentieth of a frame's render, and only datasets and
+            the demo read it.
         **overrides: any parameter of `EnvParams` (see ``lgmd-sim envs <name>``).
     """
 
     metadata: ClassVar[dict[str, Any]] = {"render_modes": ["rgb_array"], "render_fps": 30}
 
-    def __init__(self, scenario: str | None = None, render_mode: str | None = None,
-                 **overrides: Any) -> None:
+    def __init__(self, scenario: str | None = None, render_mode: str | None = None, *,
+                 ssim: bool = False, **overrides: Any) -> None:
         if render_mode not in (None, "rgb_array"):
             raise ValueError(f"render_mode must be None or 'rgb_array', got {render_mode!r}")
         self.params: EnvParams = params_for(scenario, overrides)
         self.scenario = scenario
         self.render_mode = render_mode
         self.metadata = {**self.metadata, "render_fps": self.params.fps}
-        self.world = JitterWorld(self.params)
+        self.world = JitterWorld(self.params, ssim=ssim)
         h, w = self.params.size
         obs: dict[str, spaces.Space] = {}
         if self.params.frame != "none":

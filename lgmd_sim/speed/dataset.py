@@ -38,7 +38,7 @@ def drive(scenario: str, overrides: dict[str, Any], seed: int, controller: str) 
     from lgmd_sim import controllers
     from lgmd_sim.envs.reuse import episode_env
 
-    with episode_env(scenario, **overrides) as env:
+    with episode_env(scenario, ssim=True, **overrides) as env:  # as the dataset's
         return sum(1 for _ in controllers.rollout(env, controllers.make(controller), seed=seed))
 
 

@@ -2,8 +2,9 @@
 
 For every scenario of the catalogue, at 120 x 160 and at the paper's 270 x 480:
 
-- a full environment step (physics substeps, rendering, proprioception and ground truth
-  with SSIM), timed over ``--steps`` steps with resets outside the timing;
+- a full environment step (physics substeps, rendering, proprioception and ground truth;
+  no SSIM, which only its consumers ask for), timed over ``--steps`` steps with resets
+  outside the timing;
 - a bare render of the same views: after each step, the state it left rendered again into
   one buffer, nothing else, timed apart. Not a loop over one state: a view's cost
   depends on what it shows (the terrain's tiles in view, the obstacles), so one state's

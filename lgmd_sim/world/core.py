@@ -9,8 +9,13 @@
 >>> world.render_camera()                  # a bare render of the current state
 >>> world.close()
 
+``JitterWorld(params, ssim=True)`` adds ``truth["ssim"]``, each frame's SSIM with the
+previous one (NaN on frame 0): a streaming SSIM costs about a twentieth of a frame's
+render, so only a consumer that reads it asks (datasets, the demo).
+
 A frameless world (``frame="none"``) renders nothing on reset and step: ``rgb`` and
-``grey`` stay black, ``truth["ssim"]`` is NaN, and no GL context is opened until
+``grey`` stay black, ``truth["ssim"]`` (where asked for) is NaN, and no GL context is
+opened until
 `render_camera` or `render_chase` asks for a view. Rendering draws no random numbers and
 touches nothing the physics reads, so physics and every other truth key are the same bit
 for bit as with frames.
@@ -42,6 +47,9 @@ SETTLE_TIME = 0.5
 LOD_PIXELS = 3.0
 #: A distance query returns this when nothing is nearer (m).
 FAR = 1000.0
+#: Above any closing speed of a carrier's geom and a threat's (m/s), beside twice the
+#: carrier's top speed and the mover's: the reach within which `_may_touch` looks.
+CLOSING_SPEED_MARGIN = 10.0
 #: IMU saturation, as a typical MEMS IMU: +-2000 deg/s, +-16 g.
 GYRO_RANGE = math.radians(2000.0)
 ACCEL_RANGE = 16 * 9.81
@@ -59,9 +67,10 @@ class JitterWorld:
 
     Args:
         params: what the world contains and how it is seen (see `SceneParams`).
+        ssim: add ``truth["ssim"]``, the SSIM of each frame with the previous one.
     """
 
-    def __init__(self, params: SceneParams) -> None:
+    def __init__(self, params: SceneParams, *, ssim: bool = False) -> None:
         self.params = params
         self.scene = scene_mod.build(params)
         self.model = self.scene.model
@@ -71,7 +80,7 @@ class JitterWorld:
         self.grey = np.zeros((self.height, self.width), np.uint8)
         self.truth: dict[str, Any] = {}
         self._renderer: OffscreenRenderer | None = None  # made on first use: GL per process
-        self._ssim = SSIMStream(self.height, self.width)
+        self._ssim = SSIMStream(self.height, self.width) if ssim else None
         self._hit = self._collision_table()
         self._owner_of = np.full(self.model.ngeom, -1)  # threat owner of each geom
         self._owner_of[self.scene.threat_geoms] = self.scene.threat_owner
@@ -95,6 +104,12 @@ class JitterWorld:
         self._owner_geoms = [[int(g) for g in self.scene.threat_geoms[self.scene.threat_owner == i]]
                              for i in range(self.scene.n_threats)]
         self._threat_rbound = np.zeros(len(self.scene.threat_geoms))  # per episode
+        # Bounding spheres plus contact margins (per episode, as the obstacles' sizes), for
+        # `_may_touch`; a plane's rbound is 0 (unbounded): it may always touch.
+        self._carrier_reach = np.zeros(len(self.scene.carrier_geoms))
+        self._threat_reach = np.zeros(len(self.scene.threat_geoms))
+        self._frame_reach = (CLOSING_SPEED_MARGIN + 2 * (params.max_speed + params.mover_speed)
+                             ) * params.substeps * self.model.opt.timestep
         self._has_mover = params.mover != "none"  # then the last threat owner
         # Arena walls: their bounding spheres (half a wall long) rank nothing, so the exact
         # distance of every wall is computed each frame.
@@ -133,12 +148,15 @@ class JitterWorld:
         self._settle()
         randomise.launch_mover(rng, m, d, sc, p, self._heights)
         self._threat_rbound = m.geom_rbound[sc.threat_geoms]
+        self._carrier_reach = self._reach(sc.carrier_geoms)
+        self._threat_reach = self._reach(sc.threat_geoms)
         d.time = 0.0
         self._apply_light(0.0)
         mujoco.mj_forward(m, d)
         self.frame_index = 0
         self.first_collision_frame = -1
-        self._ssim.reset()
+        if self._ssim is not None:
+            self._ssim.reset()
         # drawn last, so that the rest of the episode is the same with or without them
         self._imu_rng = np.random.default_rng(rng.integers(2**63))
         self._gyro_bias = self._imu_rng.normal(0.0, math.radians(p.gyro_bias), 3)
@@ -179,13 +197,16 @@ class JitterWorld:
         gyro = self._gyro_readings(n)
         imu, vel = self._imu_quat, self._vel
         imu[:] = (1.0, 0.0, 0.0, 0.0)
+        # The contacts are read at every physics step, so that a touch in one is never
+        # missed, but only in frames where some carrier geom may reach a threat's.
+        may_touch = self._may_touch()
         for k in range(n):
             if poses is not None:
                 mocap_pos[:] = poses[0][k]
                 mocap_quat[:] = poses[1][k]
             mujoco.mj_step2(m, d)
             mujoco.mj_step1(m, d)
-            if d.ncon and not touched:
+            if may_touch and d.ncon and not touched:
                 touched = self._touching()
             # The velocity that moved the camera in this physics step (the integrator's
             # new one), in the camera's frame: integrated, it gives the rotation exactly.
@@ -338,12 +359,15 @@ class JitterWorld:
             # Fresh arrays each frame (np.empty is free): callers may keep them as they are.
             self.rgb = self._render(self.scene.camera, None)
             self.grey = cv2.cvtColor(self.rgb, cv2.COLOR_RGB2GRAY)
-            ssim = self._ssim.push(self.grey)
+            if self._ssim is not None:
+                ssim = self._ssim.push(self.grey)
         if touched and self.first_collision_frame < 0:
             self.first_collision_frame = self.frame_index
-        self.truth = self._ground_truth(touched, ssim)
+        self.truth = self._ground_truth(touched)
+        if self._ssim is not None:
+            self.truth["ssim"] = ssim
 
-    def _ground_truth(self, touched: frozenset[int], ssim: float) -> dict[str, Any]:
+    def _ground_truth(self, touched: frozenset[int]) -> dict[str, Any]:
         m, d, sc = self.model, self.data, self.scene
         cam = sc.camera
         cam_pos = d.cam_xpos[cam].copy()
@@ -366,7 +390,6 @@ class JitterWorld:
             "imu_rotation": self._imu_rotation.copy(),
             "collision": bool(touched),
             "first_collision_frame": self.first_collision_frame,
-            "ssim": ssim,
         }
         truth.update(self._threat(cam_pos, cam_mat @ velocity[3:], forward, left, touched))
         if sc.goal_body >= 0:
@@ -438,6 +461,25 @@ class JitterWorld:
             table[c, self.scene.threat_geoms] = True
             table[self.scene.threat_geoms, c] = True
         return table
+
+    def _reach(self, geoms: np.ndarray) -> np.ndarray:
+        """How far from their centres `geoms` may make a contact: bounding sphere and
+        contact margin (infinite for a plane, whose rbound is 0)."""
+        m = self.model
+        reach = m.geom_rbound[geoms] + m.geom_margin[geoms]
+        return np.where(m.geom_type[geoms] == mujoco.mjtGeom.mjGEOM_PLANE, np.inf, reach)
+
+    def _may_touch(self) -> bool:
+        """Whether a contact may join the carrier to a threat before the next frame: some
+        carrier geom's reach and some threat geom's are nearer to each other than the two
+        can close in a frame at `CLOSING_SPEED_MARGIN` above the carrier's and the mover's
+        top speeds. Where none are, no contact can be between them (`_touching` finds
+        none), and reading the contacts at each physics step is skipped."""
+        pos = self.data.geom_xpos
+        apart = pos[self.scene.carrier_geoms][:, None] - pos[self.scene.threat_geoms][None]
+        gap = (np.sqrt(np.einsum("ijk,ijk->ij", apart, apart))
+               - self._carrier_reach[:, None] - self._threat_reach[None])
+        return bool((gap < self._frame_reach).any())
 
     def _touching(self) -> frozenset[int]:
         """The threats (owner indices) that a contact joins to the carrier now."""
