@@ -10,7 +10,8 @@ command beside its results.
 evaluation's), whose ReactiveAvoid cell with the fewest collisions (then the most
 successes) stands beside the policies, on the evaluation's seeds only. The page above
 ``## Results`` is kept as it is. The machine is read from the runs' records. The page and
-its figures are written as one set (`lgmd_sim.fileio.write_files`). Releasing a run's
+its figures are written as one set (`lgmd_sim.fileio.write_files`). --collisions adds
+scripts/collision_views.py's table and figure. Releasing a run's
 policy as the shipped one is scripts/ship_policy.py.
 """
 
@@ -436,6 +437,9 @@ def main() -> None:
     parser.add_argument("--choice", type=Path,
                         help="an lgmd-sim eval of the candidate policies on validation "
                         "seeds: the rule that chose the shipped one")
+    parser.add_argument("--collisions", type=Path,
+                        help="scripts/collision_views.py's output on the evaluation: what "
+                        "the collisions hit, and whether the camera saw it")
     args = parser.parse_args()
     figures: dict[Path, Path] = {}
     records = {run.name: json.loads((run / "run.json").read_text()) for run in args.train}
@@ -486,6 +490,11 @@ def main() -> None:
         lines += [f"The figures are the first evaluation's (`{args.eval[0].name}`).", ""]
     for fig in ("collisions_vs_jitter.png", "trajectories.png"):
         lines += [f"![{fig}]({_copy(args.eval[0] / fig, fig, figures)})", ""]
+    if args.collisions:
+        fig = "collision_views.png"
+        lines += ["### What the collisions hit", "",
+                  (args.collisions / "collision_views.md").read_text().rstrip(), "",
+                  f"![{fig}]({_copy(args.collisions / fig, fig, figures)})", ""]
     text = PAGE.read_text()
     head = text[:text.index(f"\n{RESULTS}\n") + 1] if RESULTS in text else text.rstrip() + "\n\n"
     page = head + "\n".join(lines).rstrip() + "\n"

@@ -4,6 +4,7 @@ two ways of choosing the side as cells of their own, and a small run."""
 
 from __future__ import annotations
 
+import json
 import math
 
 import pytest
@@ -294,6 +295,22 @@ def test_the_sides_identify_a_run_only_where_a_controller_takes_one():
     sideless = ClosedLoopConfig(controllers=("straight", "oracle"), sides=("halves", "eyes"))
     assert "sides" not in sideless.as_json()
     assert sideless.as_json() == ClosedLoopConfig(controllers=("straight", "oracle")).as_json()
+
+
+def test_a_run_folders_configuration_reads_back_as_the_one_that_ran():
+    from lgmd_sim.bench.closed_loop import ClosedLoopConfig
+    from lgmd_sim.bench.episode import Cell
+
+    ran = ClosedLoopConfig(
+        scenarios=("RobotWallAhead",), jitter=(0.0, 2.0), controllers=("oracle", "reactive"),
+        detectors=(("lgmd1", "robot"),), seeds=3, first_seed=7, resolution=(60, 80),
+        cruise=0.5, horizon=1.5, sides=("halves", "eyes"), top_views=2,
+        extra=(Cell("RobotWallAhead", 2.0, "oracle", params=(("horizon", 0.8),), tag="h"),))
+    back = ClosedLoopConfig.from_json(json.loads(json.dumps(ran.as_json())))
+    assert back == ran  # sides in their recorded order: the default first
+    assert back.cells() == ran.cells()
+    no_extra = ClosedLoopConfig(controllers=("straight",))
+    assert ClosedLoopConfig.from_json(no_extra.as_json()) == no_extra
 
 
 def test_the_markdown_has_a_table_per_task_kind_each_with_its_legend(tmp_path):

@@ -122,6 +122,22 @@ class ClosedLoopConfig:
         return plan(self.scenarios, self.jitter, self.controllers, self.detectors,
                     self.sides) + list(self.extra)
 
+    @classmethod
+    def from_json(cls, config: dict[str, Any]) -> ClosedLoopConfig:
+        """The configuration a run folder's run.json records (`as_json`'s inverse)."""
+        extra = tuple(Cell(e["scenario"], float(e["jitter"]), e["controller"],
+                           params=tuple(e["params"].items()), tag=e["tag"])
+                      for e in config.get("extra", ()))
+        return cls(
+            scenarios=tuple(config["scenarios"]), jitter=tuple(config["jitter"]),
+            controllers=tuple(config["controllers"]),
+            detectors=tuple(tuple(d) for d in config["detectors"]),
+            first_seed=config["seeds"][0], seeds=config["seeds"][1],
+            resolution=config["resolution"], cruise=config["cruise"],
+            horizon=config["horizon"], extra=extra,
+            sides=tuple(config.get("sides", (DEFAULT_SIDE,))),
+            top_views=config.get("top_views", 1))
+
     def as_json(self) -> dict[str, Any]:
         """The configuration as the run folder records it (what identifies the run)."""
         from lgmd_sim.controllers import controller_class

@@ -18,9 +18,10 @@ spent manoeuvring. Every record carries both kinds of figure where they apply.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -29,7 +30,12 @@ from lgmd_sim.bench import encounters
 from lgmd_sim.controllers.avoid import ReactiveParams
 from lgmd_sim.runs import NULL, NUMBER, Maybe
 
-__all__ = ["DEFAULT_SIDE", "RECORD_FIELDS", "Cell", "episode", "plan"]
+if TYPE_CHECKING:
+    import gymnasium as gym
+
+    from lgmd_sim.controllers import Controller
+
+__all__ = ["DEFAULT_SIDE", "RECORD_FIELDS", "Cell", "driven", "episode", "plan"]
 
 #: ReactiveParams.side's default (one LGMD over the whole view, the side from its S
 #: layer's halves: the behaviour from before there was a choice). Cells at it carry no
@@ -101,9 +107,11 @@ def plan(scenarios: Sequence[str], jitters: Sequence[float], controllers: Sequen
     return cells
 
 
-def episode(cell: Cell, seed: int, *, resolution: Any, cruise: float, horizon: float,
-            top_view: bool = False) -> dict[str, Any]:
-    """Run one episode of `cell` and measure it (a job: runs in a worker process)."""
+@contextmanager
+def driven(cell: Cell, *, resolution: Any, cruise: float
+           ) -> Iterator[tuple[gym.Env, Controller]]:
+    """The environment of `cell` as its controller observes it, and the controller: a
+    cell's episode is ``controllers.rollout(env, controller, seed)`` inside."""
     from lgmd_sim import controllers
     from lgmd_sim.envs.reuse import episode_env
 
@@ -113,9 +121,17 @@ def episode(cell: Cell, seed: int, *, resolution: Any, cruise: float, horizon: f
     if "cruise" in controllers.controller_class(cell.controller).Params.names():
         params.setdefault("cruise", cruise)  # every cruising controller at the same speed
     controller = controllers.make(cell.controller, **params)
-    infos, alarms, manoeuvring = [], [], []
     with episode_env(cell.scenario, jitter=cell.jitter, resolution=resolution) as base:
-        env = controller.wrap_env(base)
+        yield controller.wrap_env(base), controller
+
+
+def episode(cell: Cell, seed: int, *, resolution: Any, cruise: float, horizon: float,
+            top_view: bool = False) -> dict[str, Any]:
+    """Run one episode of `cell` and measure it (a job: runs in a worker process)."""
+    from lgmd_sim import controllers
+
+    infos, alarms, manoeuvring = [], [], []
+    with driven(cell, resolution=resolution, cruise=cruise) as (env, controller):
         for step in controllers.rollout(env, controller, seed=seed):
             infos.append(step.info)
             alarms.append(step.action is not None and controller.alarm)

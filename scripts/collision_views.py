@@ -1,0 +1,250 @@
+"""Did the robot see what it hit? Each collision's obstacle in the camera's frames before it.
+
+Replays the collisions of a closed-loop evaluation (an ``lgmd-sim eval`` or ``lgmd-sim
+bench closed-loop`` run folder: its cells and seeds, the episodes its episodes.csv
+records as collided) and, in each of the last WINDOW seconds' frames before the hit,
+renders the camera's segmentation (which geom each pixel shows, so occlusion and the
+frame's edges count: what the controller's detector was shown) and takes the bearing of
+the nearest point of the obstacle hit. It reports how many pixels of that obstacle the
+camera saw LAGS seconds before the hit: an obstacle out of the frame then is one that no
+detector on this camera could warn of in time, while the Oracle and the privileged
+policy read the truth wherever the obstacle is. A replay must end in the recorded
+collision frame (the same processor plays the same episode); one that does not is
+counted apart and left out.
+
+    python scripts/collision_views.py EVAL OUT [--workers N]
+
+Writes OUT/collisions.csv (one row per collision: the cell, the seed, the obstacle hit,
+its pixels and bearing at each lag), OUT/collision_views.md (per cell: its collisions
+and how many hit an obstacle out of the frame at each lag, with the command) and
+OUT/collision_views.png (the bearing and the visible pixels of the obstacle hit over the
+last WINDOW seconds before each collision).
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import io
+import json
+import math
+import shlex
+import sys
+from collections import defaultdict
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from lgmd_sim import controllers
+from lgmd_sim.bench.closed_loop import ClosedLoopConfig
+from lgmd_sim.bench.episode import Cell, driven
+from lgmd_sim.bench.summary import cell_of
+from lgmd_sim.fileio import write_text_atomic
+from lgmd_sim.parallel import Job, run_jobs
+from lgmd_sim.world.gl import mujoco  # mujoco with the GL backend chosen
+
+#: Seconds before the collision at which the obstacle hit is looked for in the frame.
+LAGS = (0.25, 0.5, 1.0)
+#: Seconds of each collision's approach kept and drawn.
+WINDOW = 2.0
+#: How far (m) mj_geomDistance looks: beyond the arena's diagonal.
+FAR = 50.0
+
+
+def views(cell: Cell, seed: int, resolution: Any, cruise: float, frame: int
+          ) -> dict[str, Any]:
+    """Replay one collided episode of `cell` (a job) whose record puts the collision at
+    `frame`: the threat hit and, for each frame of the last WINDOW seconds up to the hit,
+    its visible pixels and the bearing (degrees, positive to the left) of its nearest
+    point from the camera; ``replayed`` False where the replay went otherwise."""
+    pixels, bearings, before = [], [], []
+    with driven(cell, resolution=resolution, cruise=cruise) as (env, controller):
+        world = env.unwrapped.world
+        m, d, sc = world.model, world.data, world.scene
+        owner = np.full(m.ngeom, -1)
+        owner[sc.threat_geoms] = sc.threat_owner
+        first = frame - round(WINDOW * world.params.fps)
+        fromto = np.empty(6)
+        # A renderer of its own: the kept environment's terrain changes at each reset.
+        seg = mujoco.Renderer(m, world.height, world.width)
+        seg.enable_segmentation_rendering()
+        try:
+            for step in controllers.rollout(env, controller, seed=seed):
+                last = step.info
+                if step.index < first:
+                    continue
+                seg.update_scene(d, camera=sc.camera)
+                ids = seg.render()
+                geom = ids[..., 0][ids[..., 1] == mujoco.mjtObj.mjOBJ_GEOM]
+                shown = owner[geom[geom >= 0]]
+                pixels.append(np.bincount(shown[shown >= 0], minlength=sc.n_threats))
+                cam = d.cam_xpos[sc.camera]
+                axes = d.cam_xmat[sc.camera].reshape(3, 3)
+                forward, left = -axes[:, 2], -axes[:, 0]  # the camera looks along its -z
+                nearest = np.full(sc.n_threats, np.inf)
+                row = np.full(sc.n_threats, np.nan)
+                for g, i in zip(sc.threat_geoms, sc.threat_owner, strict=True):
+                    gap = mujoco.mj_geomDistance(m, d, sc.carrier_main_geom, g, FAR, fromto)
+                    if gap < nearest[i]:
+                        to = fromto[3:] - cam
+                        nearest[i] = gap
+                        row[i] = math.degrees(math.atan2(to @ left, to @ forward))
+                bearings.append(row)
+                before.append(step.index)
+        finally:
+            seg.close()
+        if int(last["first_collision_frame"]) != frame:
+            return {"replayed": False}
+        hit = int(last["threat_index"])  # a threat touched ranks first (JitterWorld)
+        half_fov = math.degrees(math.atan(math.tan(math.radians(world.params.fovy) / 2)
+                                          * world.width / world.height))
+        return {"replayed": True, "hit": hit, "wall": hit >= world.params.n_obstacles,
+                "half_fov": half_fov, "frame_pixels": world.height * world.width,
+                "before": [round((frame - i) / world.params.fps, 4) for i in before],
+                "pixels": [int(p[hit]) for p in pixels],
+                "bearing": [round(float(b[hit]), 2) for b in bearings]}
+
+
+def at(record: dict[str, Any], lag: float) -> int:
+    """Index of the frame `lag` seconds (or the nearest before) before the collision."""
+    before = np.asarray(record["before"])
+    later = np.flatnonzero(before >= lag - 1e-6)
+    return int(later[-1]) if len(later) else 0
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("eval", type=Path, help="a closed-loop evaluation's run folder")
+    parser.add_argument("out", type=Path)
+    parser.add_argument("--workers", type=int, default=None)
+    args = parser.parse_args()
+    config = _config(args.eval)
+    cells = {cell.key(seed): cell for cell in config.cells() for seed in config.seed_list}
+    jobs = []
+    with (args.eval / "episodes.csv").open(newline="") as f:
+        for r in csv.DictReader(f):
+            record = {**{k: v or None for k, v in r.items()}, "jitter": float(r["jitter"])}
+            key = cell_of(record).key(int(r["seed"]))
+            if r["collided"] == "True" and key in cells:
+                jobs.append(Job(key, views, {"cell": cells[key], "seed": int(r["seed"]),
+                                             "resolution": config.resolution,
+                                             "cruise": config.cruise,
+                                             "frame": int(r["frames"]) - 1}))
+    results: dict[str, dict[str, Any]] = {}
+    run_jobs(jobs, lambda job, r: results.__setitem__(job.key, r), workers=args.workers,
+             progress=True, desc="collisions replayed")
+    rows = sorted(((job.kwargs["cell"], job.kwargs["seed"], results[job.key]) for job in jobs),
+                  key=lambda r: (r[0].jitter, r[0].label, r[1]))
+    args.out.mkdir(parents=True, exist_ok=True)
+    command = shlex.join(["python", *sys.argv])
+    write_text_atomic(args.out / "collisions.csv", _csv(rows))
+    write_text_atomic(args.out / "collision_views.md",
+                      _markdown(list(dict.fromkeys(cells.values())), config.seeds, rows,
+                                command))
+    _figure(rows, args.out / "collision_views.png")
+    print((args.out / "collision_views.md").read_text())
+
+
+def _config(folder: Path) -> ClosedLoopConfig:
+    """The closed-loop configuration of run folder `folder` (a policy folder that has
+    moved since, the run's recorded path, is looked up by its name, as a shipped one)."""
+    config = json.loads((folder / "run.json").read_text())["config"]
+    for cell in config.get("extra", ()):
+        path = cell["params"].get("path")
+        if path is not None and not Path(path).exists():
+            cell["params"]["path"] = cell["tag"]
+    return ClosedLoopConfig.from_json(config)
+
+
+Row = tuple[Cell, int, dict[str, Any]]
+
+
+def _csv(rows: list[Row]) -> str:
+    out = io.StringIO()
+    w = csv.writer(out)
+    w.writerow(["jitter", "cell", "seed", "threat", "arena_wall",
+                *[f"pixels_{lag:g}s" for lag in (0, *LAGS)],
+                *[f"bearing_{lag:g}s" for lag in (0, *LAGS)]])
+    for cell, seed, r in rows:
+        if r["replayed"]:
+            idx = [at(r, lag) for lag in (0, *LAGS)]
+            w.writerow([f"{cell.jitter:g}", cell.label, seed, r["hit"], r["wall"],
+                        *[r["pixels"][i] for i in idx], *[r["bearing"][i] for i in idx]])
+    return out.getvalue()
+
+
+def _markdown(cells: list[Cell], episodes: int, rows: list[Row], command: str) -> str:
+    by_cell: dict[tuple[float, str], list[dict[str, Any]]] = defaultdict(list)
+    for cell, _seed, r in rows:
+        by_cell[(cell.jitter, cell.label)].append(r)
+    lines = [f"```bash\n{command}\n```", "",
+             "Per cell: its collisions, those replayed to the same collision frame, and of "
+             "these how many hit an arena wall and how many an obstacle out of the camera's "
+             "frame (no pixel of it in the segmentation) the given time before the hit, and "
+             f"in every frame of the last {WINDOW:g} s:", "",
+             "| jitter | controller | episodes | collisions | replayed | with an arena wall | "
+             + " | ".join(f"out of the frame {lag:g} s before" for lag in LAGS)
+             + f" | out of the frame all the last {WINDOW:g} s |",
+             "|---:|---|---:|---:|---:|---:|" + "---:|" * (len(LAGS) + 1)]
+    for cell in sorted(cells, key=lambda c: (c.jitter, c.label)):
+        found = by_cell[(cell.jitter, cell.label)]
+        hits = [r for r in found if r["replayed"]]
+        outs = [sum(r["pixels"][at(r, lag)] == 0 for r in hits) for lag in LAGS]
+        outs.append(sum(not any(r["pixels"]) for r in hits))
+        lines.append(f"| {cell.jitter:g} | {cell.label} | {episodes} | {len(found)} | "
+                     f"{len(hits)} | {sum(r['wall'] for r in hits)} | "
+                     + " | ".join(f"{n} ({_pct(n, len(hits))})" for n in outs) + " |")
+    return "\n".join(lines) + "\n"
+
+
+def _pct(n: int, total: int) -> str:
+    return f"{100 * n / total:.0f}%" if total else "-"
+
+
+def _figure(rows: list[Row], path: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    rows = [row for row in rows if row[2]["replayed"]]
+    labels = sorted({cell.label for cell, _seed, _r in rows})
+    jitters = sorted({cell.jitter for cell, _seed, _r in rows})
+    fig, axes = plt.subplots(len(labels), 2, figsize=(11, 2.6 * len(labels)),
+                             squeeze=False, sharex=True)
+    colours = dict(zip(jitters, ("tab:blue", "tab:orange", "tab:green", "tab:red"),
+                       strict=False))
+    for row, label in enumerate(labels):
+        ax_b, ax_p = axes[row]
+        mine = [(cell, r) for cell, _seed, r in rows if cell.label == label]
+        for cell, r in mine:
+            t = -np.asarray(r["before"])
+            share = 100 * np.asarray(r["pixels"]) / r["frame_pixels"]
+            ax_b.plot(t, r["bearing"], color=colours[cell.jitter], lw=0.8, alpha=0.7)
+            ax_p.plot(t, share, color=colours[cell.jitter], lw=0.8, alpha=0.7)
+        fov = mine[0][1]["half_fov"]
+        ax_b.axhspan(-fov, fov, color="0.88", zorder=0)
+        ax_b.set_ylim(-180, 180)
+        ax_b.set_yticks([-180, -90, 0, 90, 180])
+        ax_b.set_ylabel("bearing (deg, left +)")
+        ax_p.set_ylim(-2, 100)
+        ax_p.set_ylabel("share of the frame (%)")
+        ax_b.set_title(f"{label}: collisions {len(mine)}", fontsize=9, loc="left")
+    for ax in axes[-1]:
+        ax.set_xlabel("time to the collision (s)")
+    handles = [plt.Line2D([], [], color=colours[j], label=f"jitter {j:g}") for j in jitters]
+    handles.append(plt.Rectangle((0, 0), 1, 1, color="0.88",
+                                 label="the camera's horizontal field of view"))
+    fig.legend(handles=handles, loc="lower center", ncol=len(handles), fontsize=8)
+    fig.suptitle("The obstacle each collision hits: the bearing of its nearest point from the "
+                 "camera (left) and its pixels in the camera's frame (right)", fontsize=10)
+    fig.tight_layout(rect=(0, 0.03, 1, 0.97))
+    tmp = path.with_suffix(".tmp.png")
+    fig.savefig(tmp, dpi=110)
+    plt.close(fig)
+    tmp.replace(path)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,43 @@
+"""scripts/collision_views.py: a collision replayed from a benchmark run's records, the
+obstacle it hits found in the camera's frames before it."""
+
+from __future__ import annotations
+
+import csv
+import subprocess
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def test_a_wall_driven_into_is_seen_ahead_and_a_replay_that_differs_is_left_out(tmp_path):
+    from lgmd_sim.bench.closed_loop import ClosedLoopConfig, run
+
+    bench = tmp_path / "bench"
+    # Straight at the wall of RobotWallAhead, seeds 0 and 1: both end against it.
+    run(ClosedLoopConfig(scenarios=("RobotWallAhead",), jitter=(0.0,),
+                         controllers=("straight",), seeds=2, first_seed=0),
+        bench, workers=1, progress=False)
+    with (bench / "episodes.csv").open(newline="") as f:
+        records = list(csv.DictReader(f))
+    assert [r["collided"] for r in records] == ["True", "True"]
+    records[1]["frames"] = str(int(records[1]["frames"]) - 3)  # as if played otherwise
+    with (bench / "episodes.csv").open("w", newline="") as f:
+        writer = csv.DictWriter(f, list(records[0]))
+        writer.writeheader()
+        writer.writerows(records)
+
+    out = tmp_path / "views"
+    subprocess.run([sys.executable, str(ROOT / "scripts" / "collision_views.py"), str(bench),
+                    str(out), "--workers", "1"], check=True, capture_output=True)
+    with (out / "collisions.csv").open(newline="") as f:
+        (row,) = csv.DictReader(f)  # the replay that ended elsewhere is left out
+    assert row["seed"] == "0" and row["arena_wall"] == "False" and row["threat"] == "0"
+    for lag in ("0.25", "0.5", "1"):
+        assert int(row[f"pixels_{lag}s"]) > 1000  # the wall fills much of the frame
+        # ahead (the nearest point to the chassis's corner, beside the camera's axis)
+        assert abs(float(row[f"bearing_{lag}s"])) < 45
+    table = (out / "collision_views.md").read_text()
+    assert "| 0 | straight | 2 | 2 | 1 | 0 | 0 (0%) | 0 (0%) | 0 (0%) | 0 (0%) |" in table
+    assert (out / "collision_views.png").stat().st_size > 0
