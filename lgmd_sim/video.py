@@ -17,8 +17,10 @@ from __future__ import annotations
 import contextlib
 import errno
 import os
+import queue
 import re
 import shutil
+import threading
 from collections.abc import Callable, Iterator
 from pathlib import Path
 
@@ -30,6 +32,8 @@ from lgmd_sim.fileio import atomic_outputs
 __all__ = ["CODECS", "DEFAULT_FOLDER_FPS", "IMAGE_SUFFIXES", "VideoReader", "encoder",
            "natural_key", "video_writer"]
 
+#: Frames that may wait for `encoder`'s thread (270 x 480 RGB: 0.4 MB each).
+ENCODER_QUEUE = 8
 #: Frame rate assumed for image folders and for videos that do not state one.
 DEFAULT_FOLDER_FPS = 30.0
 #: Files of an image folder that are read as frames (case-insensitive); others are skipped.
@@ -155,6 +159,10 @@ def encoder(path: str | os.PathLike, fourcc: str, fps: float, size: tuple[int, i
     video `path`, encoded with OpenCV's `fourcc`; when the block completes, check that the
     file holds every frame written.
 
+    Frames are encoded on a thread of their own (OpenCV lets go of the GIL while it
+    encodes), so that the caller renders the next frame meanwhile; at most
+    `ENCODER_QUEUE` frames wait, and the file is the same as encoding each in line.
+
     OpenCV's writer reports no failure: on a full disk FFmpeg drops the frames (and the
     file's index) and the file stays short, so it is read back: its frame count and its
     last frame. Errors name `name` (default: `path`); a file that is short is an OSError
@@ -166,22 +174,41 @@ def encoder(path: str | os.PathLike, fourcc: str, fps: float, size: tuple[int, i
     writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*fourcc), fps, (width, height))
     if not writer.isOpened():
         raise OSError(f"cannot write video '{name}': OpenCV has no {fourcc} encoder here")
+    waiting: queue.Queue[np.ndarray | None] = queue.Queue(ENCODER_QUEUE)
+    failed: list[BaseException] = []
+
+    def encode() -> None:
+        while (bgr := waiting.get()) is not None:
+            if not failed:  # after a failure, only drained: the caller must not block
+                try:
+                    with _opencv_quiet():
+                        writer.write(bgr)
+                except BaseException as exc:  # handed to the caller's thread
+                    failed.append(exc)
+
+    thread = threading.Thread(target=encode, name=f"encoder {name.name}", daemon=True)
+    thread.start()
     written = 0
 
     def write(rgb: np.ndarray) -> None:
         nonlocal written
+        if failed:
+            raise failed[0]
         if rgb.shape != (height, width, 3) or rgb.dtype != np.uint8:
             raise ValueError(f"video '{name}': frames must be ({height}, {width}, 3) uint8, "
                              f"got {rgb.shape} {rgb.dtype}")
-        with _opencv_quiet():
-            writer.write(cv2.cvtColor(rgb, cv2.COLOR_RGB2BGR))
+        waiting.put(cv2.cvtColor(rgb, cv2.COLOR_RGB2BGR))  # a copy: the caller keeps rgb
         written += 1
 
     try:
         yield write
     finally:
+        waiting.put(None)
+        thread.join()
         with _opencv_quiet():
             writer.release()
+    if failed:
+        raise failed[0]
     _check_written(path, written, name)
 
 

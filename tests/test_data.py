@@ -190,3 +190,4 @@ def test_speed_dataset_prints_its_table(capsys):
     lines = capsys.readouterr().out.splitlines()
     assert lines[1].split()[:2] == ["scenario", "frames"]
     assert lines[2].split()[0] == "StationaryApproach"
+    assert lines[-1].startswith("Start-up before each timing")  # apart from the timing

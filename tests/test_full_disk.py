@@ -241,6 +241,21 @@ def test_a_complete_video_passes_the_check(tmp_path, fourcc, suffix, n):
     assert len(list(VideoReader(path))) == n
 
 
+def test_frames_are_encoded_as_written_while_the_caller_reuses_its_buffer(tmp_path):
+    from lgmd_sim.video import ENCODER_QUEUE
+
+    path = tmp_path / "clip.mkv"  # FFV1: lossless, so the frames read back exactly
+    frames = np.random.default_rng(0).integers(0, 255, (3 * ENCODER_QUEUE, 24, 32, 3),
+                                               np.uint8)
+    buffer = np.empty_like(frames[0])
+    with encoder(path, "FFV1", 30, (24, 32)) as write:
+        for rgb in frames:
+            buffer[:] = rgb
+            write(buffer)  # the encoder's thread may not have encoded it yet
+            buffer[:] = 0
+    np.testing.assert_array_equal(np.stack(list(VideoReader(path))), frames)
+
+
 # --- demo.png: whose threshold ------------------------------------------------------------
 
 

@@ -49,7 +49,7 @@ from lgmd_sim.fileio import (
     write_files,
     write_text_atomic,
 )
-from lgmd_sim.parallel import Job, default_workers, run_jobs
+from lgmd_sim.parallel import Job, Pool, default_workers, run_jobs
 from lgmd_sim.runs import RunFolder
 
 __all__ = ["EpisodeResult", "EpisodeSpec", "GenerateConfig", "Summary", "generate",
@@ -425,8 +425,8 @@ def _full_folder(out: Path, exc: OSError) -> Path:
 
 
 def generate(config: GenerateConfig, out: str | Path, *, workers: int | None = None,
-             ray_address: str | None = None, progress: bool | None = None,
-             command: str = "") -> Summary:
+             ray_address: str | None = None, pool: Pool | None = None,
+             progress: bool | None = None, command: str = "") -> Summary:
     """Generate (or resume) the dataset of `config` in folder `out`.
 
     Args:
@@ -434,6 +434,8 @@ def generate(config: GenerateConfig, out: str | Path, *, workers: int | None = N
         out: the dataset folder: new, empty, or holding this configuration's dataset.
         workers: local worker processes (default: every core; 1: in this process).
         ray_address: run the episodes as Ray tasks ("local", "auto" or "HOST:PORT").
+        pool: run the episodes on this started `lgmd_sim.parallel.Pool` instead (not with
+            `workers` or `ray_address`): its workers keep their environments.
         progress: show a progress bar (None: only on a terminal).
         command: the command line, for the run's record (``meta/run.json``).
 
@@ -474,7 +476,7 @@ def generate(config: GenerateConfig, out: str | Path, *, workers: int | None = N
             metas[job.kwargs["spec"].index] = result.meta
 
         run_jobs([Job(s.key, make_episode, {"spec": s}) for s in todo], store,
-                 workers=workers, ray_address=ray_address, progress=progress,
+                 workers=workers, ray_address=ray_address, pool=pool, progress=progress,
                  desc=f"dataset {out.name}", count=lambda r: r.meta["length"])
         _finish_episodes(out, specs)
         write_manifest(out, config, [metas[s.index] for s in specs])
@@ -482,7 +484,8 @@ def generate(config: GenerateConfig, out: str | Path, *, workers: int | None = N
         frames = sum(m["length"] for m in metas.values())
         summary = Summary(out, len(specs), frames, len(specs) - kept, kept, seconds)
         folder.session.update(episodes_made=summary.made, episodes_kept=kept, frames=frames,
-                              workers=workers or default_workers(), ray=ray_address)
+                              workers=pool.size if pool else workers or default_workers(),
+                              ray=ray_address)
         folder.finish()
         return summary
     except OSError as exc:
