@@ -241,11 +241,11 @@ def _outcome(r: dict[str, str]) -> tuple[str, ...]:
     return r["collided"], r["goal_reached"], r["distance_m"], r["frames"]
 
 
-def shipped(eval_runs: list[Path], train_runs: list[Path], choice_run: Path | None
+def shipped(eval_runs: list[Path], train_runs: list[Path], choice_runs: list[Path]
             ) -> list[str]:
     """Per shipped policy an evaluation ran: the training run's final or best policy it
     was released from (the same policy.npz), the rule that chose it (`choice`, when
-    `choice_run` is given) and whether it played that policy's episodes of the other
+    `choice_runs` are given) and whether it played that policy's episodes of the other
     evaluations, seed by seed (`_outcome`)."""
     played: dict[str, dict[tuple[str, str], tuple[str, ...]]] = defaultdict(dict)
     cpu_of: dict[str, str] = {}  # the processor of the evaluation that played a tag first
@@ -266,8 +266,8 @@ def shipped(eval_runs: list[Path], train_runs: list[Path], choice_run: Path | No
                        "or best policies.")
             continue
         tag = name_of(source)
-        if choice_run is not None:
-            out += [*choice(choice_run, tag), ""]
+        if choice_runs:
+            out += [*choice(choice_runs, tag), ""]
         mine, theirs = played[name], played.get(tag, {})
         both = sorted(set(mine) & set(theirs))
         differ = sum(mine[k] != theirs[k] for k in both)
@@ -308,26 +308,30 @@ def agreement(eval_runs: list[Path]) -> list[str]:
     return out
 
 
-def choice(run: Path, tag: str) -> list[str]:
-    """The rule that chose the shipped policy, from `run`: an ``lgmd-sim eval`` of the
-    candidate policies on validation seeds (below the evaluation's), never on the
+def choice(runs: list[Path], tag: str) -> list[str]:
+    """The rule that chose the shipped policy, from `runs`: ``lgmd-sim eval`` runs of the
+    candidate policies on the same validation seeds (below the evaluation's), never on the
     evaluation's. A candidate's score: successes minus collisions, as rates, averaged over
     the jitter levels; the highest is shipped. `tag`: the shipped policy's name there (the
     training run's policy it was released from)."""
-    record = json.loads((run / "run.json").read_text())
-    first, n = record["config"]["seeds"]
+    records = [json.loads((run / "run.json").read_text()) for run in runs]
+    seeds = {tuple(r["config"]["seeds"]) for r in records}
+    if len(seeds) > 1:
+        sys.exit(f"training_page.py: the choice runs played other seeds ({sorted(seeds)}): "
+                 "one choice needs the same")
+    (first, n), = seeds
     if first < VALIDATION_SEED or first + n > EvalConfig.first_seed:
-        sys.exit(f"training_page.py: the choice {run} ran seeds {first} to {first + n - 1}; "
-                 f"a choice runs validation seeds ({VALIDATION_SEED} to "
+        sys.exit(f"training_page.py: the choice {runs[0]} ran seeds {first} to "
+                 f"{first + n - 1}; a choice runs validation seeds ({VALIDATION_SEED} to "
                  f"{EvalConfig.first_seed - 1})")
-    cells = _cells([r for r in _episodes(run) if r["controller"] == "policy"])
+    cells = _cells([r for run in runs for r in _episodes(run) if r["controller"] == "policy"])
     jitters = sorted({j for j, _ in cells})
     labels = list(dict.fromkeys(label for _, label in cells))
     score = {label: sum((cells[j, label]["reached"] - cells[j, label]["collided"])
                         / cells[j, label]["n"] for j in jitters) / len(jitters)
              for label in labels}
     top = max(score.values())
-    lines = ["", "```bash", record["command"], "```", "",
+    lines = ["", "```bash", *(record["command"] for record in records), "```", "",
              "| candidate | " + " | ".join(f"jitter {j:g}: successes / collisions %"
                                            for j in jitters) + " | score |",
              "|---|" + "---:|" * (len(jitters) + 1)]
@@ -434,9 +438,9 @@ def main() -> None:
     parser.add_argument("--eval", type=Path, nargs="+", required=True,
                         help="evaluations on the same seeds and jitter levels: one table")
     parser.add_argument("--bench", type=Path, nargs="*", default=[])
-    parser.add_argument("--choice", type=Path,
-                        help="an lgmd-sim eval of the candidate policies on validation "
-                        "seeds: the rule that chose the shipped one")
+    parser.add_argument("--choice", type=Path, nargs="*", default=[],
+                        help="lgmd-sim eval runs of the candidate policies on the same "
+                        "validation seeds: the rule that chose the shipped one")
     parser.add_argument("--collisions", type=Path,
                         help="scripts/collision_views.py's output on the evaluation: what "
                         "the collisions hit, and whether the camera saw it")

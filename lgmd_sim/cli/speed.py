@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
 
 from lgmd_sim.cli.args import positive_int, resolution
 
@@ -25,6 +26,11 @@ def add(sub: argparse._SubParsersAction) -> None:
                    help="frames timed per run (default %(default)s)")
     b.add_argument("--streams", type=positive_int, default=8,
                    help="streams in batched mode (default %(default)s)")
+    b.add_argument("--published", type=Path, metavar="FILE",
+                   help="your copy of 'Harmonizing motion and contrast vision.py' (the "
+                   "published Python LGMD, github.com/fuqinbing/harmonizing-motion-and-"
+                   "contrast-vision-for-looming-detection): also time it against the feedback "
+                   "LGMD on the same 240x432 frames (target: 200x)")
     b.add_argument("--markdown", action="store_true", help="print the table as Markdown")
     b = speed.add_parser(
         "envs", help="environment steps/s per scenario vs bare renders of the same views",

@@ -6,15 +6,23 @@ the frames/s of its per-equation reference implementation, and the ratio of stre
 to reference, all measured in the same run on the same frames. The process is pinned to
 one core and every library to one thread. Frames come from a random texture moving
 diagonally, so every pixel changes and the kernels do their full work.
+
+With ``--published FILE`` (the user's copy of the published Python LGMD, which this
+project does not ship): its frames/s on `PUBLISHED_FRAMES` frames at `PUBLISHED_SIZE`,
+read from a lossless video as its class is written to do, against the feedback LGMD
+streaming the same frames, in the same run (`PUBLISHED_TARGET`).
 """
 
 from __future__ import annotations
 
+import importlib.util
 import platform
 import sys
+import tempfile
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
@@ -116,6 +124,54 @@ def measure(name: str, frames: np.ndarray, n_frames: int, n_streams: int) -> Row
 TARGET_FPS, FEEDBACK_TARGET_FPS = 500, 2000
 
 
+#: The published Python LGMD's comparison: its class, the frame size and clip length of
+#: the timing on record (a 240 x 432 dashcam clip of 90 frames), and the target ratio of
+#: the feedback LGMD's streaming frames/s to its.
+PUBLISHED_CLASS = "LGMD_P_ON_OFF"
+PUBLISHED_SIZE, PUBLISHED_FRAMES, PUBLISHED_TARGET = (240, 432), 90, 200
+
+
+def published_rate(path: Path, frames: np.ndarray) -> float:
+    """Frames/s of the published Python LGMD (`PUBLISHED_CLASS` of the file `path`) on
+    grey `frames`: written to a lossless video, which it reads and processes whole, as its
+    ``run()`` does (one run: it is slow)."""
+    from lgmd_sim.video import video_writer
+
+    if not path.is_file():
+        raise ValueError(f"--published {path}: no such file")
+    spec = importlib.util.spec_from_file_location("published_lgmd", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    cls = getattr(module, PUBLISHED_CLASS, None)
+    if cls is None:
+        raise ValueError(f"--published {path}: it has no class {PUBLISHED_CLASS}")
+    with tempfile.TemporaryDirectory(prefix="lgmd-sim-speed-") as tmp:
+        clip = Path(tmp) / "clip.mkv"
+        with video_writer(clip, 30, frames.shape[1:]) as write:
+            for grey in frames:
+                write(np.repeat(grey[..., None], 3, axis=-1))
+        start = time.perf_counter()
+        cls(str(clip)).run()
+        return len(frames) / (time.perf_counter() - start)
+
+
+def _published_table(path: Path, markdown: bool) -> str:
+    """The feedback LGMD against the published Python LGMD on the same frames."""
+    from lgmd_sim import models
+
+    frames = moving_texture(*PUBLISHED_SIZE, PUBLISHED_FRAMES)
+    model = models.make("feedback")
+    ours = _rate(lambda i: model.step(frames[i % len(frames)]), len(frames))
+    theirs = published_rate(path, frames)
+    ratio = ours / theirs
+    h, w = PUBLISHED_SIZE
+    return format_table(
+        ["model", f"streaming fps at {h}x{w}", f"published Python LGMD fps ({path.name})",
+         "ratio", f"target {PUBLISHED_TARGET}x"],
+        [["feedback", f"{ours:,.0f}", f"{theirs:.1f}", f"{ratio:.0f}x",
+          met(ratio >= PUBLISHED_TARGET)]], markdown)
+
+
 def _table(rows: list[Row], n_streams: int, markdown: bool) -> str:
     head = ["model", "streaming fps", f"batched fps ({n_streams} streams)", "reference fps",
             "fast / reference", "target fps (streaming)"]
@@ -134,12 +190,15 @@ def _table(rows: list[Row], n_streams: int, markdown: bool) -> str:
 
 
 def run(*, height: int = 270, width: int = 480, frames: int = 300, streams: int = 8,
-        markdown: bool = False) -> int:
-    """Measure every model and print the table (Markdown with ``--markdown``)."""
+        published: Path | None = None, markdown: bool = False) -> int:
+    """Measure every model and print the table (Markdown with ``--markdown``); with
+    `published`, the feedback LGMD against that file's published Python LGMD too."""
     import numba
 
     from lgmd_sim import models
 
+    if published is not None and not published.is_file():  # before minutes of timing
+        raise ValueError(f"--published {published}: no such file")
     where = pin_to_one_core()
     clip = moving_texture(height, width, 64)
     print(f"# lgmd-sim speed models: {height}x{width} uint8 frames, best of "
@@ -151,4 +210,7 @@ def run(*, height: int = 270, width: int = 480, frames: int = 300, streams: int 
         rows.append(measure(name, clip, frames, streams))
         print(f"measured {name}", file=sys.stderr, flush=True)
     print(_table(rows, streams, markdown))
+    if published is not None:
+        print()
+        print(_published_table(published, markdown))
     return 0
