@@ -162,6 +162,7 @@ def encoder(path: str | os.PathLike, fourcc: str, fps: float, size: tuple[int, i
     Frames are encoded on a thread of their own (OpenCV lets go of the GIL while it
     encodes), so that the caller renders the next frame meanwhile; at most
     `ENCODER_QUEUE` frames wait, and the file is the same as encoding each in line.
+    OpenCV's warnings are off for the whole block (see `_opencv_quiet`).
 
     OpenCV's writer reports no failure: on a full disk FFmpeg drops the frames (and the
     file's index) and the file stays short, so it is read back: its frame count and its
@@ -181,13 +182,11 @@ def encoder(path: str | os.PathLike, fourcc: str, fps: float, size: tuple[int, i
         while (bgr := waiting.get()) is not None:
             if not failed:  # after a failure, only drained: the caller must not block
                 try:
-                    with _opencv_quiet():
-                        writer.write(bgr)
+                    writer.write(bgr)
                 except BaseException as exc:  # handed to the caller's thread
                     failed.append(exc)
 
     thread = threading.Thread(target=encode, name=f"encoder {name.name}", daemon=True)
-    thread.start()
     written = 0
 
     def write(rgb: np.ndarray) -> None:
@@ -200,12 +199,15 @@ def encoder(path: str | os.PathLike, fourcc: str, fps: float, size: tuple[int, i
         waiting.put(cv2.cvtColor(rgb, cv2.COLOR_RGB2BGR))  # a copy: the caller keeps rgb
         written += 1
 
-    try:
-        yield write
-    finally:
-        waiting.put(None)
-        thread.join()
-        with _opencv_quiet():
+    # OpenCV's log level is process-wide: set once here for the whole block, never by the
+    # encoding thread while this one works
+    with _opencv_quiet():
+        thread.start()
+        try:
+            yield write
+        finally:
+            waiting.put(None)
+            thread.join()
             writer.release()
     if failed:
         raise failed[0]
