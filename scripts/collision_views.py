@@ -1,16 +1,16 @@
 """Did the robot see what it hit? Each collision's obstacle in the camera's frames before it.
 
 Replays the collisions of a closed-loop evaluation (an ``lgmd-sim eval`` or ``lgmd-sim
-bench closed-loop`` run folder: its cells and seeds, the episodes its episodes.csv
-records as collided) and, in each of the last WINDOW seconds' frames before the hit,
-renders the camera's segmentation (which geom each pixel shows, so occlusion and the
-frame's edges count: what the controller's detector was shown) and takes the bearing of
-the nearest point of the obstacle hit. It reports how many pixels of that obstacle the
-camera saw LAGS seconds before the hit: an obstacle out of the frame then is one that no
-detector on this camera could warn of in time, while the Oracle and the privileged
-policy read the truth wherever the obstacle is. A replay must end in the recorded
-collision frame (the same processor plays the same episode); one that does not is
-counted apart and left out.
+bench closed-loop`` run folder of goal tasks, whose episodes end at a collision: its
+cells and seeds, the episodes its episodes.csv records as collided). In each frame of the
+last WINDOW seconds before a hit it renders the camera's segmentation (which geom each
+pixel shows, so occlusion and the frame's edges count: what the controller's detector
+was shown) and takes the bearing of the nearest point of the obstacle hit. It reports
+how many pixels of that obstacle the camera saw LAGS seconds before the hit: an obstacle
+out of the frame then is one that no detector on this camera could warn of in time,
+while the Oracle and the privileged policy read the truth wherever the obstacle is. A
+replay must end in the recorded collision frame (the same processor plays the same
+episode); one that does not is counted apart and left out.
 
     python scripts/collision_views.py EVAL OUT [--workers N]
 
@@ -126,6 +126,9 @@ def main() -> None:
         for r in csv.DictReader(f):
             record = {**{k: v or None for k, v in r.items()}, "jitter": float(r["jitter"])}
             key = cell_of(record).key(int(r["seed"]))
+            if r["collided"] == "True" and r.get("task", "goal") != "goal":
+                sys.exit(f"collision_views.py: {args.eval} holds a roam task ({r['scenario']}"
+                         "), whose episodes go on after a collision: goal tasks only")
             if r["collided"] == "True" and key in cells:
                 jobs.append(Job(key, views, {"cell": cells[key], "seed": int(r["seed"]),
                                              "resolution": config.resolution,
