@@ -1,7 +1,7 @@
 """Did the robot see what it hit? Each collision's obstacle in the camera's frames before it.
 
 Replays the collisions of a closed-loop evaluation (an ``lgmd-sim eval`` or ``lgmd-sim
-bench closed-loop`` run folder of goal tasks, whose episodes end at a collision: its
+bench closed-loop`` run folder of scenarios whose episodes end at a collision: its
 cells and seeds, the episodes its episodes.csv records as collided). In each frame of the
 last WINDOW seconds before a hit it renders the camera's segmentation (which geom each
 pixel shows, so occlusion and the frame's edges count: what the controller's detector
@@ -40,6 +40,7 @@ from lgmd_sim import controllers
 from lgmd_sim.bench.closed_loop import ClosedLoopConfig
 from lgmd_sim.bench.episode import Cell, driven
 from lgmd_sim.bench.summary import cell_of
+from lgmd_sim.envs.catalogue import params_for
 from lgmd_sim.fileio import write_text_atomic
 from lgmd_sim.parallel import Job, run_jobs
 from lgmd_sim.world.gl import mujoco  # mujoco with the GL backend chosen
@@ -126,9 +127,10 @@ def main() -> None:
         for r in csv.DictReader(f):
             record = {**{k: v or None for k, v in r.items()}, "jitter": float(r["jitter"])}
             key = cell_of(record).key(int(r["seed"]))
-            if r["collided"] == "True" and r.get("task", "goal") != "goal":
-                sys.exit(f"collision_views.py: {args.eval} holds a roam task ({r['scenario']}"
-                         "), whose episodes go on after a collision: goal tasks only")
+            if r["collided"] == "True" and not params_for(r["scenario"], {}
+                                                          ).terminate_on_collision:
+                sys.exit(f"collision_views.py: {args.eval} holds {r['scenario']}, whose "
+                         "episodes go on after a collision: only scenarios that end at one")
             if r["collided"] == "True" and key in cells:
                 jobs.append(Job(key, views, {"cell": cells[key], "seed": int(r["seed"]),
                                              "resolution": config.resolution,

@@ -41,3 +41,23 @@ def test_a_wall_driven_into_is_seen_ahead_and_a_replay_that_differs_is_left_out(
     table = (out / "collision_views.md").read_text()
     assert "| 0 | straight | 2 | 2 | 1 | 0 | 0 (0%) | 0 (0%) | 0 (0%) | 0 (0%) |" in table
     assert (out / "collision_views.png").stat().st_size > 0
+
+
+def test_a_scenario_that_goes_on_after_a_collision_is_refused_in_one_line(tmp_path):
+    import json
+
+    from lgmd_sim.bench.closed_loop import ClosedLoopConfig
+
+    config = ClosedLoopConfig(scenarios=("ArenaRoam",), jitter=(1.0,), controllers=("straight",),
+                              seeds=1)
+    (tmp_path / "run.json").write_text(json.dumps({"config": config.as_json()}))
+    (tmp_path / "episodes.csv").write_text(
+        "scenario,jitter,controller,model,preset,tag,side,seed,task,frames,collided\n"
+        "ArenaRoam,1.0,straight,,,,,1000,roam,900,True\n")
+    done = subprocess.run([sys.executable, str(ROOT / "scripts" / "collision_views.py"),
+                           str(tmp_path), str(tmp_path / "views")], capture_output=True,
+                          text=True)
+    assert done.returncode == 1
+    assert done.stderr.strip().endswith("holds ArenaRoam, whose episodes go on after a "
+                                        "collision: only scenarios that end at one")
+    assert not (tmp_path / "views").exists()
