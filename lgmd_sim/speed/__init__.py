@@ -17,6 +17,14 @@ passes its options by name), each target with its verdict in the same run.
 from __future__ import annotations
 
 import os
+import time
+from collections.abc import Callable
+from typing import TYPE_CHECKING, TypeVar
+
+if TYPE_CHECKING:
+    from lgmd_sim.parallel import Pool
+
+T = TypeVar("T")
 
 
 def pin_to_one_core() -> str:
@@ -31,6 +39,21 @@ def pin_to_one_core() -> str:
     core = min(os.sched_getaffinity(0))
     os.sched_setaffinity(0, {core})
     return f"pinned to core {core} of {os.cpu_count()}"
+
+
+def on_warm_pool(workers: int, warm: Callable[[Pool], object], run: Callable[[Pool], T]
+                 ) -> tuple[T, float, float]:
+    """``run(pool)`` on a pool of `workers` started and then warmed by ``warm(pool)``, as a
+    long run's later jobs find their workers (imports done, environments built): its
+    result, its wall seconds, and the seconds the pool's start and the warming took."""
+    from lgmd_sim.parallel import Pool
+
+    start = time.perf_counter()
+    with Pool(workers) as pool:
+        warm(pool)
+        begin = time.perf_counter()
+        result = run(pool)
+        return result, time.perf_counter() - begin, begin - start
 
 
 def met(ok: bool) -> str:

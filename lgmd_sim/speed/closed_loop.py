@@ -30,7 +30,7 @@ import time
 import numpy as np
 
 from lgmd_sim.machine import cpu_name
-from lgmd_sim.speed import format_table, met
+from lgmd_sim.speed import format_table, met, on_warm_pool
 
 #: The targets: the environment's share of the closed loop's time, the benchmark's two
 #: workers against one, and against the environment alone on two.
@@ -107,7 +107,7 @@ def measure_workers(scenario: str, resolution: str | list[int], episodes: int) -
     kernels), before the timing starts: a benchmark of a thousand episodes pays that once,
     and the seconds it took are reported beside."""
     from lgmd_sim.bench.episode import Cell, episode
-    from lgmd_sim.parallel import Job, Pool, run_jobs
+    from lgmd_sim.parallel import Job, run_jobs
 
     cell = Cell(scenario, 1.0, "reactive", "feedback", "paper")
 
@@ -125,14 +125,13 @@ def measure_workers(scenario: str, resolution: str | list[int], episodes: int) -
         """Frames per second of `jobs` on a pool of `workers` warmed by `warm` (a job
         each), the seconds its start-up and warming took, and each job's frames."""
         frames: dict[str, int] = {}
-        start = time.perf_counter()
-        with Pool(workers) as pool:
-            run_jobs(warm[:workers], lambda job, record: None, pool=pool, progress=False)
-            warmed = time.perf_counter()
-            run_jobs(jobs, lambda job, record: frames.__setitem__(job.key, record["frames"]),
-                     pool=pool, progress=False)
-            return (sum(frames.values()) / (time.perf_counter() - warmed), warmed - start,
-                    frames)
+        _, wall, startup = on_warm_pool(
+            workers,
+            lambda pool: run_jobs(warm[:workers], lambda job, record: None, pool=pool,
+                                  progress=False),
+            lambda pool: run_jobs(jobs, lambda job, record: frames.__setitem__(
+                job.key, record["frames"]), pool=pool, progress=False))
+        return sum(frames.values()) / wall, startup, frames
 
     jobs, warm = jobs_of(range(episodes)), jobs_of(range(episodes, episodes + 2))
     one, startup_one, frames = timed(jobs, warm, 1)

@@ -35,7 +35,7 @@ import cv2
 from lgmd_sim.data.generate import GenerateConfig, generate
 from lgmd_sim.machine import cpu_name
 from lgmd_sim.parallel import Job, Pool, run_jobs
-from lgmd_sim.speed import format_table, met
+from lgmd_sim.speed import format_table, met, on_warm_pool
 
 #: The target: dataset generation at this share of the environment's frames per second.
 TARGET = 0.9
@@ -70,15 +70,14 @@ def _timed(run: Callable[[Pool], int], workers: int) -> tuple[int, float, float,
     """`run` on a pool of `workers` warmed by running it once: its frames, wall and CPU
     seconds (this process and the workers), and the seconds the pool's start and the
     warming took."""
-    start = time.perf_counter()
-    with Pool(workers) as pool:
-        run(pool)
-        warm = time.perf_counter() - start
+    def counted(pool: Pool) -> tuple[int, float, float]:
         cpu = _pool_cpu(pool) + time.process_time()
         begin = time.perf_counter()
         frames = run(pool)
         wall = time.perf_counter() - begin
-        cpu = _pool_cpu(pool) + time.process_time() - cpu
+        return frames, wall, _pool_cpu(pool) + time.process_time() - cpu
+
+    (frames, wall, cpu), _, warm = on_warm_pool(workers, run, counted)
     return frames, wall, cpu, warm
 
 
