@@ -34,7 +34,9 @@ def test_a_tiny_video_calibration_writes_video_presets_that_score_as_calibrated(
     out = tiny_run
     data = json.loads((out / "calibrated.json").read_text())
     entry = data["presets"]["lgmd1"]["video"]
-    assert entry["params"] | {"stabilize": "image", "gain": True, "fovy": 60.0} == entry["params"]
+    # the front end, and the clips' height (--resolution small: 64 x 64) to work at
+    assert entry["params"] | {"stabilize": "image", "gain": True, "fovy": 60.0,
+                              "working_height": 64} == entry["params"]
     assert set(entry["heldout"]) == {"objective", "jitter", "stationary", "near_miss",
                                      "non_looming"}
     assert set(entry["transfer"]) == set(entry["heldout"])  # the other looks' set

@@ -49,6 +49,7 @@ from lgmd_sim.fileio import write_files, write_text_atomic
 from lgmd_sim.models import presets
 from lgmd_sim.parallel import Job, run_jobs
 from lgmd_sim.runs import NULL, Fields, RunFolder, RunResult
+from lgmd_sim.world.params import frame_size
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -73,6 +74,9 @@ class Task:
             each other a set of its own, of the held-out seeds (a transfer check).
         fovy: None, or the vertical field of view (degrees) the front end assumes, with the
             scenes' cameras drawn around it (`lgmd_sim.calibration.clips.record_clip`).
+        at_clip_size: the presets shrink every frame to the clips' height
+            (``working_height``), so that they see a video of any size as they saw the
+            clips: a model's kernels and thresholds are in pixels.
     """
 
     objective: Objective
@@ -84,6 +88,7 @@ class Task:
     looks: Mapping[str, clip_mod.Looks] = field(
         default_factory=lambda: {"": clip_mod.Looks()})
     fovy: float | None = None
+    at_clip_size: bool = False
 
     def identity(self) -> dict[str, Any]:
         """What a run folder records of the task beyond its groups and objective (nothing
@@ -110,7 +115,8 @@ TASKS: dict[str, Task] = {
     "walker": Task(WALKER, clip_mod.DEFAULT_GROUPS, "calibrated"),
     "robot": Task(ROBOT, clip_mod.ROBOT_GROUPS, "robot", ClosedLoopConfig.cruise),
     "video": Task(VIDEO, clip_mod.VIDEO_GROUPS, "video", fronts=("image+gain",),
-                  front="image+gain", looks=clip_mod.VIDEO_LOOKS, fovy=clip_mod.VIDEO_FOVY),
+                  front="image+gain", looks=clip_mod.VIDEO_LOOKS, fovy=clip_mod.VIDEO_FOVY,
+                  at_clip_size=True),
 }
 
 
@@ -384,7 +390,9 @@ def calibrate(config: CalibrateConfig, out: str | Path, *, resume: bool = False,
     for c in chosen:
         model, name = preset_name(c["detector"], config.task)
         sp = space(c["detector"])
-        params = {**c["params"], "threshold": c["threshold"], **task.preset_params(sp.front)}
+        params = {**c["params"], "threshold": c["threshold"], **task.preset_params(sp.front),
+                  **({"working_height": frame_size(config.resolution)[0]}
+                     if task.at_clip_size else {})}
         calibration["presets"][model][name] = {"from": sp.preset, "params": params,
                                                **{n: c[n] for n in _sets(chosen)}}
     write_text_atomic(folder.path / "calibrated.json", json.dumps(calibration, indent=2) + "\n")

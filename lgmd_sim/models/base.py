@@ -31,7 +31,7 @@ import numpy as np
 
 from lgmd_sim.frames import to_grey
 from lgmd_sim.models.warp import Motion, Plan, apply_plan, fill_pad_columns, homography_plan
-from lgmd_sim.params import CheckedParams, in_range, one_of, param
+from lgmd_sim.params import CheckedParams, in_range, int_in_range, one_of, param
 
 #: Values of the ``stabilize`` parameter: where each frame's camera rotation comes from.
 FRONT_ENDS = ("none", "pose", "imu", "image")
@@ -72,6 +72,16 @@ class ModelParams(CheckedParams):
         check=one_of(True, False),
         doc="compensate global brightness changes (auto-exposure, shade, flicker): the "
             "previous frame is scaled by the gain fitted between it and this frame",
+    )
+    working_height: int = param(
+        0,
+        "our choice: off, as in the paper (each frame at its own size); the video presets "
+        "set their calibration's clip height (docs/models.md, 'Footage from any camera')",
+        check=int_in_range(0, 3840),
+        doc="frames taller than this many rows are shrunk to it (area average, the width "
+            "in proportion) before the front end and the model see them: the model's "
+            "kernels are in pixels, so a preset calibrated on small clips then sees a large "
+            "video as it saw its clips; 0: every frame at its own size",
     )
 
 
@@ -349,7 +359,8 @@ class LGMDModel(ABC):
 
         Args:
             frame: the frame, (H, W) or (H, W, 3); (N, H, W) or (N, H, W, 3) when batched.
-            layers: also return the layer maps (``out.layers``).
+            layers: also return the layer maps (``out.layers``; at the size the model
+                works at, see ``working_height``).
             motion: the camera's motion since the previous frame (`Motion`: homography
                 and brightness gain): every stored map is warped by it first. Only for a
                 model without a front end (``stabilize="none"``, ``gain=False``).
@@ -358,7 +369,7 @@ class LGMDModel(ABC):
                 z backwards), (3,) or (N, 3); the environments' ``info["pose_rotation"]``
                 or ``info["imu_rotation"]`` (see `rotation_key`).
         """
-        grey = self._to_grey_stack(frame)
+        grey = self._shrink(self._to_grey_stack(frame))
         if self.front_end is not None:
             if motion is not None:
                 raise ValueError(f"{self.name}: estimates its own motion (stabilize="
@@ -495,6 +506,16 @@ class LGMDModel(ABC):
         """
 
     # -- frames ------------------------------------------------------------------------
+
+    def _shrink(self, grey: np.ndarray) -> np.ndarray:
+        """Frames (N, H, W) at most ``working_height`` rows tall (the same dtype)."""
+        h = self.params.working_height
+        if not h or grey.shape[1] <= h:
+            return grey
+        import cv2
+
+        size = (max(1, round(grey.shape[2] * h / grey.shape[1])), h)
+        return np.stack([cv2.resize(f, size, interpolation=cv2.INTER_AREA) for f in grey])
 
     def _to_grey_stack(self, frame: np.ndarray) -> np.ndarray:
         """Frames as a C-contiguous (N, H, W) uint8 or float32 (0..255) stack."""

@@ -332,8 +332,17 @@ def gain_grid(prev: np.ndarray, cur: np.ndarray, homography: np.ndarray | None
     blocks = blocks.reshape(rows, cols, -1)
     enough = np.isfinite(blocks).mean(axis=-1) >= _GAIN_MIN_SHARE
     gains = np.full((rows, cols), np.median(ratio[ok]), np.float32)
-    gains[enough] = np.nanmedian(blocks[enough], axis=-1)
+    gains[enough] = _nan_median(blocks[enough])
     return gains
+
+
+def _nan_median(rows: np.ndarray) -> np.ndarray:
+    """np.nanmedian(rows, axis=-1), the same values, for rows with a finite value each:
+    one sort with NaN last (nanmedian goes through masked arrays, 10x slower here)."""
+    ordered = np.sort(rows, axis=-1)  # NaN sorts last
+    k = np.isfinite(ordered).sum(axis=-1)
+    at = np.arange(len(ordered))
+    return (ordered[at, (k - 1) // 2] + ordered[at, k // 2]) / ordered.dtype.type(2)
 
 
 # --- the front end of a model -------------------------------------------------------------------

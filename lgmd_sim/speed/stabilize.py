@@ -5,7 +5,9 @@ rotation of about 1 degree per frame (hand-held shake), so the image fit has rea
 Measured in one run: the image-only rotation fit alone, the brightness gain alone, one
 warp of a frame (the least any front end that moves a stored map costs), and per model the
 time per frame without a front end and with each of "pose" (the warp of every stored map
-by a given rotation), "image" (fit and warp) and "image+gain".
+by a given rotation), "image" (fit and warp) and "image+gain" at the frames' size, and at
+its `video` preset (image+gain on frames shrunk to the preset's ``working_height``), whose
+cost over the bare model's has a target (`VIDEO_TARGET`).
 """
 
 from __future__ import annotations
@@ -24,11 +26,10 @@ __all__ = ["rotating_scene", "run"]
 
 #: Each figure is the best of this many runs (others on the machine only slow one down).
 RUNS = 5
-#: Front ends timed with every model, as preset suffixes ("" is none); the last is the
-#: `video` presets'.
+#: Front ends timed with every model at the frames' size, as preset suffixes ("" is
+#: none); the `video` presets' is the last, which they run at their ``working_height``.
 FRONTS = ("", "pose", "image", "image+gain")
-#: The target: a video preset (the last front end) at most this many times the bare
-#: model's time per frame.
+#: The target: a `video` preset at most this many times the bare model's time per frame.
 VIDEO_TARGET = 2.0
 
 
@@ -115,12 +116,15 @@ def run(*, height: int = 270, width: int = 480, frames: int = 60,
                 return lambda i: m.step(frames[i], rotation=None if key is None else turns[i])
 
             ms.append(_per_frame_ms(stream, n))
-        ratio = ms[-1] / ms[0]
-        body.append([name, *(f"{t:.2f}" for t in ms), f"{ratio:.1f}x",
-                     met(ratio <= VIDEO_TARGET), f"{(ms[0] + warp_ms) / ms[0]:.1f}x"])
+        if "video" in models.presets_of(name):
+            ms.append(_per_frame_ms(lambda name=name: stream(name, "video"), n))
+            ratio = ms[-1] / ms[0]
+            body.append([name, *(f"{t:.2f}" for t in ms), f"{ratio:.1f}x",
+                         met(ratio <= VIDEO_TARGET)])
+        else:
+            body.append([name, *(f"{t:.2f}" for t in ms), "", "no video preset"])
         print(f"measured {name}", file=sys.stderr, flush=True)
     print(format_table(["model (ms per frame)", "no front end", "+pose (warp)", "+image",
-                        "+image+gain", "+image+gain / none", f"target {VIDEO_TARGET:g}x",
-                        "least: (none + one warp) / none"],
-                       body, markdown))
+                        "+image+gain", "video preset", "video / none",
+                        f"target {VIDEO_TARGET:g}x"], body, markdown))
     return 0
