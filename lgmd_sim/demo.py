@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import cv2
@@ -58,6 +58,8 @@ class Episode:
     ssim: np.ndarray
     collision_frame: int | None
     fps: float
+    #: Per detector, the consecutive frames above its threshold an alarm needs.
+    alarm_frames: dict[str, int] = field(default_factory=dict)
 
     @property
     def before_collision(self) -> int:
@@ -67,8 +69,13 @@ class Episode:
             return len(self.frames) - 1
         return max(self.collision_frame - round(0.5 * self.fps), 0)
 
+    def alarms(self, name: str) -> np.ndarray:
+        """A detector's alarm in every frame."""
+        return metrics.sustained(self.potentials[name], self.alarm_frames.get(name, 1)) > (
+            self.thresholds[name])
+
     def first_alarm(self, name: str) -> int | None:
-        return metrics.first_alarm(self.potentials[name], threshold=self.thresholds[name])
+        return metrics.first_alarm(self.alarms(name))
 
 
 def drive(seed: int, jitter: float, detectors: list[str],
@@ -108,6 +115,7 @@ def drive(seed: int, jitter: float, detectors: list[str],
         {d: m.params.threshold for d, m in built.items()},
         np.array(rec["dist"]), np.array(rec["ttc"]), np.array(rec["shake"]),
         np.array(rec["ssim"], dtype=float), collision, float(env.metadata["render_fps"]),
+        {d: m.params.alarm_frames for d, m in built.items()},
     )
 
 
@@ -231,7 +239,7 @@ def write_summary(ep: Episode, path: Path, title: str) -> None:
         style = model_style(name)
         t = ep.first_alarm(name)
         event = (None if ep.collision_frame is None else metrics.evaluate_clip(
-            potential, ep.collision_frame, ep.fps, threshold=ep.thresholds[name]))
+            ep.alarms(name), ep.collision_frame, ep.fps))
         mp.plot(time, potential, label=alarm_label(name, t, event), **style)
         if t is not None:
             mp.plot(time[t], potential[t], marker="v", ms=9, color=style["color"],

@@ -37,6 +37,7 @@ __all__ = [
     "sensitivity_index",
     "ssim",
     "ssim_series",
+    "sustained",
     "wilson_interval",
 ]
 
@@ -146,8 +147,22 @@ def mpsi(potentials: Sequence[float] | np.ndarray) -> float:
     return float(mp.max()) / mean
 
 
+def sustained(potentials: Sequence[float] | np.ndarray, frames: int) -> np.ndarray:
+    """Each frame's least potential over the last `frames` frames (-inf until `frames`
+    frames have passed): above a threshold exactly where the potential was above it in
+    each of those frames, the alarm of a model with ``alarm_frames=frames``."""
+    mp = np.asarray(potentials, np.float64)
+    if frames <= 1:
+        return mp
+    out = np.full(mp.shape, -np.inf)
+    if len(mp) >= frames:
+        out[frames - 1:] = np.lib.stride_tricks.sliding_window_view(mp, frames).min(axis=-1)
+    return out
+
+
 def first_alarm(
-    values: Sequence[float] | np.ndarray, threshold: float = DEFAULT_THRESHOLD
+    values: Sequence[float] | np.ndarray, threshold: float = DEFAULT_THRESHOLD,
+    frames: int = 1,
 ) -> int | None:
     """The first frame (0-based) with an alarm, or None.
 
@@ -155,8 +170,12 @@ def first_alarm(
         values: alarm flags (bool), or membrane potentials compared with ``threshold``
             (an alarm is a potential strictly above it, as the models flag it).
         threshold: the potential threshold.
+        frames: with potentials, the consecutive frames above the threshold an alarm
+            needs (a model's ``alarm_frames``; `sustained`).
     """
     a = _series(values, "first_alarm")
+    if a.dtype != np.bool_:
+        a = sustained(a, frames)
     hits = a if a.dtype == np.bool_ else a > threshold
     idx = np.flatnonzero(hits)
     return int(idx[0]) if idx.size else None
@@ -181,16 +200,18 @@ class Sensitivity:
 
 
 def sensitivity_index(
-    potentials: Sequence[float] | np.ndarray, threshold: float = DEFAULT_THRESHOLD
+    potentials: Sequence[float] | np.ndarray, threshold: float = DEFAULT_THRESHOLD,
+    frames: int = 1,
 ) -> Sensitivity:
     """Sensitivity Index (Eq. 23): SI = F_n / N_f; smaller means an earlier alarm.
 
     F_n counts frames from 1 (the paper's numbering), so an alarm on the last frame gives
     1. The paper leaves the never-crossed case undefined: it is reported as si = 1.0 with
-    crossed = False, never silently (docs/models.md).
+    crossed = False, never silently (docs/models.md). `frames`: the consecutive frames
+    above the threshold an alarm needs (`first_alarm`).
     """
     mp = _series(potentials, "sensitivity_index")
-    first = first_alarm(mp, threshold)
+    first = first_alarm(mp, threshold, frames)
     n = len(mp)
     if first is None:
         return Sensitivity(1.0, False, None, n)

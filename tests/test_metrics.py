@@ -97,6 +97,17 @@ def test_sensitivity_index_and_first_alarm():
         metrics.sensitivity_index([])
 
 
+def test_an_alarm_of_several_frames_needs_the_potential_above_in_each():
+    mp = [0.9, 0.5, 0.9, 0.9, 0.5, 0.9, 0.9, 0.9, 0.6]
+    assert metrics.first_alarm(mp, 0.8) == 0
+    assert metrics.first_alarm(mp, 0.8, frames=2) == 3  # the frame that completes the run
+    assert metrics.first_alarm(mp, 0.8, frames=3) == 7
+    assert metrics.first_alarm(mp, 0.8, frames=4) is None
+    assert metrics.sensitivity_index(mp, 0.8, frames=3).si == pytest.approx(8 / 9)
+    np.testing.assert_array_equal(metrics.sustained([0.7, 0.9, 0.8], 2), [-np.inf, 0.7, 0.8])
+    assert metrics.sustained([0.9], 2).tolist() == [-np.inf]  # shorter than the run
+
+
 def test_evaluate_clip_window_lead_and_outcomes():
     def judged(first, collision=50, fps=10.0):
         alarms = np.zeros(80, bool)

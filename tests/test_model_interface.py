@@ -10,7 +10,7 @@ import sys
 import numpy as np
 import pytest
 
-from lgmd_sim import models, stimuli
+from lgmd_sim import metrics, models, stimuli
 
 
 def _importable() -> list[str]:
@@ -189,3 +189,27 @@ def test_speed_models_prints_every_model(tmp_path):
     # each row's target and its verdict in the same run: the feedback LGMD's own
     assert feedback[6].strip() in ("2,000: met", "2,000: not met")
     assert rows[2].split("|")[6].strip() in ("500: met", "500: not met")
+
+
+@pytest.mark.parametrize("name", MODELS)
+def test_an_alarm_waits_for_alarm_frames_above_the_threshold(name, clip):
+    """alarm_frames=k: a stream alarms once its potential has been above the threshold k
+    frames running (as metrics.first_alarm(..., frames=k) reads a series); each stream
+    of a batch counts its own, and a reset starts the count again."""
+    plain = models.make(name)
+    mp = np.array([plain.step(f).potential for f in clip])
+    threshold = float(np.clip(np.median(mp), 0.5, 1.0))
+    k = 3
+    model = models.make(name, threshold=threshold, alarm_frames=k)
+    alarms = np.array([model.step(f).alarm for f in clip])
+    expected = metrics.sustained(mp, k) > threshold
+    np.testing.assert_array_equal(alarms, expected)
+    assert (mp > threshold).sum() > expected.sum()  # some frames above it raise no alarm
+    batch = models.make(name, threshold=threshold, alarm_frames=k, n_streams=2)
+    got = []
+    for t, f in enumerate(clip):
+        if t == 5:
+            batch.reset([1])
+        got.append(batch.step(np.stack([f, clip[t - 5] if t >= 5 else f])).alarm)
+    np.testing.assert_array_equal(np.array(got)[:, 0], expected)
+    np.testing.assert_array_equal(np.array(got)[5:, 1], expected[:len(clip) - 5])

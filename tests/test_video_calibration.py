@@ -34,9 +34,10 @@ def test_a_tiny_video_calibration_writes_video_presets_that_score_as_calibrated(
     out = tiny_run
     data = json.loads((out / "calibrated.json").read_text())
     entry = data["presets"]["lgmd1"]["video"]
-    # the front end, and the clips' height (--resolution small: 64 x 64) to work at
+    # the front end, the clips' height (--resolution small: 64 x 64) to work at and the
+    # objective's alarm of 4 frames
     assert entry["params"] | {"stabilize": "image", "gain": True, "fovy": 60.0,
-                              "working_height": 64} == entry["params"]
+                              "working_height": 64, "alarm_frames": 4} == entry["params"]
     assert set(entry["heldout"]) == {"objective", "jitter", "stationary", "near_miss",
                                      "non_looming"}
     assert set(entry["transfer"]) == set(entry["heldout"])  # the other looks' set
@@ -132,6 +133,21 @@ def test_the_video_objective_scores_silence_and_alarming_on_everything_zero():
     assert value(obj.WALKER, silent) > 0  # the plain mean pays silence
     with pytest.raises(ValueError, match="collision kind and of a silence kind"):
         obj.VIDEO.value(kinds[:2], obj.pack_hits(np.ones((2, 3), bool)), slice(0, 1))
+
+
+def test_the_video_objective_takes_an_alarm_of_four_frames_running():
+    """A shaken clip's one-frame surges are no alarm; four frames above the threshold
+    are, the first alarm being the fourth (the jitter window: the last 15%)."""
+    assert obj.VIDEO.alarm_frames == 4 and obj.WALKER.alarm_frames == 1
+    surges = np.full(40, 0.55)
+    surges[[5, 6, 9, 20, 21, 22]] = 0.9
+    held = surges.copy()
+    held[35:39] = 0.9
+    labels = [obj.ClipLabel("non_looming", 40, None), obj.ClipLabel("jitter", 40, 39)]
+    thresholds = np.array([0.8])
+    assert obj.hits(labels, [surges, held], thresholds, 4)[:, 0].tolist() == [True, True]
+    assert obj.hits(labels, [surges, held], thresholds)[:, 0].tolist() == [False, False]
+    assert obj.VIDEO.identity()["alarm_frames"] == 4
 
 
 def test_the_video_page_reads_the_run_as_the_calibration_chose(tiny_run):

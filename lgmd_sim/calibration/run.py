@@ -392,7 +392,9 @@ def calibrate(config: CalibrateConfig, out: str | Path, *, resume: bool = False,
         sp = space(c["detector"])
         params = {**c["params"], "threshold": c["threshold"], **task.preset_params(sp.front),
                   **({"working_height": frame_size(config.resolution)[0]}
-                     if task.at_clip_size else {})}
+                     if task.at_clip_size else {}),
+                  **({"alarm_frames": objective.alarm_frames}
+                     if objective.alarm_frames > 1 else {})}
         calibration["presets"][model][name] = {"from": sp.preset, "params": params,
                                                **{n: c[n] for n in _sets(chosen)}}
     write_text_atomic(folder.path / "calibrated.json", json.dumps(calibration, indent=2) + "\n")

@@ -125,7 +125,8 @@ def detect(
         event = None if collision_frame is None else metrics.evaluate_clip(
             alarm, collision_frame, fps, window_s=window_s
         )
-        traces[n] = ModelTrace(threshold, mp, alarm, metrics.sensitivity_index(mp, threshold),
+        traces[n] = ModelTrace(threshold, mp, alarm, metrics.sensitivity_index(
+                                   mp, threshold, model.params.alarm_frames),
                                metrics.mpsi(mp), event, _front_end(model))
     ssim = np.asarray(ssims)
     return Detection(name, n_frames, float(fps), ssim, float(ssim[1:].mean()),

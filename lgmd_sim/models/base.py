@@ -73,6 +73,15 @@ class ModelParams(CheckedParams):
         doc="compensate global brightness changes (auto-exposure, shade, flicker): the "
             "previous frame is scaled by the gain fitted between it and this frame",
     )
+    alarm_frames: int = param(
+        1,
+        "paper Eq. 23: an alarm is a potential above the threshold; the published LGMD1 "
+        "code asks 5 consecutive spiking frames, the Colias robot's LGMD 4 (docs/models.md, "
+        "'Footage from any camera')",
+        check=int_in_range(1, 30),
+        doc="an alarm needs the membrane potential above the threshold in this many "
+            "consecutive frames: a shake's one-frame surges then raise none",
+    )
     working_height: int = param(
         0,
         "our choice: off, as in the paper (each frame at its own size); the video presets "
@@ -291,7 +300,8 @@ class LGMDModel(ABC):
     with one-line messages naming the model; colour to grey; the front ends
     (`lgmd_sim.models.stabilize`: ``stabilize`` "pose", "imu", "image", and ``gain``) and a
     given ``motion=``, warping each declared state map and scaling the previous frame by
-    the brightness gain; the alarms, ``potential > params.threshold``; and, through
+    the brightness gain; the alarms, ``potential > params.threshold`` in
+    ``params.alarm_frames`` consecutive frames; and, through
     `lgmd_sim.models.make`, the presets (with calibrated ones from data files and the
     front-end suffixes "+image"...), the parameter checks (unknown names, each value
     checked on creation) and the parameters' sources listed by ``lgmd-sim models``.
@@ -328,6 +338,9 @@ class LGMDModel(ABC):
 
             self.front_end = FrontEnd(self.params, self._n)
         self._plan: Plan | None = None
+        #: Per stream, the consecutive frames up to now with the potential above the
+        #: threshold (``alarm_frames``).
+        self._above = np.zeros(self._n, np.int64)
 
     @property
     def batched(self) -> bool:
@@ -337,6 +350,7 @@ class LGMDModel(ABC):
         """Start new streams: all of them (the frame size may then change), or those listed."""
         if streams is None:
             self.frame_shape = None
+            self._above[:] = 0
             if self.front_end is not None:
                 self.front_end.reset(None)
             return
@@ -348,6 +362,7 @@ class LGMDModel(ABC):
         idx = idx.astype(np.intp)
         if idx.size and (idx.min() < 0 or idx.max() >= self._n):
             raise ValueError(f"stream index out of range 0..{self._n - 1}: {idx.tolist()}")
+        self._above[idx] = 0
         if self.frame_shape is not None and idx.size:
             self.reset_streams(idx)
         if self.front_end is not None and idx.size:
@@ -399,7 +414,8 @@ class LGMDModel(ABC):
             layers
         ) else None
         potential = self.step_batch(grey, maps)
-        alarm = potential > self.params.threshold
+        self._above = np.where(potential > self.params.threshold, self._above + 1, 0)
+        alarm = self._above >= self.params.alarm_frames
         if self.batched:
             return LGMDOutput(potential, alarm, maps)
         one = {k: v[0] for k, v in maps.items()} if maps else None
