@@ -167,3 +167,28 @@ def test_the_video_page_reads_the_run_as_the_calibration_chose(tiny_run):
     fronts = page.front_table(tiny_run, chosen, clip_sets)
     assert fronts[2].endswith(f"| {entry['heldout']['objective']:.3f} / "
                               f"{entry['transfer']['objective']:.3f} |")
+
+
+def test_the_footage_check_counts_and_judges_as_the_outside_check():
+    """scripts/footage_check.py: fired counts per kind (a crash only at or before its
+    collision), the mean SI of the shaken crashes (a silent clip 1.0), and the targets
+    missed."""
+    with pytest.MonkeyPatch.context() as mp:
+        mp.syspath_prepend(str(ROOT / "scripts"))
+        check = importlib.import_module("footage_check")
+
+    def row(kind, first, si=1.0, collision=None):
+        return {"set": "--preset video", "detector": "m/video", "kind": kind,
+                "first_alarm": first, "si": si, "collision_frame": collision, "frames": 50}
+
+    rows = [row("approaching", 40), row("approaching", 45),
+            *[row("non_approach", None)] * 3, row("non_approach", 3),
+            *[row("crash", 48, collision=49)] * 7, row("crash", None, collision=49),
+            *[row("shaken_crash", 45, 0.92)] * 4, row("shaken_crash", None)]
+    assert check.verdict(rows) == []
+    line = check.table(rows).splitlines()[2]
+    assert line == ("| --preset video | m/video | 2/2 | 1/4 | 7/8 | 0.94 (4/5) | none |")
+    worse = [*rows[:2], *[row("non_approach", 3)] * 2, *rows[4:6],
+             *[row("crash", None, collision=49)] * 2, *rows[8:],
+             *[row("shaken_crash", 2, 0.04)] * 3]
+    assert check.verdict(worse) == ["non-approach", "crashes", "SI"]
