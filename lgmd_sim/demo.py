@@ -58,8 +58,8 @@ class Episode:
     ssim: np.ndarray
     collision_frame: int | None
     fps: float
-    #: Per detector, the consecutive frames above its threshold an alarm needs.
-    alarm_frames: dict[str, int] = field(default_factory=dict)
+    #: Per detector, when its potentials alarm.
+    alarm_rules: dict[str, metrics.AlarmRule] = field(default_factory=dict)
 
     @property
     def before_collision(self) -> int:
@@ -71,8 +71,8 @@ class Episode:
 
     def alarms(self, name: str) -> np.ndarray:
         """A detector's alarm in every frame."""
-        return metrics.sustained(self.potentials[name], self.alarm_frames.get(name, 1)) > (
-            self.thresholds[name])
+        rule = self.alarm_rules.get(name, metrics.PAPER_ALARM)
+        return rule.series(self.potentials[name]) > self.thresholds[name]
 
     def first_alarm(self, name: str) -> int | None:
         return metrics.first_alarm(self.alarms(name))
@@ -115,7 +115,7 @@ def drive(seed: int, jitter: float, detectors: list[str],
         {d: m.params.threshold for d, m in built.items()},
         np.array(rec["dist"]), np.array(rec["ttc"]), np.array(rec["shake"]),
         np.array(rec["ssim"], dtype=float), collision, float(env.metadata["render_fps"]),
-        {d: m.params.alarm_frames for d, m in built.items()},
+        {d: m.alarm_rule for d, m in built.items()},
     )
 
 

@@ -25,6 +25,8 @@ from lgmd_sim.frames import to_grey
 
 __all__ = [
     "DEFAULT_THRESHOLD",
+    "PAPER_ALARM",
+    "AlarmRule",
     "EventResult",
     "Sensitivity",
     "evaluate_clip",
@@ -37,7 +39,6 @@ __all__ = [
     "sensitivity_index",
     "ssim",
     "ssim_series",
-    "sustained",
     "wilson_interval",
 ]
 
@@ -147,22 +148,48 @@ def mpsi(potentials: Sequence[float] | np.ndarray) -> float:
     return float(mp.max()) / mean
 
 
-def sustained(potentials: Sequence[float] | np.ndarray, frames: int) -> np.ndarray:
-    """Each frame's least potential over the last `frames` frames (-inf until `frames`
-    frames have passed): above a threshold exactly where the potential was above it in
-    each of those frames, the alarm of a model with ``alarm_frames=frames``."""
-    mp = np.asarray(potentials, np.float64)
-    if frames <= 1:
-        return mp
-    out = np.full(mp.shape, -np.inf)
-    if len(mp) >= frames:
-        out[frames - 1:] = np.lib.stride_tricks.sliding_window_view(mp, frames).min(axis=-1)
-    return out
+@dataclass(frozen=True)
+class AlarmRule:
+    """When a potential series alarms: above the threshold in `frames` consecutive
+    frames (1: every frame above it, the paper's Eq. 23), and with `rising` also never
+    falling within them (a looming object's response climbs to the collision; a
+    motion's onset transient or a shake's surge falls back). A model's rule comes from
+    its ``alarm_frames`` and ``alarm_rising``."""
+
+    frames: int = 1
+    rising: bool = False
+
+    def levels(self, windows: np.ndarray) -> np.ndarray:
+        """The alarm level of each window of the last `frames` potentials (..., frames),
+        oldest first: their least, -inf where the rule cannot fire (a window not yet
+        full, i.e. holding -inf, or one that falls with `rising`); a window alarms
+        exactly where its level is above the threshold."""
+        level = windows.min(axis=-1)
+        if self.rising and self.frames > 1:
+            with np.errstate(invalid="ignore"):  # -inf - -inf in a window not yet full
+                climbs = (np.diff(windows, axis=-1) >= 0).all(axis=-1)
+            level = np.where(climbs, level, -np.inf)
+        return level
+
+    def series(self, potentials: Sequence[float] | np.ndarray) -> np.ndarray:
+        """Each frame's alarm level (`levels` of the window ending there)."""
+        mp = np.asarray(potentials, np.float64)
+        if self.frames <= 1:
+            return mp
+        out = np.full(mp.shape, -np.inf)
+        if len(mp) >= self.frames:
+            out[self.frames - 1:] = self.levels(
+                np.lib.stride_tricks.sliding_window_view(mp, self.frames))
+        return out
+
+
+#: The paper's alarm (Eq. 23): every frame whose potential is above the threshold.
+PAPER_ALARM = AlarmRule()
 
 
 def first_alarm(
     values: Sequence[float] | np.ndarray, threshold: float = DEFAULT_THRESHOLD,
-    frames: int = 1,
+    rule: AlarmRule = PAPER_ALARM,
 ) -> int | None:
     """The first frame (0-based) with an alarm, or None.
 
@@ -170,12 +197,11 @@ def first_alarm(
         values: alarm flags (bool), or membrane potentials compared with ``threshold``
             (an alarm is a potential strictly above it, as the models flag it).
         threshold: the potential threshold.
-        frames: with potentials, the consecutive frames above the threshold an alarm
-            needs (a model's ``alarm_frames``; `sustained`).
+        rule: with potentials, when they alarm (a model's `AlarmRule`).
     """
     a = _series(values, "first_alarm")
     if a.dtype != np.bool_:
-        a = sustained(a, frames)
+        a = rule.series(a)
     hits = a if a.dtype == np.bool_ else a > threshold
     idx = np.flatnonzero(hits)
     return int(idx[0]) if idx.size else None
@@ -201,17 +227,17 @@ class Sensitivity:
 
 def sensitivity_index(
     potentials: Sequence[float] | np.ndarray, threshold: float = DEFAULT_THRESHOLD,
-    frames: int = 1,
+    rule: AlarmRule = PAPER_ALARM,
 ) -> Sensitivity:
     """Sensitivity Index (Eq. 23): SI = F_n / N_f; smaller means an earlier alarm.
 
     F_n counts frames from 1 (the paper's numbering), so an alarm on the last frame gives
     1. The paper leaves the never-crossed case undefined: it is reported as si = 1.0 with
-    crossed = False, never silently (docs/models.md). `frames`: the consecutive frames
-    above the threshold an alarm needs (`first_alarm`).
+    crossed = False, never silently (docs/models.md). `rule`: when the potentials alarm
+    (a model's `AlarmRule`).
     """
     mp = _series(potentials, "sensitivity_index")
-    first = first_alarm(mp, threshold, frames)
+    first = first_alarm(mp, threshold, rule)
     n = len(mp)
     if first is None:
         return Sensitivity(1.0, False, None, n)

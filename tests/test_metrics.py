@@ -97,15 +97,22 @@ def test_sensitivity_index_and_first_alarm():
         metrics.sensitivity_index([])
 
 
-def test_an_alarm_of_several_frames_needs_the_potential_above_in_each():
+def test_an_alarm_rule_of_several_frames_needs_the_potential_above_in_each():
     mp = [0.9, 0.5, 0.9, 0.9, 0.5, 0.9, 0.9, 0.9, 0.6]
+    rule = metrics.AlarmRule
     assert metrics.first_alarm(mp, 0.8) == 0
-    assert metrics.first_alarm(mp, 0.8, frames=2) == 3  # the frame that completes the run
-    assert metrics.first_alarm(mp, 0.8, frames=3) == 7
-    assert metrics.first_alarm(mp, 0.8, frames=4) is None
-    assert metrics.sensitivity_index(mp, 0.8, frames=3).si == pytest.approx(8 / 9)
-    np.testing.assert_array_equal(metrics.sustained([0.7, 0.9, 0.8], 2), [-np.inf, 0.7, 0.8])
-    assert metrics.sustained([0.9], 2).tolist() == [-np.inf]  # shorter than the run
+    assert metrics.first_alarm(mp, 0.8, rule(2)) == 3  # the frame that completes the run
+    assert metrics.first_alarm(mp, 0.8, rule(3)) == 7
+    assert metrics.first_alarm(mp, 0.8, rule(4)) is None
+    assert metrics.sensitivity_index(mp, 0.8, rule(3)).si == pytest.approx(8 / 9)
+    np.testing.assert_array_equal(rule(2).series([0.7, 0.9, 0.8]), [-np.inf, 0.7, 0.8])
+    assert rule(2).series([0.9]).tolist() == [-np.inf]  # shorter than the run
+    # rising: never falling within the run; a surge that falls back is no alarm
+    climb = [0.5, 0.85, 0.95, 0.9, 0.85, 0.9, 0.92, 0.95]
+    assert metrics.first_alarm(climb, 0.8, rule(3)) == 3
+    assert metrics.first_alarm(climb, 0.8, rule(3, rising=True)) == 6
+    np.testing.assert_array_equal(rule(2, rising=True).series([0.7, 0.9, 0.8]),
+                                  [-np.inf, 0.7, -np.inf])
 
 
 def test_evaluate_clip_window_lead_and_outcomes():

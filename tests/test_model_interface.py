@@ -192,20 +192,23 @@ def test_speed_models_prints_every_model(tmp_path):
 
 
 @pytest.mark.parametrize("name", MODELS)
-def test_an_alarm_waits_for_alarm_frames_above_the_threshold(name, clip):
-    """alarm_frames=k: a stream alarms once its potential has been above the threshold k
-    frames running (as metrics.first_alarm(..., frames=k) reads a series); each stream
-    of a batch counts its own, and a reset starts the count again."""
+@pytest.mark.parametrize("rising", [False, True])
+def test_an_alarm_follows_the_models_alarm_rule(name, clip, rising):
+    """alarm_frames=k (and alarm_rising): a stream alarms once its potential has been
+    above the threshold k frames running (never falling), as metrics.AlarmRule reads a
+    series; each stream of a batch counts its own, and a reset starts it again."""
     plain = models.make(name)
     mp = np.array([plain.step(f).potential for f in clip])
     threshold = float(np.clip(np.median(mp), 0.5, 1.0))
     k = 3
-    model = models.make(name, threshold=threshold, alarm_frames=k)
+    model = models.make(name, threshold=threshold, alarm_frames=k, alarm_rising=rising)
+    assert model.alarm_rule == metrics.AlarmRule(k, rising)
     alarms = np.array([model.step(f).alarm for f in clip])
-    expected = metrics.sustained(mp, k) > threshold
+    expected = metrics.AlarmRule(k, rising).series(mp) > threshold
     np.testing.assert_array_equal(alarms, expected)
     assert (mp > threshold).sum() > expected.sum()  # some frames above it raise no alarm
-    batch = models.make(name, threshold=threshold, alarm_frames=k, n_streams=2)
+    batch = models.make(name, threshold=threshold, alarm_frames=k, alarm_rising=rising,
+                        n_streams=2)
     got = []
     for t, f in enumerate(clip):
         if t == 5:

@@ -16,6 +16,7 @@ from lgmd_sim import cli, models
 from lgmd_sim.calibration import clips, search
 from lgmd_sim.calibration import objective as obj
 from lgmd_sim.calibration.run import TASKS, CalibrateConfig
+from lgmd_sim.metrics import AlarmRule
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -35,9 +36,10 @@ def test_a_tiny_video_calibration_writes_video_presets_that_score_as_calibrated(
     data = json.loads((out / "calibrated.json").read_text())
     entry = data["presets"]["lgmd1"]["video"]
     # the front end, the clips' height (--resolution small: 64 x 64) to work at and the
-    # objective's alarm of 4 frames
+    # objective's alarm of 4 rising frames
     assert entry["params"] | {"stabilize": "image", "gain": True, "fovy": 60.0,
-                              "working_height": 64, "alarm_frames": 4} == entry["params"]
+                              "working_height": 64, "alarm_frames": 4,
+                              "alarm_rising": True} == entry["params"]
     assert set(entry["heldout"]) == {"objective", "jitter", "stationary", "near_miss",
                                      "non_looming"}
     assert set(entry["transfer"]) == set(entry["heldout"])  # the other looks' set
@@ -135,19 +137,22 @@ def test_the_video_objective_scores_silence_and_alarming_on_everything_zero():
         obj.VIDEO.value(kinds[:2], obj.pack_hits(np.ones((2, 3), bool)), slice(0, 1))
 
 
-def test_the_video_objective_takes_an_alarm_of_four_frames_running():
-    """A shaken clip's one-frame surges are no alarm; four frames above the threshold
-    are, the first alarm being the fourth (the jitter window: the last 15%)."""
-    assert obj.VIDEO.alarm_frames == 4 and obj.WALKER.alarm_frames == 1
+def test_the_video_objective_takes_an_alarm_of_four_rising_frames():
+    """A shaken clip's one-frame surges and a transient that falls back are no alarm;
+    four frames above the threshold, climbing, are, the first alarm being the fourth
+    (within the jitter window: the last 15%)."""
+    assert obj.VIDEO.alarm == AlarmRule(4, rising=True) and obj.WALKER.alarm == AlarmRule()
     surges = np.full(40, 0.55)
-    surges[[5, 6, 9, 20, 21, 22]] = 0.9
+    surges[[5, 6, 9]] = 0.9
+    surges[20:26] = [0.95, 0.9, 0.88, 0.86, 0.85, 0.84]  # an onset transient
     held = surges.copy()
-    held[35:39] = 0.9
+    held[35:39] = [0.82, 0.85, 0.9, 0.96]
     labels = [obj.ClipLabel("non_looming", 40, None), obj.ClipLabel("jitter", 40, 39)]
     thresholds = np.array([0.8])
-    assert obj.hits(labels, [surges, held], thresholds, 4)[:, 0].tolist() == [True, True]
+    assert obj.hits(labels, [surges, held], thresholds, obj.VIDEO.alarm)[:, 0].tolist() == [
+        True, True]
     assert obj.hits(labels, [surges, held], thresholds)[:, 0].tolist() == [False, False]
-    assert obj.VIDEO.identity()["alarm_frames"] == 4
+    assert obj.VIDEO.identity()["alarm"] == {"frames": 4, "rising": True}
 
 
 def test_the_video_page_reads_the_run_as_the_calibration_chose(tiny_run):

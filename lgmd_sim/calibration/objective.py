@@ -16,6 +16,7 @@ is a miss on a collision clip: the mean SI rewarded exactly that silence (docs/m
 
 from __future__ import annotations
 
+import dataclasses
 from abc import ABC, abstractmethod
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
@@ -23,7 +24,7 @@ from typing import Any
 
 import numpy as np
 
-from lgmd_sim.metrics import sustained
+from lgmd_sim.metrics import PAPER_ALARM, AlarmRule
 from lgmd_sim.runs import Fields
 
 __all__ = ["KINDS", "LATE", "THRESHOLDS", "VIDEO", "WALKER", "ClipLabel", "Objective",
@@ -63,12 +64,12 @@ def first_crossings(potential: np.ndarray, thresholds: np.ndarray) -> np.ndarray
 
 
 def hits(labels: Sequence[ClipLabel], potentials: Sequence[np.ndarray],
-         thresholds: np.ndarray, alarm_frames: int = 1) -> np.ndarray:
-    """(clips, thresholds) booleans: whether each clip is a hit at each threshold, an
-    alarm needing the potential above it in `alarm_frames` consecutive frames."""
+         thresholds: np.ndarray, rule: AlarmRule = PAPER_ALARM) -> np.ndarray:
+    """(clips, thresholds) booleans: whether each clip is a hit at each threshold, its
+    potentials alarming by `rule`."""
     out = np.empty((len(labels), len(thresholds)), bool)
     for i, (label, p) in enumerate(zip(labels, potentials, strict=True)):
-        first = first_crossings(sustained(p, alarm_frames), thresholds)
+        first = first_crossings(rule.series(p), thresholds)
         if label.collision_frame is None:
             out[i] = first >= label.frames  # never alarms
         else:
@@ -119,9 +120,9 @@ class Objective(ABC):
     titles: Mapping[str, str]
     fields: Fields
     truth: tuple[str, ...] = ()
-    #: The consecutive frames above the threshold an alarm needs (the presets'
-    #: ``alarm_frames``).
-    alarm_frames: int = 1
+    #: When a candidate's potentials alarm (its presets' ``alarm_frames`` and
+    #: ``alarm_rising``).
+    alarm: AlarmRule = PAPER_ALARM
 
     @abstractmethod
     def identity(self) -> dict[str, Any]:
@@ -146,15 +147,15 @@ class Objective(ABC):
 class _Walker(Objective):
     def identity(self) -> dict[str, Any]:
         # a longer alarm is another objective; older runs (one frame) resume
-        return {"late": LATE, **({"alarm_frames": self.alarm_frames}
-                                 if self.alarm_frames > 1 else {})}
+        return {"late": LATE, **({"alarm": dataclasses.asdict(self.alarm)}
+                                 if self.alarm != PAPER_ALARM else {})}
 
     def label(self, record: Mapping[str, Any], truth: Mapping[str, np.ndarray]) -> ClipLabel:
         return ClipLabel(record["kind"], record["frames"], record["collision_frame"])
 
     def scores(self, labels: Sequence[ClipLabel], potentials: Sequence[np.ndarray],
                thresholds: np.ndarray) -> list:
-        return pack_hits(hits(labels, potentials, thresholds, self.alarm_frames))
+        return pack_hits(hits(labels, potentials, thresholds, self.alarm))
 
     def value(self, kinds: np.ndarray, scores: list, at: slice
               ) -> tuple[np.ndarray, dict[str, np.ndarray]]:
@@ -216,8 +217,10 @@ of the score survives a domain the calibration never saw:
   lightening, steady or shaken. A hit when the model never alarms.
 
 An alarm is the potential above the threshold in 4 consecutive frames (the Colias
-robot's LGMD; the published LGMD1 code asks 5), so that a real shake's one-frame surges
-raise none; the presets keep it (alarm_frames).
+robot's LGMD; the published LGMD1 code asks 5), never falling within them: a looming
+object's response climbs to the collision, while a shake's one-frame surges and the
+transient at the onset of a motion fall back. The presets keep the rule (alarm_frames,
+alarm_rising).
 
 alarms = mean of the jitter and stationary hit rates; silences = mean of the near miss
 and non-looming hit rates; objective = sqrt(alarms x silences), in [0, 1]. A model that
@@ -233,4 +236,4 @@ so a run resumed after a change of combination chooses again from the same candi
             "stationary": "stationary clips:\nan alarm before the collision",
             "near_miss": "near misses:\nno alarm",
             "non_looming": "receding, crossing, turning,\ngratings, flicker: no alarm"},
-    fields=[list], alarm_frames=4)
+    fields=[list], alarm=AlarmRule(4, rising=True))

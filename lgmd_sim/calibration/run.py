@@ -46,6 +46,7 @@ from lgmd_sim.calibration.search import (
     space,
 )
 from lgmd_sim.fileio import write_files, write_text_atomic
+from lgmd_sim.metrics import PAPER_ALARM
 from lgmd_sim.models import presets
 from lgmd_sim.parallel import Job, run_jobs
 from lgmd_sim.runs import NULL, Fields, RunFolder, RunResult
@@ -393,8 +394,9 @@ def calibrate(config: CalibrateConfig, out: str | Path, *, resume: bool = False,
         params = {**c["params"], "threshold": c["threshold"], **task.preset_params(sp.front),
                   **({"working_height": frame_size(config.resolution)[0]}
                      if task.at_clip_size else {}),
-                  **({"alarm_frames": objective.alarm_frames}
-                     if objective.alarm_frames > 1 else {})}
+                  **({"alarm_frames": objective.alarm.frames,
+                      "alarm_rising": objective.alarm.rising}
+                     if objective.alarm != PAPER_ALARM else {})}
         calibration["presets"][model][name] = {"from": sp.preset, "params": params,
                                                **{n: c[n] for n in _sets(chosen)}}
     write_text_atomic(folder.path / "calibrated.json", json.dumps(calibration, indent=2) + "\n")

@@ -126,7 +126,7 @@ def detect(
             alarm, collision_frame, fps, window_s=window_s
         )
         traces[n] = ModelTrace(threshold, mp, alarm, metrics.sensitivity_index(
-                                   mp, threshold, model.params.alarm_frames),
+                                   mp, threshold, model.alarm_rule),
                                metrics.mpsi(mp), event, _front_end(model))
     ssim = np.asarray(ssims)
     return Detection(name, n_frames, float(fps), ssim, float(ssim[1:].mean()),

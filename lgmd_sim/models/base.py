@@ -30,6 +30,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from lgmd_sim.frames import to_grey
+from lgmd_sim.metrics import AlarmRule
 from lgmd_sim.models.warp import Motion, Plan, apply_plan, fill_pad_columns, homography_plan
 from lgmd_sim.params import CheckedParams, in_range, int_in_range, one_of, param
 
@@ -81,6 +82,14 @@ class ModelParams(CheckedParams):
         check=int_in_range(1, 30),
         doc="an alarm needs the membrane potential above the threshold in this many "
             "consecutive frames: a shake's one-frame surges then raise none",
+    )
+    alarm_rising: bool = param(
+        False,
+        "ours (docs/models.md, 'Footage from any camera'): a looming object's response "
+        "climbs to the collision, a motion's onset transient and a shake's surge fall back",
+        check=one_of(True, False),
+        doc="an alarm also needs the membrane potential never to fall within those "
+            "alarm_frames frames",
     )
     working_height: int = param(
         0,
@@ -300,8 +309,8 @@ class LGMDModel(ABC):
     with one-line messages naming the model; colour to grey; the front ends
     (`lgmd_sim.models.stabilize`: ``stabilize`` "pose", "imu", "image", and ``gain``) and a
     given ``motion=``, warping each declared state map and scaling the previous frame by
-    the brightness gain; the alarms, ``potential > params.threshold`` in
-    ``params.alarm_frames`` consecutive frames; and, through
+    the brightness gain; the alarms (``potential > params.threshold`` by the
+    `lgmd_sim.metrics.AlarmRule` of ``alarm_frames`` and ``alarm_rising``); and, through
     `lgmd_sim.models.make`, the presets (with calibrated ones from data files and the
     front-end suffixes "+image"...), the parameter checks (unknown names, each value
     checked on creation) and the parameters' sources listed by ``lgmd-sim models``.
@@ -338,9 +347,10 @@ class LGMDModel(ABC):
 
             self.front_end = FrontEnd(self.params, self._n)
         self._plan: Plan | None = None
-        #: Per stream, the consecutive frames up to now with the potential above the
-        #: threshold (``alarm_frames``).
-        self._above = np.zeros(self._n, np.int64)
+        self.alarm_rule = AlarmRule(self.params.alarm_frames, self.params.alarm_rising)
+        #: Per stream, the potentials of the last ``alarm_frames`` frames, oldest first
+        #: (-inf before a stream's first).
+        self._recent = np.full((self._n, self.params.alarm_frames), -np.inf)
 
     @property
     def batched(self) -> bool:
@@ -350,7 +360,7 @@ class LGMDModel(ABC):
         """Start new streams: all of them (the frame size may then change), or those listed."""
         if streams is None:
             self.frame_shape = None
-            self._above[:] = 0
+            self._recent[:] = -np.inf
             if self.front_end is not None:
                 self.front_end.reset(None)
             return
@@ -362,7 +372,7 @@ class LGMDModel(ABC):
         idx = idx.astype(np.intp)
         if idx.size and (idx.min() < 0 or idx.max() >= self._n):
             raise ValueError(f"stream index out of range 0..{self._n - 1}: {idx.tolist()}")
-        self._above[idx] = 0
+        self._recent[idx] = -np.inf
         if self.frame_shape is not None and idx.size:
             self.reset_streams(idx)
         if self.front_end is not None and idx.size:
@@ -414,8 +424,9 @@ class LGMDModel(ABC):
             layers
         ) else None
         potential = self.step_batch(grey, maps)
-        self._above = np.where(potential > self.params.threshold, self._above + 1, 0)
-        alarm = self._above >= self.params.alarm_frames
+        self._recent = np.roll(self._recent, -1, axis=1)
+        self._recent[:, -1] = potential
+        alarm = self.alarm_rule.levels(self._recent) > self.params.threshold
         if self.batched:
             return LGMDOutput(potential, alarm, maps)
         one = {k: v[0] for k, v in maps.items()} if maps else None
