@@ -150,14 +150,15 @@ def potentials_figure(out: Path, names: Sequence[str]) -> None:
     clip = _shaken_approach((120, 160))
     parsed = noise.parse(STIMULUS_LOOKS.noise)
     frames = [noise.apply(f, parsed, 7, t) for t, f in enumerate(clip.frames)]
-    fig = figure(figsize=(6.0 * len(names), 4.6))
+    fig = figure(figsize=(6.0 * len(names), 5.8))
     axes = np.atleast_1d(fig.subplots(1, len(names), sharey=True))
     for ax, name in zip(axes, names, strict=True):
         built = {f"{name}/video, front end {front}": models.make(name, preset="video", **p)
                  for front, p in FRONTS.items()}
         d = detect(frames, clip.fps, built, clip.collision_frame, name=name)
         draw_potentials(ax, d, legend=False, style_of=_front_style)
-        ax.legend(fontsize="x-small", loc="upper left")
+        # below the axes: the first alarms come late, near the top of the panel
+        ax.legend(fontsize="x-small", loc="upper left", bbox_to_anchor=(0.0, -0.14))
         ax.set_title(name, fontsize="medium")
     fig.suptitle(f"a dark square looming at a camera shaking at jitter 1, with the noise "
                  f"{STIMULUS_LOOKS.noise}", fontsize="medium")
@@ -207,9 +208,13 @@ def detect_figure(out: Path) -> tuple[str, int]:
 def footage_lines(folder: Path) -> list[str]:
     """The outside check's protocol on clips of our own (scripts/footage_check.py's run
     in `folder`): its command, what the clips are, the table with the targets missed."""
-    from footage_check import KINDS, LOOKS, SHAKE, table
+    from footage_check import FIRST_SEED, HELDOUT_SEED, KINDS, LOOKS, SHAKE, table
 
     record = json.loads((folder / "footage_check.json").read_text())
+    if record["seeds"][0] != HELDOUT_SEED:
+        sys.exit(f"video_page.py: {folder} holds the footage check of seeds "
+                 f"{record['seeds'][0]} and up; the page shows the held-out ones "
+                 f"(scripts/footage_check.py DIR --first-seed {HELDOUT_SEED})")
     h, w = record["resolution"]
     seeds = record["seeds"]
     kinds = {k: ", ".join(sorted({s for s, _ in v})) for k, v in KINDS.items()}
@@ -229,6 +234,10 @@ def footage_lines(folder: Path) -> list[str]:
         "a gain of sd 5%):", "",
         "```bash", f".venv/bin/python {record['command']}", "```", "",
         table(record["rows"]), "",
+        f"The video presets' alarm rule ({VIDEO.alarm.frames} frames running and rising, "
+        f"against {VIDEO.alarm.frames} frames alone) was chosen on the check's clips of "
+        f"seeds {FIRST_SEED} and up; the table is of seeds {HELDOUT_SEED} and up, looked "
+        "at after that choice.", "",
     ]
 
 
@@ -277,7 +286,8 @@ def section(run: Path, footage: Path) -> str:
         "![docs/video/calibration.png](video/calibration.png)", "",
         "What the calibration and the front end each bring: each model's objective "
         "(held-out / transfer) at its published defaults with no front end, with its video "
-        "preset's parameters and threshold but no front end, and at its video preset:", "",
+        "preset's parameters and threshold but no front end, and at its video preset, "
+        "every column scored by the objective, its alarm rule included:", "",
         *front_table(run, chosen, clip_sets), "",
         "### What does not loom", "",
         "The clips each video preset fired on (held-out / transfer): stimuli that move "
