@@ -159,6 +159,12 @@ class AlarmRule:
     frames: int = 1
     rising: bool = False
 
+    def __str__(self) -> str:
+        """The rule in words, to end with "the threshold": "4 rising frames above"."""
+        if self.frames <= 1:
+            return "a frame above"
+        return f"{self.frames} {'rising ' if self.rising else ''}frames running above"
+
     def levels(self, windows: np.ndarray) -> np.ndarray:
         """The alarm level of each window of the last `frames` potentials (..., frames),
         oldest first: their least, -inf where the rule cannot fire (a window not yet

@@ -195,7 +195,7 @@ def detect_figure(out: Path) -> tuple[str, int]:
     for ax, (title, built) in zip(axes, runs.items(), strict=True):
         d = detect(frames, fps, built, hit, name=name)
         draw_potentials(ax, d, legend=False)
-        ax.legend(fontsize="x-small", loc="upper left", ncols=2)
+        ax.legend(fontsize="x-small", loc="upper left", ncols=3)
         ax.set_title(title, fontsize="medium", loc="left")
     described = (f"{name}, jitter {jitter:g}, seed {seed}, 270 x 480, a camera of {fovy:.0f} "
                  f"degrees (vertical), low sun, shade and flicker, with the noise "

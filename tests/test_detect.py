@@ -11,7 +11,7 @@ import cv2
 import numpy as np
 import pytest
 
-from lgmd_sim import cli, models, stimuli
+from lgmd_sim import cli, metrics, models, stimuli
 from lgmd_sim.detect import detect, detect_video
 from lgmd_sim.options import model_names
 from lgmd_sim.video import VideoReader, natural_key
@@ -281,6 +281,8 @@ def test_preset_video_alone_runs_every_model_with_the_front_end_footage_needs(
     for name in models.available():
         params = models.make(name, preset="video").params
         assert (params.stabilize, params.gain) == ("image", True)
+        got = record["models"][f"{name}/video"]
+        assert (got["alarm_frames"], got["alarm_rising"]) == (4, True)
 
 
 def test_an_alarm_on_the_collision_frame_is_a_hit_with_lead_0_as_the_benchmarks_count_it(
@@ -306,3 +308,29 @@ def test_an_alarm_on_the_collision_frame_is_a_hit_with_lead_0_as_the_benchmarks_
     after = summary("--collision-frame", str(first + 1), "--window", "0")
     assert (after["outcome"], after["lead_frames"]) == ("miss", 1)
     assert summary("--collision-frame", str(first + 1))["outcome"] == "hit"
+
+
+def test_a_models_alarm_rule_is_in_its_summary_and_the_figures_legend(clip):
+    """A model whose alarm needs several rising frames: the detection's first alarm and
+    SI follow the rule, the JSON names it, the figure says it beside the thresholds."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from lgmd_sim.detect import detect
+    from lgmd_sim.detect.figure import draw_potentials
+
+    built = {"plain": models.make("lgmd1"),
+             "held": models.make("lgmd1", alarm_frames=4, alarm_rising=True)}
+    d = detect(clip.frames, clip.fps, built)
+    rule = metrics.AlarmRule(4, rising=True)
+    held = d.models["held"]
+    assert held.first_alarm == metrics.first_alarm(held.potential, held.threshold, rule)
+    assert held.first_alarm != d.models["plain"].first_alarm
+    assert (held.summary()["alarm_frames"], held.summary()["alarm_rising"]) == (4, True)
+    fig, ax = plt.subplots()
+    draw_potentials(ax, d)
+    labels = [t.get_text() for t in ax.get_legend().get_texts()]
+    assert "held: an alarm is 4 rising frames running above the threshold" in labels
+    plt.close(fig)

@@ -127,7 +127,7 @@ def detect(
         )
         traces[n] = ModelTrace(threshold, mp, alarm, metrics.sensitivity_index(
                                    mp, threshold, model.alarm_rule),
-                               metrics.mpsi(mp), event, _front_end(model))
+                               metrics.mpsi(mp), event, _front_end(model), model.alarm_rule)
     ssim = np.asarray(ssims)
     return Detection(name, n_frames, float(fps), ssim, float(ssim[1:].mean()),
                      collision_frame, traces, ",".join(map(str, noises)) or None,

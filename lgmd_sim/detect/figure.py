@@ -50,6 +50,13 @@ def draw_potentials(ax: Axes, d: Detection, legend: bool = True,
                     zorder=style.get("zorder", 4) + 1)
     for threshold in sorted({tr.threshold for tr in d.models.values()}):
         ax.axhline(threshold, label=f"threshold {threshold:g}", **THRESHOLD)
+    rules: dict[metrics.AlarmRule, list[str]] = {}
+    for name, tr in d.models.items():
+        rules.setdefault(tr.alarm_rule, []).append(name)
+    for rule, names in rules.items():  # where it is not the paper's, every frame above
+        if rule != metrics.PAPER_ALARM:
+            whose = "" if len(rules) == 1 else f"{', '.join(names)}: "
+            ax.plot([], [], ls="none", label=f"{whose}an alarm is {rule} the threshold")
     ax.plot([], [], marker="v", color="white", mec="black", ls="none", label="first alarm")
     if d.collision_frame is not None:
         ax.axvline(d.collision_frame, **COLLISION)

@@ -27,6 +27,8 @@ class ModelTrace:
         event: hit / miss against the labelled collision frame, None when unlabelled.
         front_end: the model's ego-motion compensation ("image", "gain", "image+gain"...,
             see `lgmd_sim.models.stabilize`) and the field of view it assumed, or None.
+        alarm_rule: when the potential alarms (the model's ``alarm_frames`` and
+            ``alarm_rising``).
     """
 
     threshold: float
@@ -36,6 +38,7 @@ class ModelTrace:
     mpsi: float
     event: metrics.EventResult | None
     front_end: tuple[str, float] | None = None
+    alarm_rule: metrics.AlarmRule = metrics.PAPER_ALARM
 
     @property
     def first_alarm(self) -> int | None:
@@ -50,6 +53,8 @@ class ModelTrace:
             "mpsi": self.mpsi,
             "peak_potential": float(self.potential.max()),
             "threshold": self.threshold,
+            "alarm_frames": self.alarm_rule.frames,
+            "alarm_rising": self.alarm_rule.rising,
             "stabilize": None if self.front_end is None else self.front_end[0],
             "fovy": None if self.front_end is None else self.front_end[1],
         }
