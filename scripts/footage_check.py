@@ -78,11 +78,16 @@ def record(folder: Path, resolution: tuple[int, int], seeds: Sequence[int]) -> l
                 made = folder / f"{spec.key}.json"
                 if made.exists():
                     rec = json.loads(made.read_text())
+                    if rec["resolution"] != list(resolution):
+                        sys.exit(f"footage_check.py: {folder} holds clips of "
+                                 f"{rec['resolution'][0]}x{rec['resolution'][1]}, not "
+                                 f"{resolution[0]}x{resolution[1]}: give another folder")
                 else:
-                    rec = clip_mod.record_clip(spec, str(folder), resolution, fronts=(),
-                                               looks=LOOKS, fovy=clip_mod.VIDEO_FOVY)
+                    rec = {**clip_mod.record_clip(spec, str(folder), resolution, fronts=(),
+                                                  looks=LOOKS, fovy=clip_mod.VIDEO_FOVY),
+                           "resolution": list(resolution)}
                     write_text_atomic(made, json.dumps(rec))
-                out.append({**rec, "key": spec.key, "scenario": scenario})
+                out.append({**rec, "key": spec.key, "scenario": scenario, "seed": seed})
     return out
 
 
@@ -97,7 +102,7 @@ def run_set(preset: str | None, names: Sequence[str], clips: list[dict], folder:
         variants = [(clip["kind"], "")] + [("shaken_crash", SHAKE)] * (clip["kind"] == "crash")
         for kind, extra in variants:
             d = detect(frames, fps, with_preset(names, preset), noise=extra or None,
-                       noise_seed=int(clip["key"].split("-s")[1].split("-")[0]))
+                       noise_seed=clip["seed"])
             for name, trace in d.models.items():
                 rows.append({"kind": kind, "clip": clip["key"], "detector": name,
                              "model": name.partition("/")[0],
