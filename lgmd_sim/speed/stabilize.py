@@ -122,7 +122,7 @@ def run(*, height: int = 270, width: int = 480, frames: int = 60,
             body.append([name, *(f"{t:.2f}" for t in ms), f"{ratio:.1f}x",
                          met(ratio <= VIDEO_TARGET)])
         else:
-            body.append([name, *(f"{t:.2f}" for t in ms), "", "no video preset"])
+            body.append([name, *(f"{t:.2f}" for t in ms), "", "", "no video preset"])
         print(f"measured {name}", file=sys.stderr, flush=True)
     print(format_table(["model (ms per frame)", "no front end", "+pose (warp)", "+image",
                         "+image+gain", "video preset", "video / none",
