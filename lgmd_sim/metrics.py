@@ -170,8 +170,10 @@ class AlarmRule:
         oldest first: their least, -inf where the rule cannot fire (a window not yet
         full, i.e. holding -inf, or one that falls with `rising`); a window alarms
         exactly where its level is above the threshold."""
+        if self.frames <= 1:  # the potential itself, as cheaply as a model step needs
+            return windows[..., -1]
         level = windows.min(axis=-1)
-        if self.rising and self.frames > 1:
+        if self.rising:
             with np.errstate(invalid="ignore"):  # -inf - -inf in a window not yet full
                 climbs = (np.diff(windows, axis=-1) >= 0).all(axis=-1)
             level = np.where(climbs, level, -np.inf)

@@ -424,7 +424,7 @@ class LGMDModel(ABC):
             layers
         ) else None
         potential = self.step_batch(grey, maps)
-        self._recent = np.roll(self._recent, -1, axis=1)
+        self._recent[:, :-1] = self._recent[:, 1:]  # in place: every step of every model
         self._recent[:, -1] = potential
         alarm = self.alarm_rule.levels(self._recent) > self.params.threshold
         if self.batched:
