@@ -97,8 +97,8 @@ def run_set(preset: str | None, names: Sequence[str], clips: list[dict], folder:
     clean and shaken."""
     rows = []
     for clip in clips:
-        frames, _ = clip_mod.load_clip(folder, clip["key"])
-        fps = float(np.load(folder / f"{clip['key']}.npz")["fps"])
+        with np.load(folder / f"{clip['key']}.npz") as z:  # the clip as record_clip saved it
+            frames, fps = z["frames"], float(z["fps"])
         variants = [(clip["kind"], "")] + [("shaken_crash", SHAKE)] * (clip["kind"] == "crash")
         for kind, extra in variants:
             d = detect(frames, fps, with_preset(names, preset), noise=extra or None,
