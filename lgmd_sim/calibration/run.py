@@ -101,13 +101,22 @@ class Task:
             out["fovy"] = self.fovy
         return out
 
-    def preset_params(self, front: str | None) -> dict[str, Any]:
-        """The model parameters of front end `front` in this task's presets."""
-        if front is None:
-            return {}
-        stabilize, _, gain = front.partition("+")
-        return {"stabilize": stabilize, **({"gain": True} if gain else {}),
-                **({"fovy": self.fovy} if self.fovy else {})}
+    def preset_params(self, front: str | None, resolution: str | Sequence[int]
+                      ) -> dict[str, Any]:
+        """The model parameters this task fixes in its presets, beside the searched ones
+        and the threshold: front end `front`'s, the clips' height (`at_clip_size`, clips
+        of `resolution`) and the objective's alarm rule where it is not the paper's."""
+        out: dict[str, Any] = {}
+        if front is not None:
+            stabilize, _, gain = front.partition("+")
+            out.update(stabilize=stabilize, **({"gain": True} if gain else {}),
+                       **({"fovy": self.fovy} if self.fovy else {}))
+        if self.at_clip_size:
+            out["working_height"] = frame_size(resolution)[0]
+        if self.objective.alarm != PAPER_ALARM:
+            out.update(alarm_frames=self.objective.alarm.frames,
+                       alarm_rising=self.objective.alarm.rising)
+        return out
 
 
 #: The calibration tasks: the walker's clips (today's calibrated presets), the robot's,
@@ -391,12 +400,8 @@ def calibrate(config: CalibrateConfig, out: str | Path, *, resume: bool = False,
     for c in chosen:
         model, name = preset_name(c["detector"], config.task)
         sp = space(c["detector"])
-        params = {**c["params"], "threshold": c["threshold"], **task.preset_params(sp.front),
-                  **({"working_height": frame_size(config.resolution)[0]}
-                     if task.at_clip_size else {}),
-                  **({"alarm_frames": objective.alarm.frames,
-                      "alarm_rising": objective.alarm.rising}
-                     if objective.alarm != PAPER_ALARM else {})}
+        params = {**c["params"], "threshold": c["threshold"],
+                  **task.preset_params(sp.front, config.resolution)}
         calibration["presets"][model][name] = {"from": sp.preset, "params": params,
                                                **{n: c[n] for n in _sets(chosen)}}
     write_text_atomic(folder.path / "calibrated.json", json.dumps(calibration, indent=2) + "\n")
