@@ -25,8 +25,8 @@ from pathlib import Path
 from typing import Any
 
 __all__ = ["atomic_folder", "atomic_folder_outputs", "atomic_output", "atomic_outputs",
-           "canonical_json", "csv_text", "error_text", "json_kind", "read_json", "scratch_folder",
-           "write_files", "write_text_atomic"]
+           "canonical_json", "csv_text", "error_text", "json_kind", "read_json", "read_text",
+           "scratch_folder", "write_files", "write_text_atomic"]
 
 _PARTIAL = re.compile(r"\.(?P<pid>\d+)-[^.]+\.partial")
 
@@ -240,14 +240,35 @@ def _umask() -> int:
     return mask
 
 
-def read_json(path: str | os.PathLike) -> Any:
-    """The JSON value in the file `path`; ValueError, one line naming the file, where it
-    cannot be read or is not JSON."""
+#: The most bytes a file the tool reads as text (policy.json, a presets file, a curriculum,
+#: run.json, a dataset's info.json) may hold: each is a few KB to a few MB, and a larger one
+#: (/dev/zero, a video given by mistake) is refused before it fills the memory.
+TEXT_LIMIT = 64 * 2**20
+
+
+def read_text(path: str | os.PathLike, limit: int = TEXT_LIMIT) -> str:
+    """The text (UTF-8) of the file `path`, at most `limit` bytes; ValueError, one line
+    naming the file, where it is larger, cannot be read or is not text."""
     try:
-        return json.loads(Path(path).read_text())
+        with open(path, "rb") as f:
+            data = f.read(limit + 1)
     except OSError as exc:
         raise ValueError(f"{path}: cannot read it: {exc.strerror or exc}") from None
-    except ValueError as exc:  # not JSON, or not text
+    if len(data) > limit:
+        raise ValueError(f"{path}: larger than {limit // 2**20} MB, not a file this reads")
+    try:
+        return data.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise ValueError(f"{path}: not text ({exc.reason} at byte {exc.start})") from None
+
+
+def read_json(path: str | os.PathLike, limit: int = TEXT_LIMIT) -> Any:
+    """The JSON value in the file `path` (at most `limit` bytes); ValueError, one line
+    naming the file, where it cannot be read, is larger or is not JSON."""
+    text = read_text(path, limit)
+    try:
+        return json.loads(text)
+    except ValueError as exc:
         raise ValueError(f"{path}: not JSON ({exc})") from None
 
 
