@@ -151,6 +151,10 @@ class Registry:
 
     def _check(self, cls: Any, name: str) -> type:
         if not (isinstance(cls, type) and issubclass(cls, self.base)):
-            raise ValueError(f"{self.what} {name!r}: {cls!r} is not a subclass of "
+            # a class by its name; anything else by its type: a module's or a dict's repr
+            # runs to kilobytes
+            what = (f"class {cls.__module__}.{cls.__qualname__}" if isinstance(cls, type)
+                    else f"a {type(cls).__name__}")
+            raise ValueError(f"{self.what} {name!r}: {what} is not a subclass of "
                              f"{self.base.__module__}.{self.base.__qualname__}")
         return cls

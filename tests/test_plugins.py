@@ -101,7 +101,7 @@ def test_register_by_class_and_by_string():
 
 @pytest.mark.parametrize(("name", "cls", "message"), [
     ("feedback", SPEC, "model name 'feedback' is taken \\(built-in\\)"),
-    ("mine", dict, "model 'mine': <class 'dict'> is not a subclass"),
+    ("mine", dict, "model 'mine': class builtins.dict is not a subclass"),
     ("my:mine", SPEC, "a model name is a non-empty string without"),
     ("mine/fast", SPEC, "a model name is a non-empty string without"),
     ("mine", "lgmd_plug.Blink", "is not a 'package.module:Class' string"),

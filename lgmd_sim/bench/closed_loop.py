@@ -200,8 +200,10 @@ def run(config: ClosedLoopConfig, out: str | Path, *, resume: bool = False,
         command: the command line, for the run's record.
     """
     from lgmd_sim.bench import figures
+    from lgmd_sim.models.check import preflight
 
     cells = config.cells()
+    preflight((c.model, c.preset) for c in cells if c.model)
     seeds = config.seed_list
     folder = RunFolder(out, config.as_json(), command, resume=resume)
     done = folder.done()

@@ -322,7 +322,9 @@ def run(config: OpenLoopConfig, out: str | Path, *, resume: bool = False,
     """Run (or resume) the benchmark of `config` in folder `out`; write its tables and
     figures (see `lgmd_sim.bench.closed_loop.run` for the arguments)."""
     from lgmd_sim.bench import figures
+    from lgmd_sim.models.check import preflight
 
+    preflight(config.detectors)
     clips = config.clips()
     noisy = _noisy(clips)
     noises = config.noises()

@@ -450,7 +450,11 @@ def generate(config: GenerateConfig, out: str | Path, *, workers: int | None = N
     require("pyarrow", "data")
     if ray_address is not None:
         require("ray", "ray")
+    from lgmd_sim import models
+    from lgmd_sim.models.check import preflight
+
     out = Path(out)
+    preflight(models.parse_spec(m) for m in config.models)
     start = time.monotonic()
     specs = config.specs()
     metas: dict[int, dict[str, Any]] = {}

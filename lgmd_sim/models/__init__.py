@@ -30,13 +30,23 @@ from __future__ import annotations
 
 from typing import Any
 
-from lgmd_sim.models.base import LGMDModel, LGMDOutput, ModelParams, SearchRange, StateMap
+from lgmd_sim.models.base import (
+    RESERVED_PARAMETERS,
+    LGMDModel,
+    LGMDOutput,
+    ModelParams,
+    PluginError,
+    SearchRange,
+    StateMap,
+    run_hook,
+)
 from lgmd_sim.models.check import ModelCheckError, check_model
 from lgmd_sim.registry import Registry
 
-__all__ = ["ENTRY_POINTS", "FRONT_END_SUFFIXES", "LGMDModel", "LGMDOutput", "ModelCheckError",
-           "ModelParams", "SearchRange", "StateMap", "available", "check_model", "make",
-           "model_class", "origin", "parse_spec", "presets_of", "register"]
+__all__ = ["ENTRY_POINTS", "FRONT_END_SUFFIXES", "RESERVED_PARAMETERS", "LGMDModel", "LGMDOutput",
+           "ModelCheckError", "ModelParams", "PluginError", "SearchRange", "StateMap",
+           "available", "check_model", "make", "model_class", "origin", "parse_spec",
+           "presets_of", "register"]
 
 #: The entry-point group through which an installed distribution adds models.
 ENTRY_POINTS = "lgmd_sim.models"
@@ -128,8 +138,8 @@ def make(
     clash = sorted(set(params) & set(fronts))
     if clash:
         raise ValueError(f"preset {preset!r} sets {', '.join(clash)} already")
-    return cls(cls.Params(**{**presets_of(name)[base], **fronts, **params}),
-               n_streams=n_streams)
+    return run_hook(cls, "__init__", cls, cls.Params(**{**presets_of(name)[base], **fronts,
+                                                          **params}), n_streams=n_streams)
 
 
 def parse_spec(token: str) -> tuple[str, str]:

@@ -37,6 +37,90 @@ from lgmd_sim.params import CheckedParams, in_range, int_in_range, one_of, param
 #: Values of the ``stabilize`` parameter: where each frame's camera rotation comes from.
 FRONT_ENDS = ("none", "pose", "imu", "image")
 
+
+class PluginError(ValueError):
+    """A plug-in model's own code failed, or broke the contract, while it ran: one line
+    naming the plug-in (its "module:Class"), the hook and what went wrong; the plug-in's
+    own exception is the cause. The built-ins' errors pass unchanged: a fault of theirs is
+    lgmd-sim's, and keeps its traceback."""
+
+    def __init__(self, model: type | str, hook: str, reason: str) -> None:
+        label = model if isinstance(model, str) else plugin_label(model)
+        super().__init__(label, hook, reason)  # its arguments: it pickles (from a worker)
+        self.model, self.hook, self.reason = label, hook, reason
+
+    def __str__(self) -> str:
+        return f"plug-in model {self.model}: {self.hook}: {self.reason}"
+
+
+def is_plugin(cls: type) -> bool:
+    """Whether model class `cls` is a plug-in's (any class outside lgmd_sim)."""
+    return not cls.__module__.startswith("lgmd_sim.")
+
+
+def plugin_label(cls: type) -> str:
+    """A model class as its spec names it: "module:Class"."""
+    return f"{cls.__module__}:{cls.__qualname__}"
+
+
+def run_hook(cls: type, hook: str, call: Any, *args: Any, **kwargs: Any) -> Any:
+    """``call(*args, **kwargs)``, the hook `hook` of model class `cls`; what a plug-in's
+    code raises, sys.exit included, becomes a `PluginError` naming it."""
+    try:
+        return call(*args, **kwargs)
+    except (Exception, SystemExit) as exc:
+        if not is_plugin(cls) or isinstance(exc, PluginError) or _ours(exc):
+            raise
+        raise PluginError(cls, hook, _raised(exc)) from exc
+
+
+def _ours(exc: BaseException) -> bool:
+    """Whether `exc` is a ValueError lgmd-sim raised itself (the base refusing an input
+    or a setting, in one line naming it), not one of the plug-in's code."""
+    tb = exc.__traceback__
+    while tb is not None and tb.tb_next is not None:
+        tb = tb.tb_next
+    return isinstance(exc, ValueError) and tb is not None and str(
+        tb.tb_frame.f_globals.get("__name__", "")).startswith("lgmd_sim.")
+
+
+def _raised(exc: BaseException) -> str:
+    if isinstance(exc, SystemExit):
+        return f"it called sys.exit({exc.code!r})"
+    text = " ".join(str(exc).split())
+    if isinstance(exc, ValueError) and "read-only" in text:  # NumPy's, on a write to grey
+        return ("it writes into its input frames, which are read-only (every model of a "
+                "run reads the same frames): copy what it changes, grey.astype(np.float32)")
+    return f"raised {type(exc).__name__}{': ' + text[:300] if text else ''}"
+
+
+def potentials_fault(potentials: Any, n: int, threshold_check: Any,
+                     frame: int | None = None) -> str | None:
+    """What of one step's `potentials` (of frame `frame`, where known) breaks the contract:
+    a float array of `n` finite values that the alarm threshold's check, `threshold_check`,
+    takes; None if nothing."""
+    at = "" if frame is None else f" at frame {frame}"
+    if not (isinstance(potentials, np.ndarray) and potentials.shape == (n,)
+            and np.issubdtype(potentials.dtype, np.floating)):
+        what = (f"an array of {potentials.dtype} of shape {potentials.shape}"
+                if isinstance(potentials, np.ndarray) else type(potentials).__name__)
+        return (f"step_batch returned {what}{at}, not a float array of shape ({n},): one "
+                "potential per stream")
+    lo, hi = float(potentials.min()), float(potentials.max())  # the threshold takes a range
+    if math.isfinite(lo) and math.isfinite(hi) and not (
+            threshold_check(lo) or threshold_check(hi)):
+        return None
+    for i, v in enumerate(potentials.tolist()):  # the first at fault, to name its stream
+        where = f"{at}, stream {i}," if frame is not None else f" of stream {i}"
+        if not math.isfinite(v):
+            return f"potential {v!r}{where} is not finite"
+        error = threshold_check(v)
+        if error:
+            return (f"potential {v:.6g}{where} is outside the range the alarm threshold takes "
+                    f"(a threshold {error}): a model whose potentials span another range "
+                    "redefines threshold with its own check")
+    return None
+
 # --- parameters -------------------------------------------------------------------------
 
 
@@ -101,6 +185,27 @@ class ModelParams(CheckedParams):
             "kernels are in pixels, so a preset calibrated on small clips then sees a large "
             "video as it saw its clips; 0: every frame at its own size",
     )
+
+
+#: The base's parameters a model's ``Params`` must not declare again: the base reads them
+#: (the front ends, the alarm rule, the working size), so another meaning or type under
+#: their names would silently turn those on or break them. ``threshold`` a model may
+#: redeclare, with its own check, for potentials in another range.
+RESERVED_PARAMETERS = tuple(f.name for f in dataclasses.fields(ModelParams)
+                            if f.name != "threshold")
+
+
+def reserved_fault(params: type[ModelParams]) -> str | None:
+    """Which reserved parameter (`RESERVED_PARAMETERS`) the class `params` declares again,
+    as a message; None if none."""
+    base = ModelParams.__dataclass_fields__
+    taken = [n for n in RESERVED_PARAMETERS if params.__dataclass_fields__.get(n) is not base[n]]
+    if not taken:
+        return None
+    return (f"parameter {taken[0]} is the base class's (ModelParams: "
+            f"{base[taken[0]].metadata.get('doc', '').split(':')[0]}) and must not be "
+            f"declared again: rename yours; the base's names are {', '.join(base)} "
+            "(only threshold may be redeclared, with its own check)")
 
 
 # --- outputs ----------------------------------------------------------------------------
@@ -255,9 +360,11 @@ class LGMDModel(ABC):
     - ``name``: the model's name in messages (conventionally the name it is registered by);
     - ``Params``: its parameters, a frozen dataclass subclassing `ModelParams` whose every
       field is a `lgmd_sim.params.param` (a default, its source, a check, a doc); it
-      inherits ``threshold``, ``stabilize``, ``fovy`` and ``gain``. ``threshold``'s check
-      (0.5..1) fits a sigmoid membrane potential, as the built-ins report; a model whose
-      potentials span another range redefines ``threshold`` with its own check;
+      inherits ``threshold`` and the `RESERVED_PARAMETERS` (``stabilize``, ``fovy``,
+      ``gain``, ``alarm_frames``, ``alarm_rising``, ``working_height``), which the base
+      reads and which it must not declare again. ``threshold``'s check (0.5..1) fits a
+      sigmoid membrane potential, as the built-ins report; a model whose potentials span
+      another range redefines ``threshold`` with its own check;
     - ``layer_names``: the names of the maps it can return (``step(..., layers=True)``),
       () for none;
     - ``presets``: named parameter sets, each the overrides of the defaults it makes
@@ -285,9 +392,10 @@ class LGMDModel(ABC):
       a new float array of shape (N,) (the caller keeps it: return no array the model
       writes into later), finite. ``grey`` is a C-contiguous (N, H, W) stack at the
       allocated size: uint8 in 0..255 for uint8 frames, else float32 in 0..255 (float
-      frames in 0..1, times 255); colour frames arrive as BT.601 luma. It may be a view
-      of the caller's frames (contiguous uint8 frames are not copied), so a model copies
-      what it keeps of it (``self._prev = grey.copy()``, not ``= grey``). Its dtype may
+      frames in 0..1, times 255); colour frames arrive as BT.601 luma. It is read-only,
+      and may be a view of the caller's frames (contiguous uint8 frames are not copied),
+      which every model of a run reads: a model copies what it keeps or changes of it
+      (``self._prev = grey.copy()``, not ``= grey``). Its dtype may
       change from one frame to the next (uint8, then float32 after a float frame), so a
       stored previous frame follows it. ``layers`` is None, or a dict holding an
       uninitialised float32 (N, H, W) array for every name of ``layer_names``, each to be
@@ -306,7 +414,9 @@ class LGMDModel(ABC):
     **What the base gives.** `step` and `reset` for one stream and for N from the one
     implementation (the single-stream output unpacks stream 0); the checks on every input
     (shapes, dtypes, value ranges, stream counts, frame-size changes, stream indices),
-    with one-line messages naming the model; colour to grey; the front ends
+    with one-line messages naming the model; for a plug-in (a class outside lgmd_sim),
+    its potentials checked every step and its hooks' errors (sys.exit included) turned
+    into a one-line `PluginError` naming it; colour to grey; the front ends
     (`lgmd_sim.models.stabilize`: ``stabilize`` "pose", "imu", "image", and ``gain``) and a
     given ``motion=``, warping each declared state map and scaling the previous frame by
     the brightness gain; the alarms (``potential > params.threshold`` by the
@@ -331,6 +441,9 @@ class LGMDModel(ABC):
             or n_streams < 1
         ):
             raise ValueError(f"n_streams must be a positive integer or None, got {n_streams!r}")
+        fault = reserved_fault(self.Params)
+        if fault:
+            raise PluginError(type(self), "Params", fault)
         self.params = params if params is not None else self.Params()
         if not isinstance(self.params, self.Params):
             raise TypeError(f"{self.name} expects {self.Params.__name__}, got {type(params)}")
@@ -348,6 +461,10 @@ class LGMDModel(ABC):
             self.front_end = FrontEnd(self.params, self._n)
         self._plan: Plan | None = None
         self.alarm_rule = AlarmRule(self.params.alarm_frames, self.params.alarm_rising)
+        # a plug-in's potentials are checked every step, as check_model checks them once
+        self._plugin = is_plugin(type(self))
+        self._threshold_check = type(self.params).__dataclass_fields__["threshold"].metadata[
+            "check"]
         #: Per stream, the potentials of the last ``alarm_frames`` frames, oldest first
         #: (-inf before a stream's first).
         self._recent = np.full((self._n, self.params.alarm_frames), -np.inf)
@@ -374,7 +491,7 @@ class LGMDModel(ABC):
             raise ValueError(f"stream index out of range 0..{self._n - 1}: {idx.tolist()}")
         self._recent[idx] = -np.inf
         if self.frame_shape is not None and idx.size:
-            self.reset_streams(idx)
+            run_hook(type(self), "reset_streams", self.reset_streams, idx)
         if self.front_end is not None and idx.size:
             self.front_end.reset(idx)
 
@@ -395,6 +512,10 @@ class LGMDModel(ABC):
                 or ``info["imu_rotation"]`` (see `rotation_key`).
         """
         grey = self._shrink(self._to_grey_stack(frame))
+        # It may be the caller's frame, which every other model of a run reads too: no
+        # model may write into it (a read-only view costs no copy).
+        grey = grey.view()
+        grey.flags.writeable = False
         if self.front_end is not None:
             if motion is not None:
                 raise ValueError(f"{self.name}: estimates its own motion (stabilize="
@@ -411,8 +532,8 @@ class LGMDModel(ABC):
         shape = (grey.shape[1], grey.shape[2])
         if self.frame_shape is None:
             self.frame_shape = shape
-            self.allocate(self._n, *shape)
-            self.reset_streams(np.arange(self._n))
+            run_hook(type(self), "allocate", self.allocate, self._n, *shape)
+            run_hook(type(self), "reset_streams", self.reset_streams, np.arange(self._n))
         elif shape != self.frame_shape:
             raise ValueError(
                 f"{self.name}: frame size {shape[0]}x{shape[1]} differs from this stream's "
@@ -423,7 +544,11 @@ class LGMDModel(ABC):
         maps = {n: np.empty((self._n, *shape), np.float32) for n in self.layer_names} if (
             layers
         ) else None
-        potential = self.step_batch(grey, maps)
+        potential = run_hook(type(self), "step_batch", self.step_batch, grey, maps)
+        if self._plugin:
+            fault = potentials_fault(potential, self._n, self._threshold_check)
+            if fault:
+                raise PluginError(type(self), "potentials", fault)
         self._recent[:, :-1] = self._recent[:, 1:]  # in place: every step of every model
         self._recent[:, -1] = potential
         alarm = self.alarm_rule.levels(self._recent) > self.params.threshold
@@ -460,7 +585,7 @@ class LGMDModel(ABC):
         if gains is not None and gains.shape[1:] not in ((1, 1), (height, width)):
             raise ValueError(f"{self.name}: gain fields of {gains.shape[1]}x{gains.shape[2]} "
                              f"for frames of {height}x{width}")
-        maps = self.state_maps()
+        maps = run_hook(type(self), "state_maps", self.state_maps)
         for m in maps:  # a previous frame holds interpolated grey levels from now on
             if m.fill == "frame" and getattr(self, m.attr).dtype != np.float32:
                 setattr(self, m.attr, getattr(self, m.attr).astype(np.float32))
@@ -493,7 +618,7 @@ class LGMDModel(ABC):
             for m in maps:
                 if m.padded is not None:
                     fill_pad_columns(getattr(self, m.attr)[..., :height, :], width, m.padded)
-            self.maps_moved()
+            run_hook(type(self), "maps_moved", self.maps_moved)
 
     # -- hooks -------------------------------------------------------------------------
 

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import dataclasses
 import inspect
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Collection, Iterable, Mapping, Sequence
 from functools import cached_property
 from typing import Any
 
@@ -24,13 +24,17 @@ from lgmd_sim import models
 from lgmd_sim.models.base import (
     LGMDModel,
     ModelParams,
+    PluginError,
     StateMap,
     check_search_space,
     draw_search,
+    potentials_fault,
+    reserved_fault,
 )
 from lgmd_sim.models.warp import Motion
 
-__all__ = ["CHECKS", "ModelCheckError", "check_model", "looming_frames"]
+__all__ = ["CHECKS", "PREFLIGHT", "ModelCheckError", "check_model", "looming_frames",
+           "preflight"]
 
 #: Streams of the batches the checks run: 3, so that a stream has neighbours on each side.
 _N = 3
@@ -184,6 +188,9 @@ def _class(s: _Subject) -> None:
 def _parameters(s: _Subject) -> None:
     """every parameter has a default, a source and a check, which its default passes;
     every preset builds"""
+    reserved = reserved_fault(s.cls.Params)
+    if reserved:
+        _fail(reserved)
     declare = "declare it with lgmd_sim.params.param(default, source, check=...)"
     for f in dataclasses.fields(s.cls.Params):
         if f.default is dataclasses.MISSING and f.default_factory is dataclasses.MISSING:
@@ -211,15 +218,13 @@ def _potentials(s: _Subject) -> None:
     new array each step"""
     model = s.build(_N)
     returned: list[Any] = []
+    threshold = s.cls.Params.__dataclass_fields__["threshold"].metadata["check"]
 
-    def keep(potentials: Any) -> None:
+    def keep(potentials: Any) -> None:  # before the base's own check: frame and stream
         t = len(returned)
-        if not (isinstance(potentials, np.ndarray) and potentials.shape == (_N,)
-                and np.issubdtype(potentials.dtype, np.floating)):
-            what = (f"an array of {potentials.dtype} of shape {potentials.shape}"
-                    if isinstance(potentials, np.ndarray) else type(potentials).__name__)
-            _fail(f"step_batch returned {what} at frame {t}, not a float array of shape "
-                  f"({_N},): one potential per stream")
+        fault = potentials_fault(potentials, _N, threshold, t)
+        if fault:
+            _fail(fault)
         if any(potentials is r for r, _ in returned):
             _fail(f"step_batch returned the same array at frame {t} as before: return a new "
                   "array each step")
@@ -227,21 +232,12 @@ def _potentials(s: _Subject) -> None:
 
     _watch(model, after=keep)
     _run(model, s.batch())
-    threshold = s.cls.Params.__dataclass_fields__["threshold"].metadata["check"]
     for t, (now, then) in enumerate(returned):
         changed = _first_difference(now, then)
         if changed is not None:
             _fail(f"the potentials returned at frame {t} changed later (stream {changed}: "
                   f"{float(then[changed])!r}, now {float(now[changed])!r}): step_batch must "
                   "return a new array each step, not one the model writes into later")
-        for i, v in enumerate(then):
-            if not np.isfinite(v):
-                _fail(f"potential {float(v)!r} at frame {t}, stream {i}, is not finite")
-            error = threshold(float(v))
-            if error:
-                _fail(f"potential {v:.6g} at frame {t}, stream {i}, is outside the range the "
-                      f"alarm threshold takes (a threshold {error}): a model whose potentials "
-                      "span another range redefines threshold with its own check")
 
 
 def _determinism(s: _Subject) -> None:
@@ -509,7 +505,8 @@ CHECKS: dict[str, Callable[[_Subject], str | None]] = {
 
 
 def check_model(model: type[LGMDModel] | str, *, frames: int = 24,
-                size: tuple[int, int] = (24, 32), seed: int = 0) -> list[tuple[str, str]]:
+                size: tuple[int, int] = (24, 32), seed: int = 0,
+                only: Collection[str] | None = None) -> list[tuple[str, str]]:
     """Check that a model keeps the contract of `LGMDModel` (`CHECKS`).
 
     Args:
@@ -519,10 +516,12 @@ def check_model(model: type[LGMDModel] | str, *, frames: int = 24,
         frames: frames per test sequence (at least 6).
         size: (height, width) of the test frames (at least 8 x 8).
         seed: seed of the test frames.
+        only: the names of the checks to run (each assumes those before it in `CHECKS`
+            passed); None: every one.
 
     Returns:
         What was checked: (the check's name, "passed" or "skipped: why") of every check
-        of `CHECKS`, in order.
+        run, in the order of `CHECKS`.
 
     Raises:
         ModelCheckError: on the first check that fails, one line naming the model, the
@@ -531,6 +530,9 @@ def check_model(model: type[LGMDModel] | str, *, frames: int = 24,
     if not (isinstance(frames, int) and frames >= 6 and min(size) >= 8):
         raise ValueError(f"check_model needs frames >= 6 and a size of at least 8 x 8, got "
                          f"{frames} frames of {size}")
+    unknown = set(only or ()) - set(CHECKS)
+    if unknown:
+        raise ValueError(f"no check {', '.join(sorted(unknown))}; checks: {', '.join(CHECKS)}")
     if isinstance(model, str):
         label = model
         try:  # a bad name, preset or front end is the spec's fault, not the model's
@@ -555,13 +557,37 @@ def check_model(model: type[LGMDModel] | str, *, frames: int = 24,
     subject = _Subject(cls, make_params, looming_frames(_N, frames, size, seed), seed)
     done: list[tuple[str, str]] = []
     for title, check in CHECKS.items():
+        if only is not None and title not in only:
+            continue
         try:
             skipped = check(subject)
         except ModelCheckError as exc:
             raise ModelCheckError(f"{label}: {title}: {exc}") from None
+        except PluginError as exc:  # raised through a hook: the check's own, or the base's
+            own = exc.__cause__ if isinstance(exc.__cause__, ModelCheckError) else None
+            raise ModelCheckError(f"{label}: {title}: {own or f'{exc.hook}: {exc.reason}'}"
+                                  ) from None
         except Exception as exc:  # the model's own error: say where it came
             text = " ".join(str(exc).split())
             raise ModelCheckError(f"{label}: {title}: the model raised {type(exc).__name__}"
                                   f"{': ' + text if text else ''}") from exc
         done.append((title, "passed" if skipped is None else f"skipped: {skipped}"))
     return done
+
+
+#: What a command checks of a plug-in detector before it starts (`preflight`): that it
+#: builds and gives valid potentials, in a few milliseconds.
+PREFLIGHT = ("class", "parameters", "potentials")
+
+
+def preflight(detectors: Iterable[tuple[str, str]]) -> None:
+    """Run the `PREFLIGHT` checks on every plug-in detector of `detectors` ((model, preset)
+    pairs; the built-ins are checked by lgmd-sim's tests), so that a command refuses one
+    that cannot run in one line before it makes its run folder, not minutes into it.
+
+    Raises:
+        ModelCheckError: the first check a plug-in fails, naming it.
+    """
+    for name, preset in dict.fromkeys(detectors):
+        if models.origin(name) != "built-in":
+            check_model(f"{name}/{preset}", only=PREFLIGHT)
