@@ -15,9 +15,9 @@ docs/results.md from the same run (scripts/results_page.py).
 from __future__ import annotations
 
 import argparse
-import json
 from pathlib import Path
 
+from lgmd_sim.fileio import read_json
 from lgmd_sim.models import presets
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -34,10 +34,10 @@ def ship(run: Path, target: Path = SHIPPED) -> list[str]:
                          f"calibrate --out {run}` first)")
     try:
         presets.check_presets_file(source)
-        presets.check_presets_file(target)
+        presets.check_target(target)
+        calibration = read_json(source)
     except (OSError, ValueError) as exc:
         raise SystemExit(f"ship_presets.py: {exc}") from exc
-    calibration = json.loads(source.read_text())
     presets.merge_presets(target, calibration)
     return [f"{m}/{p}" for m, entries in calibration["presets"].items() for p in entries]
 

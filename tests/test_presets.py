@@ -3,17 +3,24 @@ package is never written by a calibration."""
 
 from __future__ import annotations
 
+import errno
 import hashlib
 import importlib.util
 import json
+import os
 import re
 import shutil
+import subprocess
 import sys
+import time
 from pathlib import Path
 
+import cv2
+import numpy as np
 import pytest
 
 from lgmd_sim import cli, models
+from lgmd_sim.fileio import error_text
 from lgmd_sim.models import presets
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -140,6 +147,123 @@ def test_presets_file_writes_there_and_never_into_the_package(user_dir, tmp_path
                      str(tmp_path / "cal"), "--presets-file", str(target)]) == 0
     assert list(json.loads(target.read_text())["presets"]["lgmd1"]) == ["calibrated"]
     assert not user_dir.exists()
+
+
+@pytest.mark.parametrize(("params", "named"), [
+    ({"bogus": 1}, "unknown parameter(s) 'bogus'; valid: alarm_frames"),
+    ({"c_sig": -3}, "parameter c_sig=-3 must be"),
+])
+def test_a_user_preset_with_an_unknown_or_bad_parameter_is_refused_naming_file_preset_and_key(
+        user_dir, tmp_path, capsys, params, named):
+    path = presets.user_presets_file()
+    path.parent.mkdir(parents=True)
+    # a plug-in's presets whose model is not installed now stay the user's business
+    path.write_text(json.dumps({"presets": {
+        "lgmd1": {"mine": {"from": "published", "params": params}},
+        "absent_pkg.looming:Mine": {"fast": {"from": "default", "params": {"any": 1}}}}}))
+    with pytest.raises(ValueError, match=re.escape(f"presets file {path}: preset lgmd1/mine: "
+                                                   f"{named}")):
+        models.make("lgmd1", preset="mine")
+    assert models.make("lgmd2", preset="calibrated").params.threshold > 0
+    frames = tmp_path / "frames"
+    frames.mkdir()
+    for i in range(3):
+        cv2.imwrite(str(frames / f"{i}.png"), np.full((32, 32), 40 * i, np.uint8))
+    assert cli.main(["detect", str(frames), "--models", "lgmd1", "--preset", "mine", "--out",
+                     str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and str(path) in err and "lgmd1/mine" in err and named in err
+    assert not (tmp_path / "out").exists()
+
+
+# one process's merges: each a preset of its own, once every process is ready (a file "go")
+MERGE_MANY = """
+import sys, time
+from pathlib import Path
+from lgmd_sim.models.presets import merge_presets
+target, me, count = Path(sys.argv[1]), sys.argv[2], int(sys.argv[3])
+(target.parent / f"ready-{me}").touch()
+while not (target.parent / "go").exists():
+    time.sleep(0.001)
+for i in range(count):
+    merge_presets(target, {"command": f"calibrate {me}", "presets": {
+        "lgmd1": {f"{me}-{i}": {"from": "published", "params": {"c_sig": 2.0}}}}})
+"""
+
+
+def test_concurrent_merges_into_one_file_keep_every_preset(tmp_path):
+    target, count, names = tmp_path / "calibrated.json", 40, ["a", "b", "c"]
+    procs = [subprocess.Popen([sys.executable, "-c", MERGE_MANY, str(target), me, str(count)])
+             for me in names]
+    while not all((tmp_path / f"ready-{me}").exists() for me in names):
+        assert all(p.poll() is None for p in procs)
+        time.sleep(0.01)
+    (tmp_path / "go").touch()
+    assert [p.wait(timeout=60) for p in procs] == [0] * len(names)
+    saved = json.loads(target.read_text())["presets"]["lgmd1"]
+    assert set(saved) == {f"{me}-{i}" for me in names for i in range(count)}
+    assert saved["b-7"]["calibration"]["command"] == "calibrate b"
+
+
+@pytest.fixture
+def read_only(monkeypatch):
+    """Make a folder read-only as a read-only file system does: nothing in it can be made
+    or written. At the `os` level, since the suite may run as root, whom a folder's
+    permissions do not stop."""
+    real_open, real_mkdir = os.open, os.mkdir
+
+    def make(folder: Path) -> None:
+        def check(path: str | os.PathLike) -> None:
+            given = Path(os.fsdecode(path)).absolute()
+            if given == folder or folder in given.parents:
+                raise OSError(errno.EROFS, os.strerror(errno.EROFS), os.fsdecode(path))
+
+        def open_(path, flags, *args, **kwargs):
+            if flags & (os.O_WRONLY | os.O_RDWR | os.O_CREAT):
+                check(path)
+            return real_open(path, flags, *args, **kwargs)
+
+        def mkdir(path, *args, **kwargs):
+            check(path)
+            return real_mkdir(path, *args, **kwargs)
+
+        monkeypatch.setattr(os, "open", open_)
+        monkeypatch.setattr(os, "mkdir", mkdir)
+
+    return make
+
+
+@pytest.mark.parametrize(("where", "reason"), [
+    ("p.json", "its folder {folder} cannot be written"),
+    ("new/p.json", "its folder {folder}/new cannot be made in {folder}"),
+    ("there.json", "it cannot be written"),
+])
+def test_an_unwritable_presets_file_is_refused_before_the_calibration_naming_it(
+        user_dir, tmp_path, read_only, capsys, where, reason):
+    folder = tmp_path / "read-only"
+    folder.mkdir()
+    presets.merge_presets(folder / "there.json", _calibration({}))
+    read_only(folder)
+    out, target = tmp_path / "cal", folder / where
+    assert cli.main(["calibrate", "--detectors", "lgmd1", *TINY, "--out", str(out),
+                     "--presets-file", str(target)]) == 2
+    err = capsys.readouterr().err
+    assert err == (f"lgmd-sim calibrate: error: presets file {target}: "
+                   f"{reason.format(folder=folder)}: Read-only file system\n")
+    assert not out.exists()
+
+
+def test_a_merge_that_cannot_write_names_the_presets_file_not_its_temporary(
+        tmp_path, read_only):
+    folder = tmp_path / "read-only"
+    folder.mkdir()
+    read_only(folder)
+    target = folder / "p.json"
+    with pytest.raises(OSError) as err:
+        presets.merge_presets(target, _calibration(
+            {"lgmd1": {"calibrated": _entry("published", c_sig=2.0)}}))
+    assert error_text(err.value) == (f"cannot write presets file {target}: "
+                                     "Read-only file system")
 
 
 def test_the_user_data_folder(monkeypatch, tmp_path):

@@ -154,7 +154,9 @@ class CalibrateConfig:
         save_presets: also merge the presets into the user's presets file
             (`lgmd_sim.models.presets.user_presets_file`).
         presets_file: merge them into this file instead (implies ``save_presets``); never
-            one inside the installed package.
+            one inside the installed package. Either target is checked when the
+            configuration is made: a presets file or none, that can be written, in a folder
+            that can be written or made (`lgmd_sim.models.presets.check_target`).
     """
 
     task: str = "walker"
@@ -195,7 +197,8 @@ class CalibrateConfig:
                 raise ValueError(f"presets file {target}: inside the installed package; the "
                                  "shipped presets change only by scripts/ship_presets.py in "
                                  "a checkout")
-            presets.check_presets_file(target)  # a file it cannot merge into fails now
+            # a file it cannot merge into fails now, not after the whole calibration
+            presets.check_target(target)
 
     @property
     def presets_target(self) -> Path | None:
@@ -355,8 +358,12 @@ def calibrate(config: CalibrateConfig, out: str | Path, *, resume: bool = False,
     """Run (or resume) the calibration of `config` in folder `out` (the arguments as
     `lgmd_sim.bench.closed_loop.run`'s); return one row per detector: the chosen
     candidate and threshold, with its scores on the search and held-out sets."""
+    from lgmd_sim.models.check import preflight
+
     task = TASKS[config.task]
     objective = task.objective
+    preflight((s.model, f"{s.preset}+{s.front}" if s.front else s.preset)
+              for s in map(space, config.detectors))
     folder = RunFolder(out, config.as_json(), command, resume=resume)
     clip_dir = folder.path / "clips"
     clip_dir.mkdir(exist_ok=True)

@@ -82,7 +82,9 @@ def add(sub: argparse._SubParsersAction) -> None:
                    "file (implies --save-presets); the models read only your presets file "
                    "(calibrated.json in $LGMD_SIM_DATA_DIR, else in the user data folder), "
                    "so a PATH named calibrated.json serves them once LGMD_SIM_DATA_DIR "
-                   "names its folder")
+                   "names its folder. Either file is checked before the calibration starts: "
+                   "a presets file or none yet, writable, in a folder that can be written or "
+                   "made")
     add_run_folder_options(p, "calibration")
     add_parallel_options(p, "clips and candidates")
 

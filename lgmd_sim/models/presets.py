@@ -9,24 +9,40 @@ Two files give them, the second on top of the first:
   ``lgmd-sim calibrate --save-presets`` writes (or any file, ``--presets-file``).
 
 Saving merges (`merge_presets`): only the presets of the detectors calibrated change, each
-keeping the calibration that made it (command, seeds, resolution, budget). A calibration
-never writes into the package.
+keeping the calibration that made it (command, seeds, resolution, budget). Merges into one
+file, from any process, take turns (a lock file beside it, ``.NAME.lock``, which stays). A
+calibration never writes into the package.
 """
 
 from __future__ import annotations
 
+import contextlib
+import dataclasses
 import functools
 import json
 import os
 import sys
-from collections.abc import Mapping
+import tempfile
+from collections.abc import Iterator, Mapping
 from pathlib import Path
 from typing import Any
 
 from lgmd_sim.fileio import read_json, write_text_atomic
 
-__all__ = ["CALIBRATED", "DATA_DIR_VARIABLE", "PACKAGE", "check_presets_file", "data_presets",
-           "merge_presets", "preset_files", "user_data_dir", "user_presets_file"]
+if sys.platform == "win32":
+    import msvcrt
+
+    def _hold(fd: int, hold: bool) -> None:
+        # its first byte stands for the file; LK_LOCK tries for 10 s, then raises
+        msvcrt.locking(fd, msvcrt.LK_LOCK if hold else msvcrt.LK_UNLCK, 1)
+else:
+    import fcntl
+
+    def _hold(fd: int, hold: bool) -> None:
+        fcntl.flock(fd, fcntl.LOCK_EX if hold else fcntl.LOCK_UN)
+
+__all__ = ["CALIBRATED", "DATA_DIR_VARIABLE", "PACKAGE", "check_presets_file", "check_target",
+           "data_presets", "merge_presets", "preset_files", "user_data_dir", "user_presets_file"]
 
 #: The shipped calibrated presets of every model.
 CALIBRATED = Path(__file__).with_name("calibrated.json")
@@ -82,6 +98,11 @@ def _read(path: Path) -> dict[str, Any]:
 
 @functools.cache
 def _load(path: str, _mtime_ns: int, _size: int) -> dict[str, Any]:
+    return _parse(path)
+
+
+def _parse(path: str | Path) -> dict[str, Any]:
+    """One presets file as it is now, its shape checked."""
     data = read_json(path)  # one line naming the file where it is unreadable or not JSON
     presets = data.get("presets") if isinstance(data, dict) else None
     if not isinstance(presets, dict) or not all(
@@ -102,6 +123,40 @@ def check_presets_file(path: Path) -> None:
     _read(path)
 
 
+def check_target(path: Path) -> None:
+    """Raise the one-line error merging into the presets file `path` would give, before
+    the work whose presets it is to take: a file that is no presets file or cannot be
+    written, a folder that cannot be written or made. Nothing is made.
+
+    Raises:
+        ValueError: naming `path` and what stands in the way.
+    """
+    check_presets_file(path)
+    folder = path.parent
+    present = next(p for p in (folder, *folder.parents) if p.exists())
+    if not present.is_dir():
+        raise ValueError(f"presets file {path}: its folder {folder} cannot be made: {present} "
+                         "is not a folder")
+    exists = path.exists()
+    try:
+        if exists:
+            os.close(os.open(path, os.O_WRONLY | os.O_APPEND))  # opened, not changed
+        else:
+            # a file made and gone, as the merge's temporary will be (not os.access: a
+            # read-only file system or a root user defeat it)
+            tempfile.TemporaryFile(dir=present).close()
+    except OSError as exc:
+        what = ("it cannot be written" if exists else
+                f"its folder {folder} cannot be written" if present == folder else
+                f"its folder {folder} cannot be made in {present}")
+        raise ValueError(f"presets file {path}: {what}: {_reason(exc)}") from None
+
+
+def _reason(exc: OSError) -> str:
+    """An OSError's reason alone, without the file it names."""
+    return os.strerror(exc.errno) if exc.errno else str(exc)
+
+
 def _entries(model: str) -> dict[str, tuple[Mapping[str, Any], Path]]:
     """Each data-file preset of `model`: its entry and the file it comes from."""
     out: dict[str, tuple[Mapping[str, Any], Path]] = {}
@@ -114,15 +169,42 @@ def _entries(model: str) -> dict[str, tuple[Mapping[str, Any], Path]]:
 def data_presets(model: str, own: Mapping[str, Mapping[str, Any]]
                  ) -> dict[str, dict[str, Any]]:
     """The data-file presets of `model`, each resolved against the model's own preset it
-    starts from (its "from"); the user's on top of the shipped ones."""
+    starts from (its "from"); the user's on top of the shipped ones.
+
+    Raises:
+        ValueError: a preset with the name of one of `own`, starting from none of them, or
+            setting a parameter the model does not have (or, in the user's file, to a value
+            its check refuses), naming the file, the preset and the parameter.
+    """
+    entries = _entries(model)
+    if not entries:  # a model without data-file presets: its class is not looked into
+        return {}
+    # Checked here, not where the file is read: a file may hold presets of a plug-in that
+    # is not installed now, which are the user's business until that model is used.
+    from lgmd_sim.models import model_class  # that package imports this module
+
+    checks = {f.name: f.metadata.get("check")
+              for f in dataclasses.fields(model_class(model).Params)}
     out = {}
-    for name, (entry, path) in _entries(model).items():
+    for name, (entry, path) in entries.items():
+        where = f"presets file {path}: preset {model}/{name}"
         if name in own:
-            raise ValueError(f"presets file {path}: preset {model}/{name} has the name of one "
-                             f"of the model's own presets ({', '.join(own)})")
+            raise ValueError(f"{where} has the name of one of the model's own presets "
+                             f"({', '.join(own)})")
         if entry["from"] not in own:
-            raise ValueError(f"presets file {path}: preset {model}/{name} starts from "
-                             f"{entry['from']!r}, not a preset of {model} ({', '.join(own)})")
+            raise ValueError(f"{where} starts from {entry['from']!r}, not a preset of {model} "
+                             f"({', '.join(own)})")
+        unknown = sorted(entry["params"].keys() - checks.keys())
+        if unknown:
+            raise ValueError(f"{where}: unknown parameter(s) {', '.join(map(repr, unknown))}; "
+                             f"valid: {', '.join(sorted(checks))}")
+        # the shipped presets are the package's own (its tests make each one); checking
+        # their values at every look-up would cost several times the look-up
+        if path != CALIBRATED:
+            for key, value in entry["params"].items():
+                error = checks[key](value) if checks[key] else None
+                if error:
+                    raise ValueError(f"{where}: parameter {key}={value!r} {error}")
         out[name] = {**own[entry["from"]], **entry["params"]}
     return out
 
@@ -132,16 +214,47 @@ def preset_files(model: str) -> dict[str, Path]:
     return {name: path for name, (_entry, path) in _entries(model).items()}
 
 
+@contextlib.contextmanager
+def _locked(target: Path) -> Iterator[None]:
+    """Hold the lock of the presets file `target`: its lock file, ``.NAME.lock`` beside it,
+    made with its folder where absent. The lock file stays: one removed while another
+    process waits on it would let a third take a lock of its own at once."""
+    target.parent.mkdir(parents=True, exist_ok=True)
+    fd = os.open(target.with_name(f".{target.name}.lock"), os.O_RDWR | os.O_CREAT, 0o666)
+    try:
+        _hold(fd, True)
+        try:
+            yield
+        finally:
+            _hold(fd, False)
+    finally:
+        os.close(fd)
+
+
 def merge_presets(target: Path, calibration: Mapping[str, Any]) -> None:
     """Put the presets of `calibration` (a calibration's calibrated.json) into the presets
     file `target` (made if absent): those presets replace theirs, every other stays; each
-    keeps the calibration that made it (its "calibration": `PROVENANCE`)."""
-    merged: dict[str, dict[str, Any]] = {}
-    for data in (_read(Path(target)), calibration):
-        # a preset without its own record was made by the file's calibration
-        made = {k: data[k] for k in PROVENANCE if k in data}
-        for model, entries in data.get("presets", {}).items():
-            for name, entry in entries.items():
-                merged.setdefault(model, {})[name] = {
-                    **({"calibration": made} if made else {}), **entry}
-    write_text_atomic(target, json.dumps({"presets": merged}, indent=2) + "\n")
+    keeps the calibration that made it (its "calibration": `PROVENANCE`). Merges into one
+    file take turns, each reading what the one before wrote.
+
+    Raises:
+        ValueError: `target` is no presets file.
+        OSError: it cannot be written, naming it (not its lock or temporary).
+    """
+    target = Path(target)
+    try:
+        with _locked(target):
+            # read afresh, not from the cache: another process may have merged since, and
+            # within a clock tick a file of the same size would look unchanged
+            current = _parse(target) if target.exists() else {}
+            merged: dict[str, dict[str, Any]] = {}
+            for data in (current, calibration):
+                # a preset without its own record was made by the file's calibration
+                made = {k: data[k] for k in PROVENANCE if k in data}
+                for model, entries in data.get("presets", {}).items():
+                    for name, entry in entries.items():
+                        merged.setdefault(model, {})[name] = {
+                            **({"calibration": made} if made else {}), **entry}
+            write_text_atomic(target, json.dumps({"presets": merged}, indent=2) + "\n")
+    except OSError as exc:  # the file the user named, not its lock or temporary
+        raise OSError(exc.errno, f"cannot write presets file {target}: {_reason(exc)}") from exc
