@@ -10,6 +10,7 @@ import os
 import shutil
 import subprocess
 import sys
+from dataclasses import replace
 from pathlib import Path
 
 import pytest
@@ -249,7 +250,7 @@ def test_card_front_matter_names_the_label_files(made):
     assert card.startswith("---\n")
     front = yaml.safe_load(card.split("---\n")[1])
     (config,) = front["configs"]
-    assert config["config_name"] == "default"
+    assert config["config_name"].startswith("labels-") and config["default"] is True
     assert config["data_files"] == [{"split": "train",
                                     "path": "data/chunk-*/file-*.parquet"}]
 
@@ -267,3 +268,28 @@ def test_hugging_face_datasets_loads_the_folder_as_the_label_table(made, tmp_pat
     ds = data.open(made)
     assert int(rows) == ds.info["total_frames"]
     assert names.split(",") == ds[0].labels.column_names
+
+
+def test_two_datasets_in_folders_of_one_name_load_their_own_rows_through_one_cache(
+        made, tmp_path):
+    """`datasets` keys its cache of ``load_dataset("DIR")`` on the folder's name and the
+    card's ``configs`` block: the second ``ds`` must not be served the first one's rows."""
+    if importlib.util.find_spec("datasets") is None:
+        pytest.skip("datasets is not installed here")
+    other = tmp_path / "other" / made.name
+    generate(replace(CONFIG, episodes=1, seed=7, overrides={"time_limit": 0.3}), other,
+             workers=1, progress=False)
+    columns = ["episode_index", "frame_index", "time", "threat_distance"]
+    code = ("import json, sys, datasets; print(json.dumps([datasets.load_dataset(d, "
+            "cache_dir=sys.argv[1])['train'].select_columns(sys.argv[2].split(',')).to_dict() "
+            "for d in sys.argv[3:]]))")
+    env = {**os.environ, "HF_DATASETS_OFFLINE": "1", "HF_HUB_OFFLINE": "1"}
+    result = subprocess.run([sys.executable, "-c", code, str(tmp_path / "cache"),
+                             ",".join(columns), str(made), str(other)],
+                            capture_output=True, text=True, cwd=tmp_path, env=env, timeout=300)
+    assert result.returncode == 0, result.stderr[-2000:]
+    loaded = json.loads(result.stdout.splitlines()[-1])
+    own = [data.open(d).labels(columns).to_pydict() for d in (made, other)]
+    assert own[0] != own[1]
+    assert [len(t["time"]) for t in loaded] == [len(t["time"]) for t in own]
+    assert loaded == own

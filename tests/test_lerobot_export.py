@@ -15,6 +15,7 @@ import pytest
 
 from lgmd_sim import data
 from lgmd_sim.data import layout
+from lgmd_sim.data.card import configs
 from lgmd_sim.data.generate import GenerateConfig, generate
 
 pa = pytest.importorskip("pyarrow")
@@ -114,8 +115,10 @@ def test_export_writes_lerobots_layout(dataset, exported):
         assert row[f"videos/{layout.VIDEO_KEY}/sha256"] == layout.sha256(video)
     assert not list(exported.rglob("*.avi")) and not (exported / layout.CONFIG).exists()
     card = (exported / "README.md").read_text()
-    # the labels' glob is the source's (layout.DATA_PATH's), and matches every data file
-    assert card.startswith("---\n") and f"data_files: {layout.DATA_GLOB}\n" in card
+    # the labels' glob is the source's (layout.DATA_PATH's), and matches every data file;
+    # the configuration is named after the exported label files, as `datasets` caches by name
+    assert card.startswith(f"---\n{configs(episodes['data/sha256'].to_pylist())}")
+    assert f"path: {layout.DATA_GLOB}\n" in card
     assert len(list(exported.glob(layout.DATA_GLOB))) == 4
     assert not list(exported.parent.glob(".*partial*"))  # no temporary left beside it
     umask = os.umask(0)

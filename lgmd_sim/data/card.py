@@ -5,6 +5,7 @@ Both depend only on the dataset's files, so they are as reproducible as the epis
 
 from __future__ import annotations
 
+import hashlib
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -14,22 +15,33 @@ import numpy as np
 
 from lgmd_sim.data import layout
 
-__all__ = ["card", "contact_sheet", "sheet_frame"]
+__all__ = ["card", "configs", "contact_sheet", "sheet_frame"]
 
 #: Width of a contact-sheet tile (pixels); frames are scaled to it.
 TILE_WIDTH = 240
 #: ISI histogram bin width.
 ISI_BIN = 0.05
-#: The card's YAML front matter: Hugging Face `datasets` (``load_dataset("DIR")``, and the
-#: Hub for an upload of the folder) reads the per-frame labels and nothing else; without
-#: it, it would take the episode and task tables for data too.
-FRONT_MATTER = f"""---
-configs:
-- config_name: default
+#: Hex digits of the label files' digest in the configuration's name (64 bits).
+CONFIG_DIGEST = 16
+
+
+def configs(data_sha256: Sequence[str]) -> str:
+    """A card's YAML ``configs:`` block: the label files as the one (default) configuration,
+    named ``labels-`` and a digest of their SHA-256s (`data_sha256`, in episode order).
+
+    Hugging Face `datasets` (``load_dataset("DIR")``, and the Hub for an upload of the
+    folder) reads the per-frame labels and nothing else; without the block it would take the
+    episode and task tables for data too. The name is the dataset's own because `datasets`
+    keys its cache of ``load_dataset("DIR")`` on the folder's name and this block, not on
+    the files: under a fixed name, a different dataset in a folder of the same name would
+    be served the rows cached for the first."""
+    digest = hashlib.sha256("\n".join(data_sha256).encode()).hexdigest()[:CONFIG_DIGEST]
+    return f"""configs:
+- config_name: labels-{digest}
+  default: true
   data_files:
   - split: train
     path: {layout.DATA_GLOB}
----
 """
 
 
@@ -116,7 +128,7 @@ def card(config: Any, episodes, info: Mapping[str, Any]) -> str:
                                  "exact" if fmt.lossless else ""))
     outcome = {o: sum(r["outcome"] == o for r in rows) for o in layout.OUTCOMES}
     lines = [
-        FRONT_MATTER,
+        f"---\n{configs(episodes['data/sha256'].to_pylist())}---\n",
         "# lgmd-sim jitter dataset",
         "",
         f"{total} episodes, {info['total_frames']} frames of camera streams from the lgmd-sim "
@@ -207,7 +219,9 @@ def card(config: Any, episodes, info: Mapping[str, Any]) -> str:
         f"from LeRobot's. `{layout.STATS}` holds per-feature statistics (as LeRobot's). "
         "The labels load without lgmd-sim: `datasets.load_dataset(\"DIR\")` (this card's "
         "`configs` block names the data files, so a Hugging Face Hub upload of the folder "
-        "loads the same way), `pyarrow.parquet.read_table(\"DIR/data\")` or "
+        "loads the same way; its configuration is named after a digest of the data files, "
+        "as `datasets` caches by folder name and configuration), "
+        "`pyarrow.parquet.read_table(\"DIR/data\")` or "
         "`pandas.read_parquet(\"DIR/data\")`; the videos open with OpenCV and FFmpeg. "
         "With lgmd-sim: `lgmd_sim.data.open(\"DIR\")` gives episodes with frames and "
         "labels, filters and a clip sampler. " + noise_note,

@@ -26,7 +26,7 @@ from typing import Any
 
 import numpy as np
 
-from lgmd_sim.data import layout
+from lgmd_sim.data import card, layout
 from lgmd_sim.data.stats import feature_stats, image_stats
 from lgmd_sim.fileio import atomic_folder, canonical_json
 
@@ -173,7 +173,7 @@ def _write(root: Path, ds: Any, config: ExportConfig, size: tuple[int, int]) -> 
     stats = {**feature_stats(pa.concat_tables(tables)),
              layout.VIDEO_KEY: image_stats(histogram, start)}
     (root / layout.STATS).write_text(canonical_json(stats))
-    (root / layout.CARD).write_text(_card(config, len(rows), start))
+    (root / layout.CARD).write_text(_card(config, [r["data/sha256"] for r in rows], start))
     info = _info(ds, config, video_path, tables[0].column_names)
     # Not canonical_json: LeRobot casts a subset of episodes to the features in info.json's
     # order, which must be the data files' column order, so not sorted.
@@ -252,15 +252,14 @@ def _info(ds: Any, config: ExportConfig, video_path: str, columns: list[str]
     return info
 
 
-def _card(config: ExportConfig, episodes: int, frames: int) -> str:
+def _card(config: ExportConfig, data_sha256: list[str], frames: int) -> str:
     """The export's dataset card: the Hub's YAML header (the labels as the default
-    configuration, as LeRobot's datasets have it), what it is and how to open it."""
+    configuration, as LeRobot's datasets have it, named after the label files' `data_sha256`
+    as the source's card), what it is and how to open it."""
     name = config.dest.name
+    episodes = len(data_sha256)
     return f"""---
-configs:
-- config_name: default
-  data_files: {layout.DATA_GLOB}
-tags:
+{card.configs(data_sha256)}tags:
 - LeRobot
 - lgmd-sim
 task_categories:
