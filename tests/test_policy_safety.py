@@ -4,14 +4,19 @@ run folder, and a policy folder is data, never code (no pickle is loaded from it
 from __future__ import annotations
 
 import base64
+import io
 import json
 import pickle
 import shutil
+import sys
 import zipfile
+from contextlib import contextmanager
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 import pytest
+from numpy.lib import format as npy
 
 pytest.importorskip("stable_baselines3")
 
@@ -23,17 +28,26 @@ from lgmd_sim.training.run import TrainConfig
 ENV = "lgmd_sim/StationaryApproach-v0"
 
 
-@pytest.fixture(scope="module")
-def model():
-    """An untrained PPO model on the tripod scenario at 64 x 64, and its PolicyConfig."""
+@contextmanager
+def _untrained(config):
+    """An untrained PPO model of `config`'s observations, while its environment is open."""
     from stable_baselines3 import PPO
     from stable_baselines3.common.vec_env import DummyVecEnv
 
-    config = TrainConfig(algo="ppo", env=ENV, resolution="small").policy()
     venv = DummyVecEnv([lambda: observe(base_env(config), config)])
-    yield PPO("MultiInputPolicy", venv, n_steps=64, batch_size=64, seed=0, device="cpu",
-              policy_kwargs={"net_arch": [8, 8]}), config
-    venv.close()
+    try:
+        yield PPO("MultiInputPolicy", venv, n_steps=64, batch_size=64, seed=0, device="cpu",
+                  policy_kwargs={"net_arch": [8, 8]})
+    finally:
+        venv.close()
+
+
+@pytest.fixture(scope="module")
+def model():
+    """An untrained PPO model on the tripod scenario at 64 x 64, and its PolicyConfig."""
+    config = TrainConfig(algo="ppo", env=ENV, resolution="small").policy()
+    with _untrained(config) as ppo:
+        yield ppo, config
 
 
 @pytest.fixture(scope="module")
@@ -242,3 +256,138 @@ def test_converting_a_corrupt_older_folder_is_one_line_naming_its_file(model, go
     assert exc.value.code == 2
     assert len(err.splitlines()) == 1 and str(older / "policy.") in err, err
     assert not (older / "policy.npz").exists()
+
+
+# --- issue 39: a policy.json names nothing that runs, and nothing of a size not checked ----
+
+PLUGINS = Path(__file__).parent / "plugins"
+#: A module a hostile policy ships beside policy.json: importing it leaves a marker.
+LGMDEXT = "from pathlib import Path\nPath(__file__).with_name('ran').write_text('imported')\n"
+
+
+def _hostile(good, folder, spec):
+    """`good` copied to `folder` with lgmdext.py beside it and policy.json naming `spec`."""
+    shutil.copytree(good, folder)
+    (folder / "lgmdext.py").write_text(LGMDEXT)
+    _edit_json(folder, lambda d: d["config"].update(model=spec))
+    return folder
+
+
+@pytest.mark.parametrize("inside", [True, False], ids=["inside", "outside"])
+@pytest.mark.parametrize("spec", ["lgmdext:X", "this:X"])
+def test_a_model_a_policy_names_as_a_module_runs_none_of_it_from_the_cli_and_the_api(
+        good, tmp_path, monkeypatch, capsys, fresh_registries, spec, inside):
+    folder = _hostile(good, tmp_path / "hostile", spec)
+    monkeypatch.delitem(sys.modules, "this", raising=False)
+    monkeypatch.delitem(sys.modules, "lgmdext", raising=False)
+    if inside:  # as `python -c` run in the folder: the folder first on sys.path
+        monkeypatch.chdir(folder)
+        monkeypatch.syspath_prepend("")
+    where = Path(".") if inside else folder
+    with pytest.raises(ValueError, match=r"policy\.json: config\.model") as api:
+        policies.load(where)
+    assert len(str(api.value).splitlines()) == 1
+    assert _eval(where, tmp_path / "eval") == 2
+    out, err = capsys.readouterr()
+    assert len(err.strip().splitlines()) == 1 and "policy.json: config.model" in err, err
+    assert "Beautiful is better than ugly" not in out + err
+    assert not (folder / "ran").exists()
+    assert "this" not in sys.modules and "lgmdext" not in sys.modules
+    assert not (tmp_path / "eval" / "run.json").exists()
+
+
+def test_a_plug_in_the_user_names_or_registers_is_observed(model, tmp_path, monkeypatch,
+                                                           fresh_registries):
+    from lgmd_sim import models
+
+    monkeypatch.syspath_prepend(str(PLUGINS))
+    # the plug-in has no S layer: no grid
+    config = replace(model[1], model="lgmd_plug:Blink", preset="plain", grid=None)
+    with _untrained(config) as ppo:
+        folder = policies.save(tmp_path / "blink", ppo, config, policies.Normalizer())
+    with pytest.raises(ValueError, match=r"config\.model 'lgmd_plug:Blink'"):
+        policies.load(folder)
+    loaded = policies.load(folder, plugins=("lgmd_plug:Blink",))
+    assert loaded.config.model == "lgmd_plug:Blink"
+    # from the command line: eval's --models names it, for the policy's cells too
+    assert cli.main(["eval", str(folder), "--models", "lgmd_plug:Blink", "--controllers",
+                     "none", "--jitter", "1", "--seeds", "1", "--workers", "1", "--out",
+                     str(tmp_path / "eval"), "--no-progress"]) == 0
+    models.register("blink", "lgmd_plug:Blink")  # a name the user registered themselves
+    _edit_json(folder, lambda d: d["config"].update(model="blink"))
+    assert policies.load(folder).config.model == "blink"
+
+
+#: An array of every policy's network (the log standard deviation of its actions).
+ARRAY = "log_std"
+
+
+def _declaring(shape):
+    """policy.npz's `ARRAY` replaced by one whose header declares `shape` (float32), with a
+    few bytes of data."""
+    header = io.BytesIO()
+    npy.write_array_header_1_0(header, {"descr": "<f4", "fortran_order": False,
+                                        "shape": shape})
+    declared = header.getvalue() + bytes(16)
+    return lambda folder: _rezip(folder / "policy.npz", lambda name, data: (
+        declared if name == f"{ARRAY}.npy" else data))
+
+
+def _weights_with_nan(folder):
+    weights = dict(np.load(folder / "policy.npz"))
+    weights[ARRAY][..., 0] = np.nan
+    np.savez(folder / "policy.npz", **weights)
+
+
+def _statistics(**changes):
+    """Statistics that fit the observation (the alarm's), with `changes`."""
+    stats = {"clip": 10.0, "epsilon": 1e-8, "mean": {"lgmd_alarm": [0.0]},
+             "var": {"lgmd_alarm": [1.0]}, **changes}
+    return lambda f: _edit_json(f, lambda d: d.update(normalize=stats))
+
+
+def _oversized(folder):
+    with (folder / "policy.json").open("r+b") as f:  # sparse: nothing is written
+        f.truncate(65 * 2**20)
+
+
+def _config(**changes):
+    return lambda f: _edit_json(f, lambda d: d["config"].update(changes))
+
+
+#: Impossible numbers, sizes and names: (corruption, the file, what of it the line names).
+REFUSED_AT_LOAD = {
+    "an array declaring 1e12 values": (_declaring((10**12,)), "policy.npz", repr(ARRAY)),
+    "NaN weights": (_weights_with_nan, "policy.npz", repr(ARRAY)),
+    "a NaN clip": (_statistics(clip=float("nan")), "policy.json", "clip"),
+    "a negative variance": (_statistics(var={"lgmd_alarm": [-1.0]}), "policy.json",
+                            "var['lgmd_alarm']"),
+    "an infinite mean": (_statistics(mean={"lgmd_alarm": [float("inf")]}), "policy.json",
+                         "mean['lgmd_alarm']"),
+    "a grid of more cells than pixels": (_config(grid=[10000, 10000]), "policy.json",
+                                         "grid 10000x10000"),
+    "a history of 1e9": (_config(history=10**9), "policy.json", "history=1000000000"),
+    "frames of 1e6 x 1e6": (_config(obs="pixels", model=None, frame_size=[10**6] * 2),
+                            "policy.json", "size"),
+    "another kind of environment": (_config(env_id="CartPole-v1"), "policy.json",
+                                    "config.env_id 'CartPole-v1'"),
+    "a preset that is no name": (_config(preset=["paper"]), "policy.json", "config.preset"),
+    "a policy.json of 65 MB": (_oversized, "policy.json", "larger than"),
+}
+
+
+@pytest.mark.parametrize(("corrupt", "file", "named"), REFUSED_AT_LOAD.values(),
+                         ids=REFUSED_AT_LOAD)
+def test_impossible_values_are_refused_at_load_naming_the_file_and_key(
+        good, tmp_path, capsys, corrupt, file, named):
+    bad = tmp_path / "tiny"
+    shutil.copytree(good, bad)
+    corrupt(bad)
+    with pytest.raises(ValueError) as api:
+        policies.load(bad)
+    line = str(api.value)
+    assert len(line.splitlines()) == 1 and str(bad / file) in line and named in line, line
+    assert _eval(bad, tmp_path / "eval") == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and str(bad / file) in err and named in err, err
+    assert not (tmp_path / "eval" / "run.json").exists()

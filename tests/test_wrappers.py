@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import tracemalloc
 import warnings
 
 import gymnasium as gym
@@ -193,6 +194,28 @@ def test_bad_environments_and_grids_are_refused():
     with pytest.raises(ValueError, match="grid 40x2 has more cells than the 32x48 frame"):
         LGMDObservation(env, grid=(40, 2)).reset(seed=0)
     env.close()
+
+
+@pytest.mark.parametrize(("kwargs", "message"), [
+    ({"history": 10**9}, "history=1000000000 is more than the 1048576 potentials"),
+    ({"grid": (10000, 10000)}, "grid 10000x10000 has more cells than the 32x48 frame"),
+    ({"grid": (32, 48), "grid_history": 10**6}, "grid 32x48 with grid_history=1000000 is"),
+])
+def test_sizes_beyond_the_frame_or_max_features_are_refused_before_anything_is_allocated(
+        kwargs, message):
+    env, envs = make(), SyncVectorEnv([make])
+    tracemalloc.start()  # NumPy's arrays are traced too
+    try:
+        with pytest.raises(ValueError, match=message):
+            LGMDObservation(env, **kwargs)
+        with pytest.raises(ValueError, match=message):
+            LGMDVectorObservation(envs, **kwargs)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert peak < 2**20, peak
+    env.close()
+    envs.close()
 
 
 def test_frame_observation():

@@ -20,6 +20,10 @@ def _text(v: Any) -> str | None:
     return None if isinstance(v, str) and v else "must be a folder or a shipped policy's name"
 
 
+def _specs(v: Any) -> str | None:
+    return None if isinstance(v, str) else "must be comma-separated 'package.module:Class' specs"
+
+
 def _shapes(space: gym.spaces.Dict) -> dict[str, tuple[int, ...]]:
     return {k: s.shape for k, s in space.spaces.items()}
 
@@ -29,6 +33,11 @@ class PolicyParams(CheckedParams):
     path: str = param("shipped", DESIGN, check=_text,
                       doc="a policy folder (policy.npz and policy.json, as lgmd-sim train "
                           "writes it), or a shipped policy's name ('shipped': the default)")
+    plugins: str = param("", DESIGN, check=_specs,
+                         doc="plug-in model specs, comma-separated, that the policy may "
+                             "observe: a policy names only built-in, registered or installed "
+                             "models otherwise, since a spec is imported (lgmd-sim eval "
+                             "passes those of its --models)")
 
 
 class Policy(Controller):
@@ -51,10 +60,10 @@ class Policy(Controller):
     params: PolicyParams
 
     def __init__(self, **params: Any) -> None:
-        from lgmd_sim import policies
+        from lgmd_sim import options, policies
 
         super().__init__(**params)
-        self.policy = policies.load(self.params.path)
+        self.policy = policies.load(self.params.path, options.comma_list(self.params.plugins))
         # one thread: a small network's forward pass, and one controller per core in a sweep
         import torch
 
@@ -62,10 +71,10 @@ class Policy(Controller):
 
     def wrap_env(self, env: gym.Env) -> gym.Env:
         from lgmd_sim.policies.observe import observe
-        from lgmd_sim.world.params import RESOLUTIONS
+        from lgmd_sim.world.params import frame_size
 
         res = self.policy.config.resolution
-        trained = RESOLUTIONS[res] if isinstance(res, str) else (int(res[0]), int(res[1]))
+        trained = frame_size(res)
         size = tuple(env.unwrapped.params.size)
         if size != trained and self.policy.config.obs != "privileged":
             raise ValueError(f"policy {self.policy.name} was trained on {trained[0]}x"

@@ -96,8 +96,27 @@ class Normalizer:
 
     @classmethod
     def from_json(cls, data: Mapping[str, Any] | None) -> Normalizer:
+        """The statistics `to_json` wrote (None: the identity).
+
+        Raises:
+            ValueError: a mean or variance that is not finite, a negative variance, or a
+                clip or epsilon that is not a finite number > 0, naming it: each would
+                turn the observations into NaN (or clip them all to 0) inside the network,
+                where nothing names the statistics.
+        """
         if not data:
             return cls()
-        return cls({k: np.asarray(v, float) for k, v in data["mean"].items()},
-                   {k: np.asarray(v, float) for k, v in data["var"].items()},
-                   float(data["clip"]), float(data["epsilon"]))
+        mean = {k: np.asarray(v, float) for k, v in data["mean"].items()}
+        var = {k: np.asarray(v, float) for k, v in data["var"].items()}
+        for what, stats in (("mean", mean), ("var", var)):
+            for k, v in stats.items():
+                if not np.isfinite(v).all():
+                    raise ValueError(f"{what}[{k!r}] holds a value that is not finite")
+        for k, v in var.items():
+            if (v < 0).any():
+                raise ValueError(f"var[{k!r}] holds a negative variance")
+        clip, epsilon = float(data["clip"]), float(data["epsilon"])
+        for what, value in (("clip", clip), ("epsilon", epsilon)):
+            if not (np.isfinite(value) and value > 0):
+                raise ValueError(f"{what} must be a finite number > 0, got {value}")
+        return cls(mean, var, clip, epsilon)

@@ -12,7 +12,10 @@ A *policy folder* holds
 
 Neither file can hold code, so a policy folder from anyone is safe to load: `load`
 builds the network from the architecture and the environment's spaces, then fills in
-the weights, and never unpickles. stable-baselines3's own model files (``policy.zip``
+the weights, and never unpickles. Nor does it import anything a policy.json names: its
+model is a built-in, registered or installed one, or a plug-in spec that the user names
+(``lgmd-sim eval --models``, ``load(path, plugins=...)``), and its environment a scenario
+of lgmd-sim's catalogue. stable-baselines3's own model files (``policy.zip``
 of folders written before this format, a training run's checkpoints) are pickles that
 run whatever their author put in them: they are never loaded from a policy folder, and
 ``python -m lgmd_sim.policies.convert DIR`` turns a trusted one into this format.
@@ -30,15 +33,17 @@ import os
 import textwrap
 import zipfile
 import zlib
-from collections.abc import Mapping
+from collections.abc import Collection, Mapping
+from contextlib import closing
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+from numpy.lib import format as npy
 
 from lgmd_sim.extras import require
-from lgmd_sim.fileio import write_files
+from lgmd_sim.fileio import read_json, write_files
 from lgmd_sim.policies.config import Normalizer, PolicyConfig
 
 __all__ = ["ALGOS", "MODEL_FILE", "OBS", "SB3_FILE", "LoadedPolicy", "convert", "load",
@@ -102,44 +107,91 @@ def resolve(path: str | os.PathLike) -> Path:
     return folder
 
 
-def load_config(path: str | os.PathLike) -> tuple[Path, PolicyConfig, dict[str, Any]]:
-    """(folder, configuration, the whole policy.json) of the policy at `path`."""
-    return _read_config(resolve(path))
+def load_config(path: str | os.PathLike, plugins: Collection[str] = ()
+                ) -> tuple[Path, PolicyConfig, dict[str, Any]]:
+    """(folder, configuration, the whole policy.json) of the policy at `path` (see
+    `resolve`), its names checked before anything they name is imported or made.
+
+    Args:
+        path: a policy folder or a shipped policy's name.
+        plugins: plug-in model specs ("package.module:Class") the user names, which the
+            policy may observe besides the built-in, registered and installed models.
+
+    Raises:
+        ValueError: no policy there; a policy.json that is not a policy's configuration,
+            whose model is none of those (importing a spec runs its module: a policy from
+            anyone must not choose code to run), whose preset is not a name, or whose
+            environment is not a scenario of lgmd-sim (one line naming the file and key).
+    """
+    folder, config, data = _read_config(resolve(path))
+    _check_names(folder / CONFIG_FILE, config, plugins)
+    return folder, config, data
+
+
+def _check_names(file: Path, config: PolicyConfig, plugins: Collection[str]) -> None:
+    """Refuse a `config` (of policy.json `file`) naming a model, preset or environment
+    that is not one the user chose or lgmd-sim ships (see `load_config`)."""
+    from lgmd_sim import models
+    from lgmd_sim.envs.catalogue import scenarios
+
+    model = config.model
+    if model is not None and not (isinstance(model, str) and (
+            model in plugins or models.origin(model) != "spec")):
+        raise ValueError(f"{file}: config.model {_shown(model)} is not a built-in, registered "
+                         "or installed model (lgmd-sim models lists them); a plug-in's spec "
+                         "is imported, running its code, so a policy may name one only if "
+                         "you name it too (lgmd-sim eval --models SPEC, or "
+                         "policies.load(path, plugins=[SPEC]))")
+    if config.preset is not None and not isinstance(config.preset, str):
+        raise ValueError(f"{file}: config.preset {_shown(config.preset)} is not a preset's "
+                         "name")
+    if not (isinstance(config.env_id, str) and config.env_id in {
+            sc.env_id for sc in scenarios().values()}):
+        # gym.make would import the module of a "module:Env" id, and another registered
+        # environment takes none of a scenario's options
+        raise ValueError(f"{file}: config.env_id {_shown(config.env_id)} is not registered as "
+                         "a scenario of lgmd-sim, the only environments a policy acts in "
+                         "(lgmd-sim envs lists them)")
+
+
+def _shown(value: Any) -> str:
+    """`value` of a policy.json in a message: its repr, cut short (the file may be large)."""
+    return textwrap.shorten(repr(value), 100)
 
 
 def _read_config(folder: Path) -> tuple[Path, PolicyConfig, dict[str, Any]]:
+    data = read_json(folder / CONFIG_FILE)  # its errors name the file
     try:
-        data = json.loads((folder / CONFIG_FILE).read_text())
         config = PolicyConfig.from_json(data["config"])
     except (ValueError, KeyError, TypeError) as exc:
         raise ValueError(f"{folder / CONFIG_FILE} is not a policy configuration ({exc})"
                          ) from None
-    if config.algo not in ALGOS or config.obs not in OBS:
-        raise ValueError(f"{folder / CONFIG_FILE}: a policy of {config.algo!r} on "
-                         f"{config.obs!r}, not one of {', '.join(ALGOS)} on "
+    if not (isinstance(config.algo, str) and config.algo in ALGOS and config.obs in OBS):
+        raise ValueError(f"{folder / CONFIG_FILE}: a policy of {_shown(config.algo)} on "
+                         f"{_shown(config.obs)}, not one of {', '.join(ALGOS)} on "
                          f"{', '.join(OBS)}")
     return folder, config, data
 
 
-def load(path: str | os.PathLike) -> LoadedPolicy:
+def load(path: str | os.PathLike, plugins: Collection[str] = ()) -> LoadedPolicy:
     """The policy at `path` (see `resolve`), its network on the CPU: built from
     policy.json's architecture and the spaces of the environment as the policy observes
-    it (`lgmd_sim.policies.observe`), its weights from policy.npz; nothing is unpickled.
+    it (`lgmd_sim.policies.observe`), its weights from policy.npz; nothing is unpickled,
+    and nothing policy.json names is imported unless the user names it (`plugins`: see
+    `load_config`).
 
     Raises:
-        ValueError: weights that are not plain arrays or do not fit the network; a
-            policy.json whose network, statistics or environment this cannot rebuild (one
-            line naming the file).
+        ValueError: weights that are not plain arrays of the network's names and shapes
+            (refused from the arrays' headers, before any is read), or not finite; a
+            policy.json naming what `load_config` refuses, or whose network, statistics
+            or observation this cannot rebuild (one line naming the file).
     """
-    import gymnasium as gym
-
     from lgmd_sim.policies.observe import base_env, observe
 
-    folder, config, data = load_config(path)
+    folder, config, data = load_config(path, plugins)
     sb3 = require("stable_baselines3", "rl")
     import torch
 
-    weights = _weights(folder / MODEL_FILE)
     normalize = _normalizer(folder, data)
     network = data.get("network") or {}
     aliases = getattr(sb3, ALGOS[config.algo]).policy_aliases
@@ -147,12 +199,12 @@ def load(path: str | os.PathLike) -> LoadedPolicy:
         raise ValueError(f"{folder / CONFIG_FILE}: its \"network\" is not a stable-baselines3 "
                          f"policy of {config.algo} ({', '.join(aliases)}) with its keyword "
                          "arguments")
-    if config.env_id not in gym.registry:  # gym.make would import a "module:" prefix
-        raise ValueError(f"{folder / CONFIG_FILE}: environment {config.env_id!r} is not "
-                         "registered (lgmd-sim envs lists the scenarios)")
-    env = observe(base_env(config), config)
-    spaces = (env.observation_space, env.action_space)
-    env.close()
+    try:
+        with closing(base_env(config)) as base:
+            env = observe(base, config)
+            spaces = (env.observation_space, env.action_space)
+    except ValueError as exc:  # its sizes, model or preset, checked before they are made
+        raise ValueError(f"{folder / CONFIG_FILE}: config: {exc}") from None
     shapes = {k: s.shape for k, s in spaces[0].spaces.items()}
     if normalize.mean.keys() != normalize.var.keys() or any(
             shapes.get(k) != s[k].shape for s in (normalize.mean, normalize.var) for k in s):
@@ -160,12 +212,14 @@ def load(path: str | os.PathLike) -> LoadedPolicy:
                          f"observations of {config.env_id} ({shapes})")
     try:
         policy = aliases[network["policy"]](*spaces, lambda _: 0.0, **network["kwargs"])
-        policy.load_state_dict({k: torch.from_numpy(v) for k, v in weights.items()})
     except (TypeError, ValueError, RuntimeError, KeyError, AttributeError, AssertionError
-            ) as exc:  # the architecture's arguments, or (torch) a missing or misshapen array
-        raise ValueError(f"{folder / MODEL_FILE} does not fit the network of {CONFIG_FILE} "
-                         f"in {config.env_id} as it is now ({textwrap.shorten(str(exc), 300)})"
+            ) as exc:  # the architecture's arguments, as stable-baselines3 and torch refuse them
+        raise ValueError(f"{folder / CONFIG_FILE}: its \"network\" cannot be built in "
+                         f"{config.env_id} as it is now ({textwrap.shorten(str(exc), 300)})"
                          ) from None
+    weights = _weights(folder / MODEL_FILE, {k: v.numpy() for k, v in
+                                             policy.state_dict().items()})
+    policy.load_state_dict({k: torch.from_numpy(v) for k, v in weights.items()})
     policy.set_training_mode(False)
     return LoadedPolicy(folder, config, policy, normalize, data.get("trained", {}))
 
@@ -175,25 +229,53 @@ def _normalizer(folder: Path, data: Mapping[str, Any]) -> Normalizer:
     try:
         return Normalizer.from_json(data.get("normalize"))
     except (KeyError, TypeError, ValueError, AttributeError) as exc:
+        # a check's own message names the statistic; Python's name only the key or type
+        detail = exc if type(exc) is ValueError else repr(exc)
         raise ValueError(f"{folder / CONFIG_FILE}: its \"normalize\" is not observation "
-                         f"statistics ({exc!r})") from None
+                         f"statistics ({detail})") from None
 
 
-def _weights(file: Path) -> dict[str, np.ndarray]:
-    """The arrays of `file`, refusing anything else (a pickle, an object array)."""
+#: The readers of the .npy format versions that hold plain arrays (3.0 adds only UTF-8
+#: field names, of structured arrays, which no network has).
+_HEADERS = {(1, 0): npy.read_array_header_1_0, (2, 0): npy.read_array_header_2_0}
+
+
+def _weights(file: Path, network: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """The arrays of `file`, which must be those of `network` (name -> array): the same
+    names, each of the same shape and dtype, as its header (checked before the array is
+    read: a declared size allocates nothing) says. Anything else (a pickle, an object
+    array, another shape) is refused, as are values that are not finite."""
+    arrays = {}
     try:
-        npz = np.load(file, allow_pickle=False)
-        if not isinstance(npz, Mapping):
-            raise ValueError("one bare array, not an archive of arrays")
-        with npz:
-            return {k: npz[k] for k in npz.files}
-    except (OSError, ValueError, EOFError, zipfile.BadZipFile, zlib.error) as exc:
-        # NumPy takes anything that is not an array file for a pickle, and its message
-        # suggests loading it unpickled: the one thing not to do here
-        reason = ("not an array file, and never unpickled" if "allow_pickle" in str(exc)
-                  else str(exc))
-        raise ValueError(f"{file} is not a policy's weights, arrays as lgmd-sim train "
-                         f"writes them ({reason})") from None
+        with zipfile.ZipFile(file) as z:
+            names, wanted = sorted(z.namelist()), sorted(f"{k}.npy" for k in network)
+            if names != wanted:
+                raise ValueError(f"its arrays are not the network's: missing "
+                                 f"{sorted(set(wanted) - set(names)) or 'none'}, not the "
+                                 f"network's {sorted(set(names) - set(wanted)) or 'none'}")
+            for key, want in network.items():
+                with z.open(f"{key}.npy") as f:
+                    version = npy.read_magic(f)
+                    if version not in _HEADERS:
+                        raise ValueError(f"array {key!r}: .npy format {version}, not a plain "
+                                         "array's")
+                    shape, _, dtype = _HEADERS[version](f)
+                if (shape, dtype) != (want.shape, want.dtype):
+                    raise ValueError(f"array {key!r} is {dtype} {shape}, the network's "
+                                     f"{want.dtype} {want.shape}")
+                with z.open(f"{key}.npy") as f:
+                    arrays[key] = npy.read_array(f, allow_pickle=False)
+    except (OSError, ValueError, EOFError, RuntimeError, NotImplementedError,
+            zipfile.BadZipFile, zlib.error) as exc:  # RuntimeError, NotImplementedError:
+        # an encrypted member, or a compression zipfile does not read
+        raise ValueError(f"{file} is not a policy's weights, arrays as lgmd-sim train writes "
+                         f"them for the network of {CONFIG_FILE} "
+                         f"({textwrap.shorten(str(exc), 300)})") from None
+    for key, array in arrays.items():
+        if not np.isfinite(array).all():
+            raise ValueError(f"{file}: array {key!r} holds values that are not finite (NaN or "
+                             "infinity), which no trained network has")
+    return arrays
 
 
 def save(folder: str | os.PathLike, model: Any, config: PolicyConfig,

@@ -22,9 +22,16 @@ from gymnasium import spaces
 from lgmd_sim.envs.wrappers import LGMDObservation, PrivilegedObservation
 from lgmd_sim.envs.wrappers.frames import check_frame_space
 from lgmd_sim.frames import to_grey
+from lgmd_sim.params import int_in_range, tuple_of
 from lgmd_sim.policies.config import PolicyConfig
+from lgmd_sim.world.params import MAX_SIDE
 
-__all__ = ["PixelObservation", "base_env", "observe"]
+__all__ = ["MAX_STACK", "PixelObservation", "base_env", "observe"]
+
+#: The most frames `PixelObservation` stacks: half a second at 30 fps, four times what
+#: lgmd-sim train's pixel policies stack. 16 of the largest frames (`MAX_SIDE` each way)
+#: hold 240 MB; a policy.json asking for more would exhaust the memory before any use.
+MAX_STACK = 16
 
 
 class PixelObservation(gym.ObservationWrapper):
@@ -37,11 +44,18 @@ class PixelObservation(gym.ObservationWrapper):
 
     Args:
         env: a jitter environment (a Dict observation with a uint8 "frame").
-        size: (height, width) of the observed frames.
-        stack: number of frames observed.
+        size: (height, width) of the observed frames, each 1 to `MAX_SIDE`.
+        stack: number of frames observed, 1 to `MAX_STACK`.
+
+    Raises:
+        ValueError: a size or stack out of those bounds, before anything is allocated.
     """
 
     def __init__(self, env: gym.Env, size: tuple[int, int] = (60, 80), stack: int = 4) -> None:
+        for name, value, check in (("size", size, tuple_of(int_in_range(1, MAX_SIDE), 2)),
+                                   ("stack", stack, int_in_range(1, MAX_STACK))):
+            if (error := check(value)) is not None:
+                raise ValueError(f"{name} {error}, got {value!r}")
         super().__init__(env)
         check_frame_space(env.observation_space)
         self.size, self.stack = (int(size[0]), int(size[1])), int(stack)

@@ -39,7 +39,9 @@ class EvalConfig:
         detectors: ReactiveAvoid's detectors, (model, preset) pairs; None: the LGMD
             models the policies observe, at their presets (every model at its default
             preset when no policy observes one), so the reactive cells are the bar a
-            policy on those features must clear.
+            policy on those features must clear. The plug-in specs among them are those
+            the policies may observe too (`plugins`): a policy's own choice of a spec is
+            refused, since importing it runs its code.
         seeds: episodes per cell (`lgmd_sim.policies.EVAL_SEEDS`: those of the
             evaluation a shipped policy's POLICY.md quotes, so the defaults reproduce it).
         jitter, first_seed, cruise, horizon, top_views: as in
@@ -79,7 +81,16 @@ class EvalConfig:
             if self.controllers else ()))
         self.bench()  # the policies' configurations and every episode option, checked now
         for policy in self.policies:  # and their networks, before any run folder is made
-            load(policy)
+            load(policy, self.plugins)
+
+    @property
+    def plugins(self) -> tuple[str, ...]:
+        """The plug-in model specs among `detectors`, named by the user: the policies may
+        observe them besides the built-in, registered and installed models."""
+        from lgmd_sim import models
+
+        return tuple(dict.fromkeys(m for m, _ in self.detectors or ()
+                                   if models.origin(m) == "spec"))
 
     def bench(self) -> ClosedLoopConfig:
         """The closed-loop benchmark that evaluates the policies: their cells beside the
@@ -90,7 +101,7 @@ class EvalConfig:
         from lgmd_sim.policies import load_config, name_of
 
         require("stable_baselines3", "rl")
-        loaded = [load_config(p) for p in self.policies]
+        loaded = [load_config(p, self.plugins) for p in self.policies]
         names = [name_of(folder) for folder, _, _ in loaded]
         if len(set(names)) < len(names):
             raise ValueError(f"two policies share a folder name ({', '.join(names)}): the "
@@ -101,15 +112,14 @@ class EvalConfig:
                              f"sizes ({'; '.join(' at '.join(e) for e in sorted(envs))}): "
                              "evaluate them apart")
         trained = loaded[0][1]
-        by_id = {s.env_id: name for name, s in scenarios().items()}
-        if trained.env_id not in by_id:
-            raise ValueError(f"policy {names[0]} was trained in {trained.env_id}, which is "
-                             "not a scenario of the catalogue (lgmd-sim envs lists them)")
-        scenario = by_id[trained.env_id]
+        # load_config refuses an environment that is not a scenario
+        scenario = {s.env_id: name for name, s in scenarios().items()}[trained.env_id]
         observed = [c.model if c.preset is None else f"{c.model}/{c.preset}"
                     for _, c, _ in loaded if c.model]
+        # the plug-ins only where there are any, so that a run from before them resumes
+        trusted = (("plugins", ",".join(self.plugins)),) if self.plugins else ()
         extra = tuple(Cell(scenario, float(j), "policy",
-                           params=(("path", str(folder.resolve())),), tag=name)
+                           params=(("path", str(folder.resolve())), *trusted), tag=name)
                       for j in self.jitter
                       for (folder, _, _), name in zip(loaded, names, strict=True))
         return ClosedLoopConfig(

@@ -34,6 +34,14 @@ def check_frame_space(space: gym.Space) -> None:
                          f"(a jitter environment's), got {got}")
 
 
+def frame_size_of(space: gym.Space) -> tuple[int, int]:
+    """(height, width) of the frames of a jitter environment's observation `space` (checked
+    by `check_frame_space`)."""
+    check_frame_space(space)
+    height, width = space["frame"].shape[:2]
+    return int(height), int(width)
+
+
 class NoiseObservation(gym.Wrapper, gym.utils.RecordConstructorArgs):
     """Corrupt the camera frame with seeded noise (`lgmd_sim.noise`), as the paper's dataset (d).
 

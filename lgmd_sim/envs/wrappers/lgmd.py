@@ -20,18 +20,31 @@ from gymnasium.vector import AutoresetMode, VectorEnv, VectorWrapper
 from gymnasium.vector.utils import batch_space
 
 from lgmd_sim import models
-from lgmd_sim.envs.wrappers.frames import check_frame_space
+from lgmd_sim.envs.wrappers.frames import check_frame_space, frame_size_of
 
-__all__ = ["KEYS", "LGMDFeatures", "LGMDObservation", "LGMDVectorObservation"]
+__all__ = ["KEYS", "MAX_FEATURES", "LGMDFeatures", "LGMDObservation", "LGMDVectorObservation"]
 
 #: The observation keys the LGMD wrappers add.
 KEYS = ("lgmd_potential", "lgmd_alarm", "lgmd_grid")
 #: The membrane potential of a resting LGMD (a stream's first frame gives it).
 REST = 0.5
+#: The most values one model's potentials, or its grids, may hold per environment: 2**20
+#: (4 MB of float32), a grid of every pixel of a "paper" frame (270 x 480) eight times over.
+#: The features are a compact summary for a policy's MLP; a larger request (history=1e9
+#: from a policy.json) would exhaust the memory when the wrapper is made, before any use.
+MAX_FEATURES = 2**20
 
 
 def _count(v: Any) -> bool:
     return isinstance(v, int | np.integer) and not isinstance(v, bool) and v >= 1
+
+
+def _check_grid(grid: tuple[int, int], height: int, width: int) -> None:
+    """Every cell of `grid` must hold a pixel of a `height` x `width` frame."""
+    rows, cols = grid
+    if rows > height or cols > width:
+        raise ValueError(f"grid {rows}x{cols} has more cells than the {height}x{width} "
+                         "frame has pixels")
 
 
 class LGMDFeatures:
@@ -77,13 +90,21 @@ class LGMDFeatures:
         grid_history: number of grids observed, newest last.
         keep_frame: keep the camera frame in the observation; False drops it, for
             compact observations (MLP policies).
+        frame_size: (height, width) of the frames, where known: a grid with more rows or
+            columns than a frame has pixels is then refused before anything is allocated
+            (else at the first frame).
         **params: the models' parameter overrides (see ``lgmd-sim models NAME``).
+
+    Raises:
+        ValueError: a bad argument, naming it; `history`, or `grid_history` grids, of more
+            than `MAX_FEATURES` values.
     """
 
     def __init__(self, n_envs: int, model: str | Sequence[str] = "feedback", *,
                  preset: str | None = None, history: int = 8,
                  grid: tuple[int, int] | None = (1, 3), grid_history: int = 1,
-                 keep_frame: bool = True, **params: Any) -> None:
+                 keep_frame: bool = True, frame_size: tuple[int, int] | None = None,
+                 **params: Any) -> None:
         if not _count(n_envs):
             raise ValueError(f"n_envs must be a positive integer, got {n_envs!r}")
         names = [model] if isinstance(model, str) else model
@@ -100,12 +121,22 @@ class LGMDFeatures:
                              f"got {grid!r}")
         if not isinstance(keep_frame, bool | np.bool_):
             raise ValueError(f"keep_frame must be True or False, got {keep_frame!r}")
+        self.grid = None if grid is None else (int(grid[0]), int(grid[1]))
+        cells = 0 if self.grid is None else self.grid[0] * self.grid[1]
+        # sizes checked before anything of those sizes is allocated, models included
+        if history > MAX_FEATURES:
+            raise ValueError(f"history={history} is more than the {MAX_FEATURES} potentials "
+                             "a model may observe (MAX_FEATURES)")
+        if self.grid is not None and frame_size is not None:
+            _check_grid(self.grid, *frame_size)
+        if int(grid_history) * cells > MAX_FEATURES:
+            raise ValueError(f"grid {self.grid[0]}x{self.grid[1]} with grid_history="
+                             f"{grid_history} is {int(grid_history) * cells} values, more than "
+                             f"the {MAX_FEATURES} a model may observe (MAX_FEATURES)")
         self.models = {name: models.make(name, preset=preset, n_streams=int(n_envs), **params)
                        for name in names}
-        self.grid = None if grid is None else (int(grid[0]), int(grid[1]))
         self.keep_frame = bool(keep_frame)
         n, m = int(n_envs), len(names)
-        cells = 0 if grid is None else self.grid[0] * self.grid[1]
         self._history = np.full((n, m, int(history)), REST, np.float32)
         #: The last step's outputs, per environment and model: (n_envs, n_models).
         self.potential = np.full((n, m), REST)
@@ -171,9 +202,7 @@ class LGMDFeatures:
         """Each grid cell's share of the mean rectified S, (n, H, W) -> (n, rows * cols)."""
         rows, cols = self.grid
         height, width = s.shape[1:]
-        if rows > height or cols > width:
-            raise ValueError(f"grid {rows}x{cols} has more cells than the {height}x{width} "
-                             "frame has pixels")
+        _check_grid(self.grid, height, width)  # again: the frame size may change at a reset
         # cell edges: cells differ by at most a pixel in height or width
         r = np.linspace(0, height, rows + 1).astype(int)
         c = np.linspace(0, width, cols + 1).astype(int)
@@ -241,10 +270,15 @@ class LGMDObservation(gym.Wrapper, gym.utils.RecordConstructorArgs):
             "package.module:Class" spec, or a list of them to compare.
         preset: the models' parameter set (None: each model's default).
         history: number of membrane potentials observed, newest last.
-        grid: (rows, cols) of the S-layer summary, or None for none.
+        grid: (rows, cols) of the S-layer summary, at most the frame's (height, width), or
+            None for none.
         grid_history: number of grids observed, newest last.
         keep_frame: keep the camera frame in the observation.
         **params: the models' parameter overrides.
+
+    Raises:
+        ValueError: a bad argument, naming it, before anything is allocated (sizes: see
+            `LGMDFeatures`).
     """
 
     def __init__(self, env: gym.Env, model: str | Sequence[str] = "feedback",
@@ -259,7 +293,7 @@ class LGMDObservation(gym.Wrapper, gym.utils.RecordConstructorArgs):
         gym.Wrapper.__init__(self, env)
         self.features = LGMDFeatures(1, model, preset=preset, history=history, grid=grid,
                                      grid_history=grid_history, keep_frame=keep_frame,
-                                     **params)
+                                     frame_size=frame_size_of(env.observation_space), **params)
         self.observation_space = self.features.observation_space(env.observation_space)
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None
@@ -309,7 +343,9 @@ class LGMDVectorObservation(VectorWrapper):
                              "environments apart); use next-step or same-step autoreset")
         self.features = LGMDFeatures(env.num_envs, model, preset=preset, history=history,
                                      grid=grid, grid_history=grid_history,
-                                     keep_frame=keep_frame, **params)
+                                     keep_frame=keep_frame,
+                                     frame_size=frame_size_of(env.single_observation_space),
+                                     **params)
         self.single_observation_space = self.features.observation_space(
             env.single_observation_space)
         self.observation_space = batch_space(self.single_observation_space, env.num_envs)

@@ -11,6 +11,7 @@ from typing import Any
 
 import numpy as np
 
+from lgmd_sim.envs.wrappers.frames import frame_size_of
 from lgmd_sim.envs.wrappers.lgmd import LGMDFeatures
 from lgmd_sim.extras import require
 
@@ -47,7 +48,7 @@ class VecLGMDObservation(_vec_env.VecEnvWrapper):
                  keep_frame: bool = True, **params: Any) -> None:
         features = LGMDFeatures(venv.num_envs, model, preset=preset, history=history,
                                 grid=grid, grid_history=grid_history, keep_frame=keep_frame,
-                                **params)
+                                frame_size=frame_size_of(venv.observation_space), **params)
         super().__init__(venv, observation_space=features.observation_space(
             venv.observation_space))
         self.features = features
