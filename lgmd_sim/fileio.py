@@ -249,6 +249,8 @@ TEXT_LIMIT = 64 * 2**20
 def read_text(path: str | os.PathLike, limit: int = TEXT_LIMIT) -> str:
     """The text (UTF-8) of the file `path`, at most `limit` bytes; ValueError, one line
     naming the file, where it is larger, cannot be read or is not text."""
+    if not isinstance(path, str | os.PathLike):  # open() would take an int for a descriptor
+        raise ValueError(f"{path!r} is not a file name")
     try:
         with open(path, "rb") as f:
             data = f.read(limit + 1)
@@ -259,7 +261,8 @@ def read_text(path: str | os.PathLike, limit: int = TEXT_LIMIT) -> str:
     try:
         return data.decode("utf-8")
     except UnicodeDecodeError as exc:
-        raise ValueError(f"{path}: not text ({exc.reason} at byte {exc.start})") from None
+        raise ValueError(f"{path}: not UTF-8 text ({exc.reason} at byte {exc.start})"
+                         ) from None
 
 
 def read_json(path: str | os.PathLike, limit: int = TEXT_LIMIT) -> Any:

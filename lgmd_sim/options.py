@@ -155,15 +155,11 @@ def check_seed(value: Any, option: str) -> None:
 
 
 def resolution(value: str | Sequence[int]) -> str | tuple[int, int]:
-    """A frame size, checked: a preset name (`lgmd_sim.world.params.RESOLUTIONS`) or
-    (height, width)."""
-    from lgmd_sim.world.params import resolution_check
+    """A frame size, checked (`lgmd_sim.world.params.parse_resolution`): a preset name
+    (`lgmd_sim.world.params.RESOLUTIONS`), "HEIGHTxWIDTH" or (height, width)."""
+    from lgmd_sim.world.params import parse_resolution
 
-    value = value if isinstance(value, str) else tuple(value)
-    problem = resolution_check(value)
-    if problem:
-        raise ValueError(f"--resolution {problem}, got {value!r}")
-    return value
+    return parse_resolution(value, "--resolution")
 
 
 def check_range(value: Any, option: str, lo: float, hi: float) -> None:

@@ -34,7 +34,8 @@ from lgmd_sim import __version__
 from lgmd_sim.fileio import canonical_json, read_json, write_text_atomic
 from lgmd_sim.machine import machine
 
-__all__ = ["NULL", "NUMBER", "RECORD", "Fields", "Maybe", "RunFolder", "RunResult", "difference"]
+__all__ = ["NULL", "NUMBER", "RECORD", "Fields", "Maybe", "RunFolder", "RunResult", "difference",
+           "read_record"]
 
 #: The run's record, relative to its folder.
 RECORD = "run.json"
@@ -98,7 +99,7 @@ def _mismatch(value: Any, fields: Fields, where: str = "") -> str | None:
     return None if fits else f"{where or 'it'} is {json.dumps(value)[:40]}"
 
 
-def _read_json(file: Path, fields: Fields, remedy: str) -> Any:
+def read_record(file: Path, fields: Fields, remedy: str) -> Any:
     """The JSON in `file`, which must hold `fields`; ValueError naming the file and
     `remedy` where it cannot be read or holds something else."""
     try:
@@ -179,8 +180,8 @@ class RunFolder:
         if not file.is_file():
             return None
         # a record from before sessions were kept has none
-        return _read_json(file, {"config": dict, "sessions": Maybe([dict])},
-                          "choose another folder or remove it")
+        return read_record(file, {"config": dict, "sessions": Maybe([dict])},
+                           "choose another folder or remove it")
 
     def _earlier(self, what: str, resume: bool, resume_hint: str, changeable: Collection[str],
                  defaults: Mapping[str, Any]) -> tuple[list[dict[str, Any]], dict[str, Any]]:
@@ -190,7 +191,7 @@ class RunFolder:
             return [], {}
         recorded = self.recorded(self.path, self._record_name)
         if self._identity is not None and self._identity.is_file():
-            held = _read_json(self._identity, {}, "use another folder")
+            held = read_record(self._identity, {}, "use another folder")
         elif recorded is not None and self._identity is None:
             held = recorded["config"]
         else:
@@ -233,8 +234,8 @@ class RunFolder:
         holding `fields` (what the job reads of it); ValueError naming the first record
         that is not (truncated, or changed since its job wrote it)."""
         wanted = sorted(self.done() if keys is None else keys)
-        return [_read_json(self.records_dir / f"{k}.json", fields or {},
-                           "remove it, and resume to run its job again") for k in wanted]
+        return [read_record(self.records_dir / f"{k}.json", fields or {},
+                            "remove it, and resume to run its job again") for k in wanted]
 
     def note(self, **facts: Any) -> None:
         """Add facts to the run's record now (e.g. a training run's hyperparameters)."""

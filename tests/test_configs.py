@@ -3,6 +3,7 @@ same from Python as from the command line, and the folder's guarantees for every
 
 from __future__ import annotations
 
+import argparse
 import json
 
 import pytest
@@ -50,6 +51,48 @@ def test_a_bad_value_fails_where_the_config_is_made(make, message):
     with pytest.raises(ValueError) as exc:
         make()
     assert message in str(exc.value) and "\n" not in str(exc.value)
+
+
+@pytest.mark.parametrize("spelling", ["270x480", "270X480"])
+def test_every_config_takes_the_resolution_as_the_command_line_spells_it(spelling):
+    from lgmd_sim.cli.args import resolution
+    from lgmd_sim.data.generate import GenerateConfig
+
+    # the API refused the CLI's spelling
+    assert resolution(spelling) == options.resolution(spelling) == (270, 480)
+    for make in (ClosedLoopConfig, OpenLoopConfig, CalibrateConfig,
+                 lambda **kw: GenerateConfig(("PassBy",), (1.0,), 1, **kw)):
+        assert make(resolution=spelling) == make(resolution=[270, 480])
+    pytest.importorskip("stable_baselines3")
+    from lgmd_sim.training.run import TrainConfig
+
+    assert TrainConfig(obs="privileged", resolution=spelling).resolution == (270, 480)
+
+
+def test_a_bad_resolution_is_the_same_line_from_python_and_the_command_line():
+    from lgmd_sim.cli.args import resolution
+
+    with pytest.raises(argparse.ArgumentTypeError) as on_the_command_line:
+        resolution("270by480")
+    with pytest.raises(ValueError) as in_python:
+        ClosedLoopConfig(resolution="270by480")
+    message = str(on_the_command_line.value)
+    assert str(in_python.value) == f"--{message}"
+    assert "HEIGHTxWIDTH" in message and "'270by480'" in message and "\n" not in message
+
+
+@pytest.mark.parametrize(("option", "value"), [
+    ("hp", 5), ("hp", [5]), ("reward", "goal_bonus=1"), ("env", 5), ("algo", ["ppo"]),
+    ("curriculum", 5),  # open() took it for a file descriptor
+])
+def test_a_training_option_of_the_wrong_type_is_one_line_naming_it(option, value):
+    # as a hand-edited run.json brings it when resumed: a traceback before
+    pytest.importorskip("stable_baselines3")
+    from lgmd_sim.training.run import TrainConfig
+
+    with pytest.raises(ValueError) as exc:
+        TrainConfig(obs="privileged", **{option: value})
+    assert f"--{option} must be" in str(exc.value) and "\n" not in str(exc.value)
 
 
 def test_the_shared_parsers():

@@ -5,13 +5,14 @@ resuming at the stage the checkpoint names, and bad stages refused in one line."
 from __future__ import annotations
 
 import json
+import time
 
 import pytest
 
 pytest.importorskip("stable_baselines3")
 
 import lgmd_sim  # noqa: F401  (registers the scenarios)
-from lgmd_sim import cli
+from lgmd_sim import cli, fileio
 from lgmd_sim.training import curriculum, curve
 from lgmd_sim.training import envs as training_envs
 
@@ -107,6 +108,12 @@ def test_the_built_in_curriculum_fits_the_main_task():
     ("[[stage]]\nn_obstacles = -1\nadvance_at = 0.5\n", "stage 1: EnvParams: parameter n_obs"),
     ("window = 0\n[[stage]]\nadvance_at = 0.5\n", "needs a positive integer `window`"),
     ("[[stage\n", "nor a readable TOML file"),
+    # stages that are not tables: an AttributeError traceback before
+    ("stage = [1, 2]\n", "stage 1 is int, not a table of parameters"),
+    ("stage = [{advance_at = 0.5}, 'fast']\n", "stage 2 is str, not a table of parameters"),
+    # TOML's booleans are no numbers
+    ("[[stage]]\nadvance_at = true\n", "stage 1: advance_at must be a success rate"),
+    ("window = true\n[[stage]]\nadvance_at = 0.5\n", "needs a positive integer `window`"),
 ])
 def test_a_bad_curriculum_is_one_line_before_training(tmp_path, capsys, text, message):
     path = tmp_path / "bad.toml"
@@ -115,4 +122,23 @@ def test_a_bad_curriculum_is_one_line_before_training(tmp_path, capsys, text, me
     assert cli.main([*TINY, "--steps", "64", "--curriculum", str(path), "--out", str(out)]) == 2
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and message in err, err
+    assert not out.exists()
+
+
+@pytest.mark.parametrize("kind", ["/dev/zero", "a file past the limit"])
+def test_a_curriculum_file_too_large_to_be_one_is_refused_in_one_line_quickly(tmp_path, capsys,
+                                                                               kind):
+    # /dev/zero was read until the kernel killed the process
+    if kind == "/dev/zero":
+        path = "/dev/zero"
+    else:
+        path = tmp_path / "huge.toml"
+        with open(path, "wb") as f:  # sparse: no disk, no time
+            f.truncate(fileio.TEXT_LIMIT + 1)
+    out = tmp_path / "never"
+    start = time.perf_counter()
+    assert cli.main([*TINY, "--steps", "64", "--curriculum", str(path), "--out", str(out)]) == 2
+    assert time.perf_counter() - start < 30
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and str(path) in err and "larger than" in err, err
     assert not out.exists()

@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 
 import lgmd_sim  # noqa: F401 - registers the scenarios
+from lgmd_sim import fileio
 from lgmd_sim.cli import envs as cli_envs
 from lgmd_sim.envs import catalogue
 
@@ -103,6 +104,44 @@ def test_invalid_parameters_raise_value_errors(overrides, error):
     overrides.setdefault("resolution", "small")
     with pytest.raises(ValueError, match=error):
         gym.make("lgmd_sim/PassBy-v0", **overrides)
+
+
+@pytest.mark.parametrize("spelling", ["270x480", "270X480"])
+def test_a_resolution_spelt_as_on_the_command_line_makes_the_same_frames(spelling):
+    # the API refused the CLI's spelling
+    env, reference = (make(name="PassBy", resolution=r, jitter=0.0) for r in (spelling,
+                                                                               [270, 480]))
+    assert env.unwrapped.params.resolution == reference.unwrapped.params.resolution
+    assert env.observation_space == reference.observation_space
+    (frame, _), (expected, _) = env.reset(seed=3), reference.reset(seed=3)
+    assert frame["frame"].shape == (270, 480, 3)
+    assert np.array_equal(frame["frame"], expected["frame"])
+    env.close()
+    reference.close()
+
+
+@pytest.mark.parametrize("spelling", ["270by480", "270x", "8x8", "270x480x3"])
+def test_a_resolution_that_is_no_frame_size_is_one_line_naming_it(spelling):
+    with pytest.raises(ValueError) as exc:
+        make(resolution=spelling)
+    message = str(exc.value)
+    assert repr(spelling) in message and "HEIGHTxWIDTH" in message and "\n" not in message
+
+
+def test_a_user_scenario_file_too_large_to_be_one_breaks_only_itself(tmp_path):
+    # /dev/zero was read until the kernel killed the process, at import
+    folder = tmp_path / "mine"
+    folder.mkdir()
+    (folder / "Zero.toml").symlink_to("/dev/zero")
+    with open(folder / "Huge.toml", "wb") as f:  # sparse: no disk, no time
+        f.truncate(fileio.TEXT_LIMIT + 1)
+    result = subprocess.run([sys.executable, "-m", "lgmd_sim.cli", "envs"],
+                            env={**os.environ, catalogue.ENV_VAR: str(folder)},
+                            capture_output=True, text=True, timeout=120)
+    assert result.returncode == 2 and "lgmd_sim/PassBy-v0" in result.stdout
+    for name in ("Zero.toml", "Huge.toml"):
+        (line,) = [x for x in result.stderr.splitlines() if name in x]
+        assert str(folder / name) in line and "larger than" in line
 
 
 def test_unsupported_render_mode_is_refused():

@@ -1,7 +1,8 @@
 """What a run reads that a user may have changed or got wrong: a run folder's records
-(a bench or calibration record with other content, truncated, not JSON), training
-hyperparameters of the wrong type, and the words of the help texts and the missing-extra
-hint. Each is refused in one line naming the thing, before any work starts."""
+(a bench or calibration record with other content, truncated, not JSON), a training run's
+record, checkpoint state and policies, training hyperparameters of the wrong type, and the
+words of the help texts and the missing-extra hint. Each is refused in one line naming the
+thing, before any work starts."""
 
 from __future__ import annotations
 
@@ -12,7 +13,7 @@ import sys
 
 import pytest
 
-from lgmd_sim import cli
+from lgmd_sim import cli, fileio
 from lgmd_sim.runs import RunFolder
 
 # One episode, one clip: the machinery of a full run, in seconds.
@@ -138,6 +139,74 @@ def test_an_identity_file_of_another_shape_is_one_line_naming_it(tmp_path):
     (tmp_path / "config.json").write_text("[1, 2]")
     with pytest.raises(ValueError, match=r"config\.json"):
         RunFolder(tmp_path, {"a": 1}, "cmd", resume=True, identity="config.json")
+
+
+# --- a training run's own files --------------------------------------------------------------
+
+# A training run as resuming reads it: its record and its checkpoint's state.json (a state
+# that passes gets as far as loading the checkpoint, which is not there).
+TRAINING = {"config": {"obs": "privileged", "model": None, "env": "lgmd_sim/StationaryApproach-v0",
+                       "resolution": "small", "envs": 1, "steps": 64, "hp": ["n_steps=64"]},
+            "sessions": [{"env_seeds": [0, 1], "steps": [0, 64]}]}
+
+
+def _training_run(tmp_path, record=TRAINING, state='{"num_timesteps": 64}'):
+    out = tmp_path / "run"
+    (out / "checkpoints").mkdir(parents=True)
+    (out / "run.json").write_text(json.dumps(record))
+    state_file = out / "checkpoints" / "state.json"
+    if state is None:  # past the size limit; sparse: no disk, no time
+        with open(state_file, "wb") as f:
+            f.truncate(fileio.TEXT_LIMIT + 1)
+    else:
+        state_file.write_text(state)
+    return out
+
+
+def _resume_training(out, capsys, named) -> str:
+    before = (out / "run.json").read_bytes()
+    assert cli.main(["train", "--resume", str(out), "--steps", "128", "--no-progress"]) == 2
+    assert (out / "run.json").read_bytes() == before  # no session started
+    return _one_line_naming(capsys, named)
+
+
+@pytest.mark.parametrize("state", [
+    "[]", '{"num_timesteps": "64"}', '{"steps": 64}', '{"num_timesteps": 64, "stage": -1}',
+    '{"num_timesteps": 64, "stage": true}', None])
+def test_a_checkpoint_state_that_is_not_one_is_refused_naming_it(tmp_path, capsys, state):
+    pytest.importorskip("stable_baselines3")
+    out = _training_run(tmp_path, state=state)
+    err = _resume_training(out, capsys, out / "checkpoints" / "state.json")
+    assert "cannot be resumed" in err or "larger than" in err
+
+
+@pytest.mark.parametrize("session", [
+    {},  # no env_seeds: a KeyError traceback
+    {"env_seeds": [0, 1], "stages": "none"},
+    {"env_seeds": [0, 1], "imitation": [{"round": 0}]},
+    {"env_seeds": [0, 1], "throughput": {"ratio": "fast"}},
+])
+def test_a_training_record_of_another_shape_is_refused_before_resuming(tmp_path, capsys,
+                                                                        session):
+    pytest.importorskip("stable_baselines3")
+    out = _training_run(tmp_path, {**TRAINING, "sessions": [session]})
+    _resume_training(out, capsys, out / "run.json")
+
+
+def test_the_summary_and_the_curve_refuse_files_of_another_shape_naming_them(tmp_path):
+    from lgmd_sim.training import curve, summary
+
+    out = _training_run(tmp_path, {**TRAINING, "sessions": [
+        {"env_seeds": [0, 1], "value_warmup": {"steps": "64"}}]})
+    for read in (curve.phase_changes, summary.summary_markdown):
+        with pytest.raises(ValueError) as exc:
+            read(out)
+        assert str(out / "run.json") in str(exc.value) and "\n" not in str(exc.value)
+    (out / "best").mkdir()
+    (out / "best" / "policy.json").write_text('{"trained": {"validation": {"step": 64}}}')
+    with pytest.raises(ValueError) as exc:
+        summary.validation_rows(out)
+    assert str(out / "best" / "policy.json") in str(exc.value) and "\n" not in str(exc.value)
 
 
 # --- hyperparameters ------------------------------------------------------------------------

@@ -29,34 +29,25 @@ def non_negative_float(text: str) -> float:
     return value
 
 
-def resolution(text: str) -> str | list[int]:
-    """A named frame size (paper, rl, small) or HEIGHTxWIDTH."""
-    from lgmd_sim.world.params import RESOLUTIONS, resolution_check
+def resolution(text: str) -> str | tuple[int, int]:
+    """A named frame size (paper, rl, small) or HEIGHTxWIDTH, as the Python API takes it
+    (`lgmd_sim.world.params.parse_resolution`)."""
+    from lgmd_sim.world.params import parse_resolution
 
-    if text in RESOLUTIONS:
-        return text
-    size = _pair(text)
-    if size is None or resolution_check(size):
-        raise argparse.ArgumentTypeError(
-            f"must be {', '.join(RESOLUTIONS)} or HEIGHTxWIDTH (e.g. 270x480), got {text!r}")
-    return size
+    try:
+        return parse_resolution(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
 
 
-def grid(text: str) -> list[int]:
+def grid(text: str) -> tuple[int, int]:
     """ROWSxCOLUMNS of positive integers (a grid of cells over the frame)."""
-    cells = _pair(text)
+    from lgmd_sim.world.params import parse_pair
+
+    cells = parse_pair(text)
     if cells is None or min(cells) < 1:
         raise argparse.ArgumentTypeError(f"must be ROWSxCOLUMNS (e.g. 3x5), got {text!r}")
     return cells
-
-
-def _pair(text: str) -> list[int] | None:
-    """AxB as two integers, or None where it is not that."""
-    try:
-        pair = [int(v) for v in text.lower().split("x")]
-    except ValueError:
-        return None
-    return pair if len(pair) == 2 else None
 
 
 def add_parallel_options(p: argparse.ArgumentParser, unit: str = "episodes") -> None:

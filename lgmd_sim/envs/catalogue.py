@@ -6,11 +6,11 @@ stem); ``gym.make(id, **overrides)`` overrides again. The packaged scenarios (en
 when lgmd_sim is imported, then the folders listed in the ``LGMD_SIM_ENVS`` environment
 variable (separated by ``os.pathsep``); `register_catalogue` adds a folder later.
 
-A file that cannot be used (not UTF-8, invalid TOML, unknown keys, a name that is no valid
-environment id, a name already taken) breaks only itself: ``lgmd-sim envs`` reports it in
-one line, ``gym.make`` of its id raises that line as a ValueError, and every other
-scenario works. This module imports neither MuJoCo nor the environment: registration uses
-entry-point strings.
+A file that cannot be used (unreadable, larger than `lgmd_sim.fileio.TEXT_LIMIT`, not
+UTF-8, invalid TOML, unknown keys, a name that is no valid environment id, a name already
+taken) breaks only itself: ``lgmd-sim envs`` reports it in one line, ``gym.make`` of its id
+raises that line as a ValueError, and every other scenario works. This module imports
+neither MuJoCo nor the environment: registration uses entry-point strings.
 """
 
 from __future__ import annotations
@@ -24,6 +24,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from lgmd_sim.fileio import read_text
 from lgmd_sim.resources import envs_dir
 
 NAMESPACE = "lgmd_sim"
@@ -60,13 +61,11 @@ def _read(path: Path) -> Scenario:
         return Scenario(path.stem, path, error=f"scenario file {path}: {problem}")
 
     try:
-        data = tomllib.loads(path.read_bytes().decode("utf-8"))
-    except UnicodeDecodeError as exc:
-        return broken(f"not UTF-8 text (byte {exc.start})")
-    except OSError as exc:
-        return broken(f"cannot read it ({exc.strerror})")
+        data = tomllib.loads(read_text(path))
     except tomllib.TOMLDecodeError as exc:
         return broken(f"invalid TOML: {exc}")
+    except ValueError as exc:  # unreadable, too large, not text: read_text names the file
+        return Scenario(path.stem, path, error=f"scenario file {exc}")
     unknown = sorted(set(data) - _KEYS)
     if unknown:
         return broken(f"unknown top-level key(s) {', '.join(unknown)}; a scenario file has "

@@ -150,10 +150,10 @@ def run(*, scenarios: str = "all", episodes: int = 6, resolution: str | list[int
     from lgmd_sim import options
     from lgmd_sim.data.layout import VIDEO_FORMATS
     from lgmd_sim.envs import catalogue
-    from lgmd_sim.world.params import RESOLUTIONS
+    from lgmd_sim.world.params import frame_size
 
     names = options.names(scenarios, list(catalogue.scenarios()), "scenario(s)")
-    h, w = RESOLUTIONS[resolution] if isinstance(resolution, str) else resolution
+    h, w = frame_size(resolution)
     rows = measure(names, episodes, resolution, workers, video, repeat)
     codec = VIDEO_FORMATS[video].codec
     print(f"# lgmd-sim speed dataset: {h}x{w}, jitter 1, {episodes} episodes per "

@@ -34,8 +34,10 @@ from __future__ import annotations
 import tomllib
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from pathlib import Path
+from types import UnionType
 from typing import Any
+
+from lgmd_sim.fileio import read_text
 
 __all__ = ["CURRICULA", "Curriculum", "Stage", "load"]
 
@@ -85,18 +87,24 @@ def load(spec: str, env_id: str) -> Curriculum:
     every stage checked by building its parameters (no world is compiled).
 
     Raises:
-        ValueError: an unknown name, an unreadable file, or a stage whose parameters the
-            environment refuses (one line naming the stage).
+        ValueError: not a string; an unknown name; a file that cannot be read, is larger than
+            `lgmd_sim.fileio.TEXT_LIMIT` or is not TOML; a stage that is not a table, or
+            whose parameters the environment refuses (one line naming the file and the
+            stage).
     """
+    if not isinstance(spec, str):  # open() would take a number for a file descriptor
+        raise ValueError(f"--curriculum must be a curriculum's name or a TOML file's path, "
+                         f"got {spec!r}")
     if spec in CURRICULA:
         data = CURRICULA[spec]
     else:
         try:
-            data = tomllib.loads(Path(spec).read_text())
-        except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as exc:
+            data = tomllib.loads(read_text(spec))
+        except ValueError as exc:  # read_text's refusals and TOML's
+            # read_text's name the file, which this line names once
             raise ValueError(f"--curriculum {spec}: not a built-in curriculum "
-                             f"({', '.join(CURRICULA)}) nor a readable TOML file ({exc})"
-                             ) from None
+                             f"({', '.join(CURRICULA)}) nor a readable TOML file "
+                             f"({str(exc).removeprefix(f'{spec}: ')})") from None
     return _parse(data, env_id, spec)
 
 
@@ -109,7 +117,7 @@ def _parse(data: Mapping[str, Any], env_id: str, name: str) -> Curriculum:
     unknown = sorted(set(data) - {"window", "stage"})
     window = data.get("window", 50)
     raw = data.get("stage", [])
-    if unknown or not isinstance(window, int) or window < 1 or not isinstance(raw, list) \
+    if unknown or not _is_number(window, int) or window < 1 or not isinstance(raw, list) \
             or not raw:
         raise ValueError(f"--curriculum {name}: needs a positive integer `window` and one "
                          "or more [[stage]] tables" + (f", not {', '.join(unknown)}"
@@ -117,10 +125,13 @@ def _parse(data: Mapping[str, Any], env_id: str, name: str) -> Curriculum:
     scenario = gym.spec(env_id).kwargs.get("scenario")
     stages = []
     for i, table in enumerate(raw, 1):
+        where = f"--curriculum {name}: stage {i}"
+        if not isinstance(table, dict):
+            raise ValueError(f"{where} is {type(table).__name__}, not a table of parameters "
+                             "([[stage]])")
         overrides = {k: v for k, v in table.items() if k != "advance_at"}
         at = table.get("advance_at")
-        where = f"--curriculum {name}: stage {i}"
-        if not isinstance(at, int | float) or not 0.0 < at <= 1.0:
+        if not _is_number(at, int | float) or not 0.0 < at <= 1.0:
             raise ValueError(f"{where}: advance_at must be a success rate in (0, 1], got {at!r}")
         if fixed := sorted(set(overrides) & set(_FIXED)):
             raise ValueError(f"{where}: {', '.join(fixed)} cannot change between stages (what "
@@ -134,3 +145,8 @@ def _parse(data: Mapping[str, Any], env_id: str, name: str) -> Curriculum:
             raise ValueError(f"{where}: {exc}") from None
         stages.append(Stage(overrides, float(at)))
     return Curriculum(tuple(stages), window, name)
+
+
+def _is_number(value: Any, kind: type | UnionType) -> bool:
+    # TOML's true and false are no numbers, though Python's bool is an int
+    return isinstance(value, kind) and not isinstance(value, bool)

@@ -4,7 +4,6 @@ stable-baselines3's CSV log, one per training session)."""
 from __future__ import annotations
 
 import csv
-import json
 import math
 from pathlib import Path
 
@@ -51,8 +50,11 @@ def _number(text: str | None) -> float | None:
 def phase_changes(folder: Path) -> list[tuple[float, str]]:
     """(step, label) where the run of `folder` changed what it trained on: the end of its
     DAgger rounds (RL from there), the end of its value warm-up (the policy learns again
-    from there) and each curriculum stage passed (from its run.json)."""
-    sessions = json.loads((folder / "run.json").read_text()).get("sessions", [])
+    from there) and each curriculum stage passed (from its run.json; ValueError naming it
+    where it is not a training run's, `lgmd_sim.training.summary.run_record`)."""
+    from lgmd_sim.training.summary import run_record
+
+    sessions = run_record(folder)["sessions"]
     changes = []
     rounds = [r for s in sessions for r in s.get("imitation", [])]
     if rounds:

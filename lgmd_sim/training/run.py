@@ -40,12 +40,12 @@ from typing import TYPE_CHECKING, Any
 
 from lgmd_sim import __version__, options
 from lgmd_sim.extras import require
-from lgmd_sim.fileio import write_text_atomic
+from lgmd_sim.fileio import read_json, write_text_atomic
 from lgmd_sim.policies.config import PolicyConfig
 from lgmd_sim.policies.folder import ALGOS, OBS
-from lgmd_sim.runs import RunFolder, RunResult
+from lgmd_sim.runs import RECORD, Maybe, RunFolder, RunResult, read_record
 from lgmd_sim.training.dagger import FIT_EPOCHS, STUDENT_ACTIONS
-from lgmd_sim.training.summary import summary_markdown, trained, validation_rows
+from lgmd_sim.training.summary import run_record, summary_markdown, trained, validation_rows
 
 if TYPE_CHECKING:
     from lgmd_sim.training.curriculum import Curriculum
@@ -56,6 +56,8 @@ __all__ = ["RESUMABLE", "VALIDATION_SEED", "TrainConfig", "resumable", "train"]
 VALIDATION_SEED = 900
 #: Options a resumed run may change; the others must be as recorded.
 RESUMABLE = ("steps", "envs", "hp", "value_warmup")
+#: What a checkpoint's state.json may name besides its step count (counts, all of them).
+_STATE_KEYS = ("stage", "imitation_round", "labels", "critic_until")
 
 
 @dataclass(frozen=True)
@@ -138,6 +140,14 @@ class TrainConfig:
         from lgmd_sim.training import algos
         from lgmd_sim.training.envs import parse_reward
 
+        # options of the wrong type (a hand-edited run.json being resumed brings them too)
+        for key in ("algo", "obs", "env"):
+            if not isinstance(getattr(self, key), str):
+                raise ValueError(f"--{key} must be a string, got {getattr(self, key)!r}")
+        for key in ("hp", "reward"):
+            items = getattr(self, key)
+            if not (isinstance(items, list | tuple) and all(isinstance(v, str) for v in items)):
+                raise ValueError(f"--{key} must be a list of KEY=VALUE strings, got {items!r}")
         if self.algo not in ALGOS:
             raise ValueError(f"unknown algorithm {self.algo!r}; available: {', '.join(ALGOS)}")
         if self.obs not in OBS:
@@ -257,10 +267,11 @@ def _versions() -> dict[str, str]:
 
 def resumable(out: str | Path) -> dict[str, Any]:
     """The record of the training run in `out` (its options under "config"), which must
-    hold a checkpoint to resume from; ValueError naming what is missing."""
-    record = RunFolder.recorded(out)
-    if record is None:
-        raise ValueError(f"--resume {out}: no training run there (no readable run.json)")
+    hold a checkpoint to resume from; ValueError naming what is missing, or the record
+    where it is not a training run's (`lgmd_sim.training.summary.run_record`)."""
+    if not (Path(out) / RECORD).is_file():
+        raise ValueError(f"--resume {out}: no training run there (no run.json)")
+    record = run_record(out)
     if not (Path(out) / "checkpoints" / "state.json").is_file():
         raise ValueError(f"--resume {out}: the run has no checkpoint to resume from")
     return record
@@ -518,8 +529,17 @@ def _load_checkpoint(folder: Path, venv: Any, algo: str, overrides: Mapping[str,
 
 
 def _checkpoint_state(folder: Path) -> dict[str, Any]:
-    """The checkpoint's step count ("num_timesteps") and curriculum stage ("stage")."""
-    return json.loads((folder / "state.json").read_text())
+    """The checkpoint's step count ("num_timesteps") and what `_train`'s ``state()``
+    adds (the curriculum's stage, DAgger's round and labels, the value warm-up's end);
+    ValueError naming state.json where it holds anything else."""
+    file = folder / "state.json"
+    state = read_record(file, {"num_timesteps": int, **{k: Maybe(int) for k in _STATE_KEYS}},
+                        "the run cannot be resumed from it")
+    negative = [k for k in ("num_timesteps", *_STATE_KEYS) if state.get(k, 0) < 0]
+    if negative:
+        raise ValueError(f"{file}: {negative[0]} is {state[negative[0]]}, not a count >= 0: "
+                         "the run cannot be resumed from it")
+    return state
 
 
 class _Best:
@@ -530,9 +550,9 @@ class _Best:
         self.folder, self.config, self.command = folder, config, command
         self.last: dict[str, Any] | None = None
         try:
-            saved = json.loads((folder / "policy.json").read_text())["trained"]["validation"]
+            saved = read_json(folder / "policy.json")["trained"]["validation"]
             self.score = self._score(saved["scores"])
-        except (OSError, ValueError, KeyError, TypeError):
+        except (ValueError, KeyError, TypeError):  # none usable: the next validation's is best
             self.score = (-math.inf, -math.inf)
 
     @staticmethod

@@ -4,16 +4,54 @@ fast, how DAgger's rounds and PPO's updates went, how it validated."""
 from __future__ import annotations
 
 import csv
-import json
 import statistics
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
 from lgmd_sim.policies.config import PolicyConfig
+from lgmd_sim.runs import NULL, NUMBER, RECORD, Fields, Maybe, read_record
 from lgmd_sim.training.dagger import FIT_EPOCHS
 
-__all__ = ["grid_text", "summary_markdown", "trained", "update_sizes", "validation_rows"]
+__all__ = ["RECORD_FIELDS", "grid_text", "run_record", "summary_markdown", "trained",
+           "update_sizes", "validation_rows"]
+
+#: What resuming, the summary and the learning curve read of a training run's run.json
+#: (the options, under "config", are checked as a `TrainConfig`); a record holding
+#: something else is refused naming the file, not met as a traceback after the training.
+RECORD_FIELDS: Fields = {
+    "config": dict,
+    "sessions": [{
+        "env_seeds": [int],
+        "steps": Maybe([int]),
+        "wall_time_s": Maybe(NUMBER),
+        "throughput": Maybe({k: NUMBER for k in ("training_steps_per_s",
+                                                 "bare_vec_env_steps_per_s", "ratio")}),
+        "stages": Maybe([{"stage": int, "overrides": dict, "steps": [int], "episodes": int,
+                          "success_rate": (NUMBER, NULL), "passed": bool}]),
+        "imitation": Maybe([{k: NUMBER for k in ("round", "beta", "steps", "labels",
+                                                 "bc_loss", "val_success", "val_collision")}]),
+        "value_warmup": Maybe({"steps": [int], "n_updates": [int]}),
+    }],
+    "curriculum": Maybe({"window": int, "stage": [dict]}),
+    "seeds": Maybe({"validation": [int]}),
+}
+#: What the summary reads of a policy folder's policy.json.
+_POLICY_FIELDS: Fields = {"trained": {"validation": Maybe((NULL, {
+    "step": int, "scores": {k: NUMBER for k in ("success_rate", "collision_rate",
+                                                 "mean_distance_m", "mean_reward")}}))}}
+#: What a user can do about a record or policy that is not what the run wrote.
+_REMEDY = "train again in a new folder"
+
+
+def run_record(folder: str | Path) -> dict[str, Any]:
+    """The record (run.json) of the training run in `folder`.
+
+    Raises:
+        ValueError: one that cannot be read, is larger than `lgmd_sim.fileio.TEXT_LIMIT`
+            or does not hold `RECORD_FIELDS` (one line naming the file).
+    """
+    return read_record(Path(folder) / RECORD, RECORD_FIELDS, _REMEDY)
 
 
 def grid_text(config: dict[str, Any]) -> str:
@@ -37,8 +75,13 @@ def trained(config: dict[str, Any]) -> str:
 
 
 def summary_markdown(folder: Path) -> str:
-    """The run in `folder` as Markdown: what was trained, how fast, how it validated."""
-    record = json.loads((folder / "run.json").read_text())
+    """The run in `folder` as Markdown: what was trained, how fast, how it validated.
+
+    Raises:
+        ValueError: a run.json or policy.json that is not what the run wrote (one line
+            naming the file).
+    """
+    record = run_record(folder)
     o = record["config"]
     shaped = f"; training reward {', '.join(o['reward'])}" if o.get("reward") else ""
     lines = [f"# {folder.name}: {trained(o)}, {o['env']} at "
@@ -129,11 +172,13 @@ def update_sizes(folder: Path, record: Mapping[str, Any]) -> list[str]:
 
 
 def validation_rows(folder: Path) -> list[dict[str, Any]]:
-    """The last validation of the final policy and of the best one, where there was one."""
+    """The last validation of the final policy and of the best one, where there was one;
+    ValueError naming a policy.json that does not hold it."""
     rows = []
     for name, file in (("final", folder / "policy.json"),
                        ("best", folder / "best" / "policy.json")):
-        v = json.loads(file.read_text())["trained"].get("validation") if file.is_file() else None
+        v = (read_record(file, _POLICY_FIELDS, _REMEDY)["trained"].get("validation")
+             if file.is_file() else None)
         if v:
             rows.append({"policy": name, "step": v["step"], **v["scores"]})
     return rows

@@ -18,6 +18,7 @@ paper's jitter streams (0.63 to 0.76, Table 2) at 270 x 480; explicit ``roughnes
 
 from __future__ import annotations
 
+import contextlib
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -26,7 +27,6 @@ from typing import Any
 from lgmd_sim.params import (
     CheckedParams,
     in_range,
-    int_at_least,
     int_in_range,
     one_of,
     optional,
@@ -74,23 +74,61 @@ MOVERS = ("none", "balloon", "ball", "swing", "vehicle")
 
 
 def frame_size(resolution: str | Sequence[int]) -> tuple[int, int]:
-    """The (height, width) of a resolution: a name of `RESOLUTIONS` or (height, width)."""
+    """The (height, width) of a resolution: a name of `RESOLUTIONS`, "HEIGHTxWIDTH" or
+    (height, width); ValueError where a string is neither name nor size."""
     if isinstance(resolution, str):
-        return RESOLUTIONS[resolution]
+        resolution = parse_resolution(resolution)
+        if isinstance(resolution, str):
+            return RESOLUTIONS[resolution]
     return int(resolution[0]), int(resolution[1])
 
 
-def resolution_check(v: Any) -> str | None:
+def parse_pair(text: str) -> tuple[int, int] | None:
+    """"AxB" (or "AXB") as two integers, or None where `text` is not that: how a frame size
+    ("270x480") or a grid ("3x5") is written on the command line."""
+    try:
+        a, b = (int(v) for v in text.lower().split("x"))
+    except ValueError:
+        return None
+    return a, b
+
+
+#: What a resolution may be, as messages say it.
+_RESOLUTION_FORMS = (f"must be {', '.join(RESOLUTIONS)}, HEIGHTxWIDTH (e.g. 270x480) or "
+                     f"[height, width], each side {MIN_SIDE} to {MAX_SIDE}")
+
+
+def _resolution(v: Any) -> str | tuple[int, int] | None:
+    """`v` as parameters keep it (a name, or (height, width)), or None where it is no
+    frame size."""
     if isinstance(v, str):
-        return None if v in RESOLUTIONS else (
-            f"must be one of {', '.join(map(repr, RESOLUTIONS))} or [height, width]"
-        )
-    error = tuple_of(int_at_least(MIN_SIDE), 2)(v)
-    if error:
-        return f"must be a preset name or [height, width] with sides {MIN_SIDE}..{MAX_SIDE}"
-    if max(v) > MAX_SIDE:
-        return f"sides must be at most {MAX_SIDE}, got {v[0]} x {v[1]}"
-    return None
+        if v in RESOLUTIONS:
+            return v
+        v = parse_pair(v)
+    if tuple_of(int_in_range(MIN_SIDE, MAX_SIDE), 2)(v):
+        return None
+    return int(v[0]), int(v[1])
+
+
+def parse_resolution(value: Any, option: str = "resolution") -> str | tuple[int, int]:
+    """The frame size `value` as the tool keeps it: a name of `RESOLUTIONS` as it is, or
+    (height, width) from [height, width] or "HEIGHTxWIDTH" ("270x480", "270X480"). The
+    command line's --resolution and the Python API (``gym.make``, the configurations)
+    take the same spellings through it.
+
+    Raises:
+        ValueError: anything else, one line naming `option` and the value.
+    """
+    size = _resolution(value)
+    if size is None:
+        raise ValueError(f"{option} {_RESOLUTION_FORMS}, got {value!r}")
+    return size
+
+
+def resolution_check(v: Any) -> str | None:
+    """`SceneParams.resolution`'s check: None where `v` is a frame size (any spelling of
+    `parse_resolution`), else what one must be."""
+    return None if _resolution(v) is not None else _RESOLUTION_FORMS
 
 
 def kinds_check(v: Any) -> str | None:
@@ -141,7 +179,7 @@ class SceneParams(CheckedParams):
     # -- camera and rendering --------------------------------------------------------------
     resolution: str | tuple[int, int] = param(
         "rl", "presets: paper 270x480 (Sec. 4.1.2), rl 120x160, small 64x64",
-        check=resolution_check, doc="preset name or [height, width]")
+        check=resolution_check, doc="preset name, \"HEIGHTxWIDTH\" or [height, width]")
     fovy: float = param(55.0, "about a GoPro's linear field of view (Sec. 4.1.2's camera)",
                         check=in_range(10.0, 150.0), doc="vertical field of view (degrees)")
     frame: str = param("rgb", "design; none: the privileged teacher needs no frames, and "
@@ -226,6 +264,10 @@ class SceneParams(CheckedParams):
                               doc="flicker frequency (Hz)")
 
     def __post_init__(self) -> None:
+        # one frame size, one value: "270x480" (the command line's spelling) is (270, 480);
+        # a bad one is left for the check below to name
+        with contextlib.suppress(ValueError):
+            object.__setattr__(self, "resolution", parse_resolution(self.resolution))
         super().__post_init__()
         if self.shake_band[0] >= self.shake_band[1]:
             raise ValueError(f"parameter shake_band={self.shake_band!r}: low must be < high")
