@@ -11,8 +11,14 @@ import numpy as np
 import pytest
 
 from lgmd_sim import cli, models
-from lgmd_sim.models import LGMDModel, ModelCheckError, ModelParams, check_model
-from lgmd_sim.models.base import SearchRange, StateMap
+from lgmd_sim.models import (
+    LGMDModel,
+    ModelCheckError,
+    ModelParams,
+    SearchRange,
+    StateMap,
+    check_model,
+)
 from lgmd_sim.models.check import CHECKS
 from lgmd_sim.params import in_range, param, tuple_of
 

@@ -23,7 +23,7 @@ import numpy as np
 from lgmd_sim import models, options
 from lgmd_sim.calibration.clips import FRONT_ENDS, load_clip, load_gains, load_truth
 from lgmd_sim.calibration.objective import THRESHOLDS, WALKER, Objective
-from lgmd_sim.models.base import SearchRange, check_search_space, draw_search
+from lgmd_sim.models.search import SearchRange, check_search_space, draw_search
 
 __all__ = ["CONTROLS", "THRESHOLDS", "Candidate", "Space", "candidates", "detector_list",
            "evaluate", "space"]
@@ -56,7 +56,7 @@ class Space:
     front: str | None
 
     def sample(self, rng: np.random.Generator) -> dict[str, Any]:
-        """One candidate's parameters (`lgmd_sim.models.base.draw_search`), with the fixed
+        """One candidate's parameters (`lgmd_sim.models.search.draw_search`), with the fixed
         ones."""
         return {**self.fixed, **draw_search(self.ranges, rng)}
 

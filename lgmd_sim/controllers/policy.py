@@ -60,10 +60,11 @@ class Policy(Controller):
     params: PolicyParams
 
     def __init__(self, **params: Any) -> None:
-        from lgmd_sim import options, policies
+        from lgmd_sim import policies
 
         super().__init__(**params)
-        self.policy = policies.load(self.params.path, options.comma_list(self.params.plugins))
+        plugins = [s.strip() for s in self.params.plugins.split(",") if s.strip()]
+        self.policy = policies.load(self.params.path, plugins)
         # one thread: a small network's forward pass, and one controller per core in a sweep
         import torch
 

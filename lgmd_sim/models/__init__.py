@@ -35,12 +35,11 @@ from lgmd_sim.models.base import (
     LGMDModel,
     LGMDOutput,
     ModelParams,
-    PluginError,
-    SearchRange,
     StateMap,
-    run_hook,
 )
 from lgmd_sim.models.check import ModelCheckError, check_model
+from lgmd_sim.models.guard import PluginError, run_hook
+from lgmd_sim.models.search import SearchRange
 from lgmd_sim.registry import Registry
 
 __all__ = ["ENTRY_POINTS", "FRONT_END_SUFFIXES", "RESERVED_PARAMETERS", "LGMDModel", "LGMDOutput",

@@ -20,8 +20,6 @@ itself, and with ``gain=True`` the brightness gain between frames.
 from __future__ import annotations
 
 import dataclasses
-import math
-import re
 from abc import ABC, abstractmethod
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
@@ -31,95 +29,14 @@ import numpy as np
 
 from lgmd_sim.frames import to_grey
 from lgmd_sim.metrics import AlarmRule
+from lgmd_sim.models.guard import PluginError, is_plugin, potentials_fault, run_hook
+from lgmd_sim.models.search import SearchRange
 from lgmd_sim.models.warp import Motion, Plan, apply_plan, fill_pad_columns, homography_plan
 from lgmd_sim.params import CheckedParams, in_range, int_in_range, one_of, param
 
 #: Values of the ``stabilize`` parameter: where each frame's camera rotation comes from.
 FRONT_ENDS = ("none", "pose", "imu", "image")
 
-
-class PluginError(ValueError):
-    """A plug-in model's own code failed, or broke the contract, while it ran: one line
-    naming the plug-in (its "module:Class"), the hook and what went wrong; the plug-in's
-    own exception is the cause. The built-ins' errors pass unchanged: a fault of theirs is
-    lgmd-sim's, and keeps its traceback."""
-
-    def __init__(self, model: type | str, hook: str, reason: str) -> None:
-        label = model if isinstance(model, str) else plugin_label(model)
-        super().__init__(label, hook, reason)  # its arguments: it pickles (from a worker)
-        self.model, self.hook, self.reason = label, hook, reason
-
-    def __str__(self) -> str:
-        return f"plug-in model {self.model}: {self.hook}: {self.reason}"
-
-
-def is_plugin(cls: type) -> bool:
-    """Whether model class `cls` is a plug-in's (any class outside lgmd_sim)."""
-    return not cls.__module__.startswith("lgmd_sim.")
-
-
-def plugin_label(cls: type) -> str:
-    """A model class as its spec names it: "module:Class"."""
-    return f"{cls.__module__}:{cls.__qualname__}"
-
-
-def run_hook(cls: type, hook: str, call: Any, *args: Any, **kwargs: Any) -> Any:
-    """``call(*args, **kwargs)``, the hook `hook` of model class `cls`; what a plug-in's
-    code raises, sys.exit included, becomes a `PluginError` naming it."""
-    try:
-        return call(*args, **kwargs)
-    except (Exception, SystemExit) as exc:
-        if not is_plugin(cls) or isinstance(exc, PluginError) or _ours(exc):
-            raise
-        raise PluginError(cls, hook, _raised(exc)) from exc
-
-
-def _ours(exc: BaseException) -> bool:
-    """Whether `exc` is a ValueError lgmd-sim raised itself (the base refusing an input
-    or a setting, in one line naming it), not one of the plug-in's code."""
-    tb = exc.__traceback__
-    while tb is not None and tb.tb_next is not None:
-        tb = tb.tb_next
-    return isinstance(exc, ValueError) and tb is not None and str(
-        tb.tb_frame.f_globals.get("__name__", "")).startswith("lgmd_sim.")
-
-
-def _raised(exc: BaseException) -> str:
-    if isinstance(exc, SystemExit):
-        return f"it called sys.exit({exc.code!r})"
-    text = " ".join(str(exc).split())
-    if isinstance(exc, ValueError) and "read-only" in text:  # NumPy's, on a write to grey
-        return ("it writes into its input frames, which are read-only (every model of a "
-                "run reads the same frames): copy what it changes, grey.astype(np.float32)")
-    return f"raised {type(exc).__name__}{': ' + text[:300] if text else ''}"
-
-
-def potentials_fault(potentials: Any, n: int, threshold_check: Any,
-                     frame: int | None = None) -> str | None:
-    """What of one step's `potentials` (of frame `frame`, where known) breaks the contract:
-    a float array of `n` finite values that the alarm threshold's check, `threshold_check`,
-    takes; None if nothing."""
-    at = "" if frame is None else f" at frame {frame}"
-    if not (isinstance(potentials, np.ndarray) and potentials.shape == (n,)
-            and np.issubdtype(potentials.dtype, np.floating)):
-        what = (f"an array of {potentials.dtype} of shape {potentials.shape}"
-                if isinstance(potentials, np.ndarray) else type(potentials).__name__)
-        return (f"step_batch returned {what}{at}, not a float array of shape ({n},): one "
-                "potential per stream")
-    lo, hi = float(potentials.min()), float(potentials.max())  # the threshold takes a range
-    if math.isfinite(lo) and math.isfinite(hi) and not (
-            threshold_check(lo) or threshold_check(hi)):
-        return None
-    for i, v in enumerate(potentials.tolist()):  # the first at fault, to name its stream
-        where = f"{at}, stream {i}," if frame is not None else f" of stream {i}"
-        if not math.isfinite(v):
-            return f"potential {v!r}{where} is not finite"
-        error = threshold_check(v)
-        if error:
-            return (f"potential {v:.6g}{where} is outside the range the alarm threshold takes "
-                    f"(a threshold {error}): a model whose potentials span another range "
-                    "redefines threshold with its own check")
-    return None
 
 # --- parameters -------------------------------------------------------------------------
 
@@ -242,106 +159,6 @@ class StateMap:
     attr: str
     fill: str = "zero"
     padded: int | None = None
-
-
-@dataclass(frozen=True)
-class SearchRange:
-    """How the calibration draws one value it searches (see `LGMDModel.search_space`):
-    uniform in [low, high] (log-uniform with ``log``, the default: a scale), or one of
-    ``choices``, each as likely.
-
-    Attributes:
-        times: the key of a value drawn before this one that multiplies it, so that one
-            value stays above another (the feedback LGMD's second time constant is its
-            first times U(1.5, 4)).
-    """
-
-    low: float | None = None
-    high: float | None = None
-    log: bool = True
-    choices: tuple[Any, ...] = ()
-    times: str | None = None
-
-    def __post_init__(self) -> None:
-        if self.choices:
-            if self.low is not None or self.high is not None or self.times is not None:
-                raise ValueError(f"{self}: either choices, or low and high (and times)")
-            return
-        real = all(isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v)
-                   for v in (self.low, self.high))
-        if not (real and self.low < self.high and (self.low > 0 or not self.log)):
-            raise ValueError(f"{self}: needs finite low < high (low > 0 when log), or "
-                             "choices")
-
-    def draw(self, rng: np.random.Generator) -> Any:
-        """One value (before ``times``), by one draw of `rng`."""
-        if self.choices:
-            return self.choices[int(rng.choice(len(self.choices)))]
-        if self.log:
-            return float(np.exp(rng.uniform(math.log(self.low), math.log(self.high))))
-        return float(rng.uniform(self.low, self.high))
-
-
-# A search-space key: a parameter, or one element of a tuple parameter ("eta[0]").
-_SEARCH_KEY = re.compile(r"(\w+)(?:\[(\d+)\])?")
-
-
-def check_search_space(model: str, params: type[ModelParams], ranges: Any) -> None:
-    """Check a declared search space (`LGMDModel.search_space`) against the model's
-    parameters `params`: a mapping whose keys are parameters, or every element of a tuple
-    parameter ("eta[0]", "eta[1]": indices 0 to its length - 1, the parameter not named
-    bare as well); each value a `SearchRange` whose ``times`` is a key drawn before it.
-
-    Raises:
-        ValueError: one line naming `model` and the key at fault.
-    """
-    if not isinstance(ranges, Mapping):
-        raise ValueError(f"model {model!r}: search_space must map parameters to "
-                         f"SearchRanges, got {ranges!r}")
-    defaults = {f.name: f.default for f in dataclasses.fields(params)}
-    indices: dict[str, list[int | None]] = {}
-    for i, (key, r) in enumerate(ranges.items()):
-        where = f"model {model!r}: search_space key {key!r}"
-        match = _SEARCH_KEY.fullmatch(key) if isinstance(key, str) else None
-        if match is None or match.group(1) not in defaults:
-            raise ValueError(f"{where} is no parameter (or 'parameter[i]') of the model")
-        if not isinstance(r, SearchRange):
-            raise ValueError(f"{where}: {r!r} is not a SearchRange")
-        if r.times is not None and r.times not in list(ranges)[:i]:
-            raise ValueError(f"{where}: times={r.times!r} is no key drawn before it")
-        name, index = match.group(1), match.group(2)
-        indices.setdefault(name, []).append(None if index is None else int(index))
-    for name, given in indices.items():
-        if given == [None]:
-            continue
-        size = len(defaults[name]) if isinstance(defaults[name], tuple) else 0
-        if None in given or sorted(given) != list(range(size)):
-            named = ", ".join(name if k is None else f"{name}[{k}]" for k in given)
-            want = f"{name}[0] to {name}[{size - 1}], each once" if size else (
-                f"{name} alone: its default is no tuple")
-            raise ValueError(f"model {model!r}: search_space keys {named}: name {want}")
-
-
-def draw_search(ranges: Mapping[str, SearchRange], rng: np.random.Generator
-                ) -> dict[str, Any]:
-    """One candidate's parameters from a checked search space (`check_search_space`):
-    every range drawn once, in order; a tuple parameter's elements joined, and placed
-    where its last element is drawn."""
-    drawn: dict[str, Any] = {}
-    for key, r in ranges.items():
-        value = r.draw(rng)
-        drawn[key] = value * drawn[r.times] if r.times else value
-    params: dict[str, Any] = {}
-    elements: dict[str, dict[int, Any]] = {}
-    for key, value in drawn.items():
-        name, index = _SEARCH_KEY.fullmatch(key).groups()
-        params.pop(name, None)
-        if index is None:
-            params[name] = value
-        else:
-            elements.setdefault(name, {})[int(index)] = value
-            params[name] = tuple(v for _, v in sorted(elements[name].items()))
-    return params
 
 
 # --- models -----------------------------------------------------------------------------

@@ -21,16 +21,9 @@ from typing import Any
 import numpy as np
 
 from lgmd_sim import models
-from lgmd_sim.models.base import (
-    LGMDModel,
-    ModelParams,
-    PluginError,
-    StateMap,
-    check_search_space,
-    draw_search,
-    potentials_fault,
-    reserved_fault,
-)
+from lgmd_sim.models.base import LGMDModel, ModelParams, StateMap, reserved_fault
+from lgmd_sim.models.guard import PluginError, potentials_fault
+from lgmd_sim.models.search import check_search_space, draw_search
 from lgmd_sim.models.warp import Motion
 
 __all__ = ["CHECKS", "PREFLIGHT", "ModelCheckError", "check_model", "looming_frames",

@@ -27,7 +27,7 @@ from typing import Any, ClassVar
 import numpy as np
 from numba import njit
 
-from lgmd_sim.models.base import LGMDModel, ModelParams, SearchRange, StateMap
+from lgmd_sim.models.base import LGMDModel, ModelParams, StateMap
 from lgmd_sim.models.kernels import (
     JIT,
     fill_borders,
@@ -37,6 +37,7 @@ from lgmd_sim.models.kernels import (
     staggered_arrays,
     vconv,
 )
+from lgmd_sim.models.search import SearchRange
 from lgmd_sim.params import (
     finite,
     in_range,

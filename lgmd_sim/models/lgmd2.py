@@ -33,7 +33,7 @@ from typing import Any, ClassVar
 import numpy as np
 from numba import njit
 
-from lgmd_sim.models.base import LGMDModel, ModelParams, SearchRange, StateMap
+from lgmd_sim.models.base import LGMDModel, ModelParams, StateMap
 from lgmd_sim.models.baseline import (
     NO_MAP,
     SIGMOID_SEARCH,
@@ -50,6 +50,7 @@ from lgmd_sim.models.baseline import (
     take_first_frames,
 )
 from lgmd_sim.models.kernels import JIT_NO_FMA, fill_borders_as, row_index, staggered_arrays
+from lgmd_sim.models.search import SearchRange
 from lgmd_sim.models.sources import SOURCES
 from lgmd_sim.params import (
     because,

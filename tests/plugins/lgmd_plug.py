@@ -10,8 +10,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from lgmd_sim.controllers import Controller
-from lgmd_sim.models import LGMDModel, ModelParams
-from lgmd_sim.models.base import SearchRange, StateMap
+from lgmd_sim.models import LGMDModel, ModelParams, SearchRange, StateMap
 from lgmd_sim.params import CheckedParams, in_range, param
 
 
