@@ -352,3 +352,18 @@ def test_a_slow_model_whose_reset_streams_does_nothing_is_caught(monkeypatch):
     check_model(EtaLGMD)
     with pytest.raises(ModelCheckError, match=r"reset: after reset\(\[1\]\) stream 1 differs"):
         check_model(Forgetful)
+
+
+class Layerless(Tiny):
+    """A sound model that returns no maps."""
+
+    layer_names = ()
+
+    def step_batch(self, grey, layers):
+        return super().step_batch(grey, None)
+
+
+def test_a_model_without_layers_passes_and_gives_no_maps_when_asked():
+    check_model(Layerless)
+    out = Layerless().step(np.zeros((24, 32), np.uint8), layers=True)
+    assert out.layers == {}

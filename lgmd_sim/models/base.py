@@ -371,7 +371,7 @@ class LGMDModel(ABC):
         alarm = self.alarm_rule.levels(self._recent) > self.params.threshold
         if self.batched:
             return LGMDOutput(potential, alarm, maps)
-        one = {k: v[0] for k, v in maps.items()} if maps else None
+        one = {k: v[0] for k, v in maps.items()} if maps is not None else None
         return LGMDOutput(float(potential[0]), bool(alarm[0]), one)
 
     @property
