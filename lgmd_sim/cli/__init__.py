@@ -25,7 +25,7 @@ from lgmd_sim.parallel import WorkerDied, stop_again_when_swallowed
 
 #: The subcommands, in the order `--help` lists them.
 COMMANDS = ("demo", "detect", "record", "models", "envs", "bench", "calibrate", "speed", "dataset",
-            "train", "eval")
+            "train", "eval", "benchmark", "leaderboard")
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -1,0 +1,124 @@
+"""What a benchmark row runs (an `Entry`), from what a user types: a detector (a model
+spec with its preset and front ends, "@eyes" for two LGMDs) driving the reference
+controller, a controller of its own, or a policy folder.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from lgmd_sim.bench.episode import Cell
+
+__all__ = ["REFERENCE", "SIDES", "Entry", "parse"]
+
+#: The reference controller a detector drives (`lgmd_sim.controllers.avoid.ReactiveAvoid`
+#: with its published constants), and the ways it reads a side from the detector.
+REFERENCE = "reactive"
+SIDES = ("halves", "eyes")
+
+
+@dataclass(frozen=True)
+class Entry:
+    """One row of the leaderboard.
+
+    Attributes:
+        spec: as the user gave it ("lgmd1/robot-image@eyes", "oracle", "runs/ppo").
+        kind: "detector" (a model driving `REFERENCE`), "controller" or "policy".
+        controller: the controller of its cells.
+        model, preset: the detector (a detector entry).
+        side: how the reference controller reads the side ("halves" or "eyes").
+        policy: the policy folder (a policy entry).
+    """
+
+    spec: str
+    kind: str
+    controller: str
+    model: str | None = None
+    preset: str | None = None
+    side: str = "halves"
+    policy: Path | None = None
+
+    @property
+    def label(self) -> str:
+        """The row's name."""
+        if self.kind == "detector":
+            return f"{self.model}/{self.preset}" + ("" if self.side == "halves" else "@eyes")
+        if self.kind == "policy":
+            from lgmd_sim.policies import name_of
+
+            return f"policy:{name_of(self.policy)}"
+        return self.controller
+
+    @property
+    def key(self) -> str:
+        """The entry's folder name: its label, with "-" for the preset's "/" and "@"."""
+        from lgmd_sim.options import file_key
+
+        return file_key(self.label).replace("/", "-").replace("@", "-")
+
+    def bench_options(self, scenario: str, jitter: tuple[float, ...]) -> dict[str, Any]:
+        """The closed-loop bench's options (`lgmd_sim.bench.closed_loop.ClosedLoopConfig`)
+        that run the entry's cells alone in `scenario` at each level of `jitter`."""
+        if self.kind == "detector":
+            return {"controllers": (self.controller,), "detectors": ((self.model, self.preset),),
+                    "sides": (self.side,)}
+        if self.kind == "policy":
+            from lgmd_sim.policies import name_of
+
+            return {"controllers": (), "extra": tuple(
+                Cell(scenario, j, "policy", params=(("path", str(self.policy)),),
+                     tag=name_of(self.policy)) for j in jitter)}
+        return {"controllers": (self.controller,)}
+
+    def to_json(self) -> dict[str, Any]:
+        """What a result records of the entry, its detector's parameters resolved."""
+        out: dict[str, Any] = {"spec": self.spec, "kind": self.kind, "label": self.label,
+                               "controller": self.controller}
+        if self.kind == "detector":
+            import dataclasses
+
+            from lgmd_sim import models
+
+            out.update(model=self.model, preset=self.preset, side=self.side,
+                       params=dataclasses.asdict(models.make(self.model,
+                                                             preset=self.preset).params))
+        if self.kind == "policy":
+            out["policy"] = str(self.policy)
+        return out
+
+
+def parse(spec: str) -> Entry:
+    """The entry `spec` names: a controller's name or spec ("oracle", "straight",
+    "mypkg.drive:Mine"), a policy (a folder holding policy.json, or a shipped policy's
+    name), or else a detector ("model", "model/preset+front", a "package.module:Class"
+    spec; "@eyes" after it for two LGMDs over the left and right of the view).
+
+    Raises:
+        ValueError: none of those, in one line naming `spec`.
+    """
+    from lgmd_sim import controllers, models, policies
+
+    text = spec.strip()
+    if not text:
+        raise ValueError("an entry is a detector, a controller or a policy folder, got ''")
+    if text in ("shipped", *policies.available()) or (Path(text) / "policy.json").is_file():
+        return Entry(spec, "policy", "policy", policy=policies.resolve(text).resolve())
+    if text in controllers.available() and text != REFERENCE:
+        if text == "policy":
+            raise ValueError("entry 'policy': name the policy's folder (or 'shipped')")
+        return Entry(spec, "controller", text)
+    head, at, side = text.partition("@")
+    if at and side not in SIDES:
+        raise ValueError(f"entry {spec!r}: the side after '@' is one of {', '.join(SIDES)}")
+    try:
+        name, preset = models.parse_spec(head)
+    except ValueError as exc:
+        try:  # a plug-in controller by its spec
+            controllers.controller_class(text)
+        except ValueError:
+            raise ValueError(f"entry {spec!r}: not a controller, a policy folder or a "
+                             f"detector ({exc})") from None
+        return Entry(spec, "controller", text)
+    return Entry(spec, "detector", REFERENCE, name, preset, side or "halves")

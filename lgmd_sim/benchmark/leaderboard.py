@@ -1,0 +1,169 @@
+"""The leaderboard: results of one protocol version (`lgmd_sim.benchmark.run`'s
+``result.json``) merged into one ranked Markdown table and one figure.
+
+Entries rank by their overall score; each is compared with the one ranked above it,
+paired on the seeds (`lgmd_sim.benchmark.scores.compare`), and marked "=" where the
+interval of the difference holds 0: the two are not separable on these seeds.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from lgmd_sim.benchmark import scores
+from lgmd_sim.benchmark.protocol import Protocol
+from lgmd_sim.fileio import atomic_outputs, read_json
+from lgmd_sim.runs import NUMBER, Maybe, read_record
+
+__all__ = ["RESULT_FIELDS", "leaderboard", "load_result", "markdown"]
+
+#: What the leaderboard reads of a result.
+RESULT_FIELDS = {
+    "protocol": {"version": int, "sha256": str},
+    "entry": {"spec": str, "kind": str, "label": str},
+    "scores": {"goal": NUMBER, "arena": NUMBER, "overall": NUMBER, "detection": Maybe(NUMBER)},
+    "intervals": dict,
+    "metrics": {"goal": dict, "arena": dict, "detection": Maybe(dict)},
+    "parts": {t: Maybe({"seeds": [int], "sums": [[NUMBER]]}) for t in scores.TRACKS},
+    "command": str,
+    "machine": dict,
+    "timing": {"wall_time_s": NUMBER},
+}
+
+
+def load_result(path: str | Path) -> dict[str, Any]:
+    """A result file (or an entry's folder holding one), its shape checked.
+
+    Raises:
+        ValueError: one that cannot be read or is not a benchmark result (naming it).
+    """
+    path = Path(path)
+    file = path / "result.json" if path.is_dir() else path
+    read_json(file)  # bounded, one line naming it when it is no JSON
+    return read_record(file, RESULT_FIELDS, "run lgmd-sim benchmark again for it")
+
+
+def _parts(result: Mapping[str, Any]) -> dict[str, scores.Parts]:
+    return {t: scores.Parts.from_json(p) for t, p in result["parts"].items() if p}
+
+
+def _cell(result: Mapping[str, Any], key: str) -> str:
+    """A score with its interval: "0.61 [0.52, 0.70]", or "-"."""
+    value = result["scores"].get(key)
+    if value is None:
+        return "-"
+    low, high = result["intervals"][key]
+    return f"{value:.2f} [{low:.2f}, {high:.2f}]"
+
+
+def _pooled(result: Mapping[str, Any], track: str, column: str) -> str:
+    """The mean over the jitter levels of a track's per-level `column`, as a percentage."""
+    values = [row[column] for row in result["metrics"][track].values()
+              if row.get(column) is not None]
+    return f"{100 * float(np.mean(values)):.0f}" if values else "-"
+
+
+def markdown(results: Sequence[Mapping[str, Any]], names: Sequence[str],
+             resamples: int, seed: int) -> str:
+    """The ranked table of `results` (their files' `names`, for the commands' list)."""
+    order = sorted(range(len(results)), key=lambda i: (-results[i]["scores"]["overall"],
+                                                       results[i]["entry"]["label"]))
+    lines = ["| rank | entry | overall | goal | arena | detection | success % | "
+             "collisions % | avoided % | false alarms / min | AUC |",
+             "|---:|---|---|---|---|---|---:|---:|---:|---:|---:|"]
+    rank, above = 0, None
+    for i in order:
+        r = results[i]
+        tied = above is not None and not scores.compare(
+            _parts(r), _parts(above), resamples, seed)["overall"]["separable"]
+        rank = rank if tied else order.index(i) + 1
+        auc = (r["metrics"].get("detection") or {}).get("auc")
+        alarms = np.mean([row["false_alarms_per_min"] for row in r["metrics"]["goal"].values()
+                          if row.get("false_alarms_per_min") is not None] or [np.nan])
+        lines.append(
+            f"| {'=' if tied else ''}{rank} | `{r['entry']['label']}` | {_cell(r, 'overall')} "
+            f"| {_cell(r, 'goal')} | {_cell(r, 'arena')} | {_cell(r, 'detection')} "
+            f"| {_pooled(r, 'goal', 'success_rate')} | {_pooled(r, 'goal', 'collision_rate')} "
+            f"| {_pooled(r, 'arena', 'avoidance_rate')} "
+            f"| {'-' if np.isnan(alarms) else f'{alarms:.1f}'} "
+            f"| {'-' if auc is None else f'{auc:.2f}'} |")
+        above = r
+    lines += ["", "Rows' commands, wall time and machine:", ""]
+    for i in order:
+        r = results[i]
+        cpu = r["machine"].get("cpu", "?")
+        lines.append(f"- `{r['entry']['label']}` ({names[i]}): `{r['command'] or '?'}`, "
+                     f"{r['timing']['wall_time_s'] / 60:.0f} min on {cpu}")
+    return "\n".join(lines) + "\n"
+
+
+def _figure(results: Sequence[Mapping[str, Any]], file: Path) -> None:
+    """Score by entry and track (and jitter level) as a heatmap, best entry on top."""
+    from lgmd_sim.plots import figure
+
+    order = sorted(results, key=lambda r: -r["scores"]["overall"])
+    levels = {t: sorted(order[0]["metrics"][t], key=float) for t in scores.CLOSED_LOOP}
+    columns = [(t, j) for t in scores.CLOSED_LOOP for j in levels[t]] + [("detection", None)]
+    grid = np.full((len(order), len(columns)), np.nan)
+    for row, r in enumerate(order):
+        for col, (t, j) in enumerate(columns):
+            if j is None:
+                grid[row, col] = r["scores"].get("detection") or np.nan
+            else:
+                grid[row, col] = r["metrics"][t][j]["score"]
+    fig = figure(figsize=(2.2 + 0.75 * len(columns), 1.0 + 0.38 * len(order)))
+    ax = fig.add_subplot()
+    image = ax.imshow(np.ma.masked_invalid(grid), cmap="viridis", vmin=0, vmax=1,
+                      aspect="auto")
+    for (row, col), v in np.ndenumerate(grid):
+        if not np.isnan(v):
+            ax.text(col, row, f"{v:.2f}", ha="center", va="center", fontsize=8,
+                    color="white" if v < 0.6 else "black")
+    ax.set_xticks(range(len(columns)),
+                  [f"{t}\njitter {j}" if j is not None else t for t, j in columns], fontsize=8)
+    ax.set_yticks(range(len(order)), [r["entry"]["label"] for r in order], fontsize=8)
+    ax.set_title("Score by track and jitter level (grey: not run)", fontsize=9)
+    ax.set_facecolor("0.85")
+    fig.colorbar(image, ax=ax, shrink=0.8, label="score")
+    fig.savefig(file, dpi=120)
+
+
+def leaderboard(paths: Sequence[str | Path], out: str | Path, protocol: Protocol
+                ) -> list[Path]:
+    """Merge the results at `paths`, each of `protocol`, into the Markdown table `out` and
+    its figure (``out`` with .png); return the files written.
+
+    Raises:
+        ValueError: no results, a file that is no result, a result of another protocol
+            (version or digest), or two of one entry (one line naming them).
+    """
+    if not paths:
+        raise ValueError("no results given")
+    results = [load_result(p) for p in paths]
+    first = protocol.identity()
+    for p, r in zip(paths, results, strict=True):
+        if r["protocol"] != first:
+            raise ValueError(f"{p}: a result of protocol v{r['protocol']['version']} "
+                             f"({r['protocol']['sha256'][:12]}), not of {protocol.path} "
+                             f"(v{first['version']}, {first['sha256'][:12]}): a leaderboard "
+                             "merges one protocol's results")
+    labels = [r["entry"]["label"] for r in results]
+    twice = sorted({label for label in labels if labels.count(label) > 1})
+    if twice:
+        raise ValueError(f"two results of entry {twice[0]!r}: give each entry once")
+    out = Path(out)
+    figure_file = out.with_suffix(".png")
+    resamples, seed = protocol.bootstrap, protocol.bootstrap_seed
+    header = (f"Protocol v{first['version']} (sha256 {first['sha256'][:12]}); 95% intervals "
+              f"over {resamples} bootstrap resamples of the seeds; '=' marks an entry not "
+              "separable from the one above it (paired on the seeds). Figure: "
+              f"{figure_file.name}.\n\n")
+    table = markdown(results, [str(p) for p in paths], resamples, seed)
+    with atomic_outputs([out, figure_file]) as (md, png):
+        md.write_text(header + table)
+        _figure(results, png)
+    return [out, figure_file]

@@ -1,0 +1,222 @@
+"""The benchmark's protocol as data: its tracks, their scenarios, jitter levels and seeds,
+the frame size, the reference controller's cruise, the calibration rule and the bootstrap,
+read from a versioned TOML file (`PROTOCOLS`: ``v1.toml`` beside this module) and checked
+key by key, so that a bad file is one line naming it and the key.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import math
+import tomllib
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from lgmd_sim.fileio import read_text
+
+__all__ = ["CURRENT", "PROTOCOLS", "ArenaTrack", "Calibration", "ClosedLoopTrack",
+           "DetectionTrack", "Protocol", "load"]
+
+_HERE = Path(__file__).resolve().parent
+#: The shipped protocols, by name.
+PROTOCOLS = {p.stem: p for p in sorted(_HERE.glob("v*.toml"))}
+#: The protocol `lgmd-sim benchmark` runs by default.
+CURRENT = "v1"
+
+
+@dataclass(frozen=True)
+class ClosedLoopTrack:
+    """A closed-loop track: `episodes` episodes (seeds `first_seed` on) of `scenario` at
+    each jitter level, the same seeds for every entry."""
+
+    scenario: str
+    jitter: tuple[float, ...]
+    first_seed: int
+    episodes: int
+
+    @property
+    def seeds(self) -> list[int]:
+        return list(range(self.first_seed, self.first_seed + self.episodes))
+
+
+@dataclass(frozen=True)
+class ArenaTrack(ClosedLoopTrack):
+    """The arena track: a closed-loop track whose score weighs the distance travelled by
+    `reference_distance_m`, the Oracle's mean distance at each jitter level."""
+
+    reference_distance_m: tuple[float, ...] = ()
+
+
+@dataclass(frozen=True)
+class DetectionTrack:
+    """The open-loop track: `clips` clips (seeds `first_seed` on) of every stimulus, at each
+    jitter level; a hit is the first alarm within `window_s` before the collision."""
+
+    approaching: tuple[str, ...]
+    non_approach: tuple[str, ...]
+    jitter: tuple[float, ...]
+    first_seed: int
+    clips: int
+    window_s: float
+
+    @property
+    def seeds(self) -> list[int]:
+        return list(range(self.first_seed, self.first_seed + self.clips))
+
+
+@dataclass(frozen=True)
+class Calibration:
+    """The calibration `lgmd-sim benchmark --calibrate` runs (`lgmd-sim calibrate`'s
+    options of those names)."""
+
+    task: str
+    budget: int
+    seeds: int
+    first_seed: int
+    heldout_seed: int
+
+
+@dataclass(frozen=True)
+class Protocol:
+    """A version of the benchmark (see the TOML file's comments for each key)."""
+
+    version: int
+    resolution: str
+    cruise: float
+    horizon: float
+    bootstrap: int
+    bootstrap_seed: int
+    goal: ClosedLoopTrack
+    arena: ArenaTrack
+    detection: DetectionTrack
+    calibration: Calibration
+    #: The file it was read from, and the SHA-256 of its bytes (what a result records).
+    path: Path
+    digest: str
+
+    @property
+    def name(self) -> str:
+        return f"v{self.version}"
+
+    def identity(self) -> dict[str, Any]:
+        """What a result records of the protocol it ran."""
+        return {"version": self.version, "sha256": self.digest}
+
+
+def _is(value: Any, kind: type) -> bool:
+    if kind is float:  # TOML's true is no number; an integer is a float here
+        return isinstance(value, int | float) and not isinstance(value, bool) and math.isfinite(
+            value)
+    if kind is int:
+        return isinstance(value, int) and not isinstance(value, bool)
+    return isinstance(value, kind)
+
+
+#: Each table's keys and their types: tuple[...] is a non-empty array of them.
+_SHAPES: dict[type, dict[str, Any]] = {
+    ClosedLoopTrack: {"scenario": str, "jitter": (float,), "first_seed": int, "episodes": int},
+    ArenaTrack: {"scenario": str, "jitter": (float,), "first_seed": int, "episodes": int,
+                 "reference_distance_m": (float,)},
+    DetectionTrack: {"approaching": (str,), "non_approach": (str,), "jitter": (float,),
+                     "first_seed": int, "clips": int, "window_s": float},
+    Calibration: {"task": str, "budget": int, "seeds": int, "first_seed": int,
+                  "heldout_seed": int},
+}
+_TOP = {"version": int, "resolution": str, "cruise": float, "horizon": float,
+        "bootstrap": int, "bootstrap_seed": int, "goal": ClosedLoopTrack,
+        "arena": ArenaTrack, "detection": DetectionTrack, "calibration": Calibration}
+
+
+def _table(data: Any, shape: Mapping[str, Any], where: str) -> dict[str, Any]:
+    """`data` checked against `shape` (key -> type, (type,) for an array, or a table's
+    dataclass), its arrays as tuples and tables as dataclasses."""
+    if not isinstance(data, dict):
+        raise ValueError(f"{where or 'the file'} is not a table")
+    unknown = sorted(set(data) - set(shape))
+    missing = [k for k in shape if k not in data]
+    if unknown or missing:
+        what = (f"unknown key {where}{unknown[0]} (a protocol has {', '.join(shape)})"
+                if unknown else f"no key {where}{missing[0]}")
+        raise ValueError(what)
+    out = {}
+    for key, kind in shape.items():
+        value, at = data[key], f"{where}{key}"
+        if kind in _SHAPES:
+            out[key] = kind(**_table(value, _SHAPES[kind], f"{at}."))
+        elif isinstance(kind, tuple):
+            if not (isinstance(value, list) and value and all(_is(v, kind[0]) for v in value)):
+                raise ValueError(f"{at} must be a non-empty array of {kind[0].__name__}s, got "
+                                 f"{value!r}")
+            out[key] = tuple(float(v) if kind[0] is float else v for v in value)
+        elif not _is(value, kind):
+            raise ValueError(f"{at} must be {'a' if kind is not int else 'an'} "
+                             f"{kind.__name__}, got {value!r}")
+        else:
+            out[key] = float(value) if kind is float else value
+    return out
+
+
+def _check(p: Protocol) -> None:
+    """The values a well-formed protocol may not hold: one line naming the key."""
+    from lgmd_sim import options
+    from lgmd_sim.calibration.clips import STIMULI
+    from lgmd_sim.calibration.run import TASKS
+    from lgmd_sim.envs.catalogue import scenarios
+
+    options.resolution(p.resolution)
+    options.check_range(p.cruise, "cruise", -1.0, 1.0)
+    for key in ("version", "bootstrap"):
+        if getattr(p, key) < 1:
+            raise ValueError(f"{key} must be >= 1, got {getattr(p, key)}")
+    known = scenarios()
+    for name in ("goal", "arena"):
+        track: ClosedLoopTrack = getattr(p, name)
+        if track.scenario not in known:
+            raise ValueError(f"{name}.scenario {track.scenario!r} is not a scenario "
+                             "(lgmd-sim envs lists them)")
+        options.check_jitter(track.jitter)
+        options.check_positive(track.episodes, f"{name}.episodes", integer=True)
+        options.check_seed(track.first_seed, f"{name}.first_seed")
+    reference = p.arena.reference_distance_m
+    if len(reference) != len(p.arena.jitter) or min(reference) <= 0:
+        raise ValueError("arena.reference_distance_m must hold a distance > 0 per jitter level")
+    d = p.detection
+    for name in (*d.approaching, *d.non_approach):
+        if name not in STIMULI:
+            raise ValueError(f"detection: stimulus {name!r} is none of {', '.join(STIMULI)}")
+    options.check_jitter(d.jitter)
+    options.check_positive(d.clips, "detection.clips", integer=True)
+    options.check_seed(d.first_seed, "detection.first_seed")
+    if not (p.horizon > 0 and d.window_s > 0):
+        raise ValueError("horizon and detection.window_s must be > 0")
+    if p.calibration.task not in TASKS:
+        raise ValueError(f"calibration.task {p.calibration.task!r} is none of "
+                         f"{', '.join(TASKS)}")
+
+
+def load(spec: str | Path = CURRENT) -> Protocol:
+    """The protocol `spec` names: a shipped one (`PROTOCOLS`: "v1") or a TOML file.
+
+    Raises:
+        ValueError: an unknown name; a file that cannot be read, is not TOML, lacks a key,
+            has one it does not know or a value of the wrong kind (one line naming the file
+            and the key).
+    """
+    path = PROTOCOLS.get(str(spec), Path(spec))
+    if str(spec) not in PROTOCOLS and path.suffix != ".toml":
+        raise ValueError(f"unknown protocol {str(spec)!r}: a shipped one "
+                         f"({', '.join(PROTOCOLS)}) or a .toml file")
+    text = read_text(path)
+    try:
+        values = _table(tomllib.loads(text), _TOP, "")
+        protocol = Protocol(**values, path=path,
+                            digest=hashlib.sha256(text.encode()).hexdigest())
+        _check(protocol)
+    except tomllib.TOMLDecodeError as exc:
+        raise ValueError(f"protocol {path}: not TOML ({exc})") from None
+    except ValueError as exc:
+        raise ValueError(f"protocol {path}: {exc}") from None
+    return protocol
+

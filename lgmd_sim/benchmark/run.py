@@ -1,0 +1,131 @@
+"""One entry through every track of a protocol: `benchmark` runs the closed-loop tracks
+with the closed-loop bench (`lgmd_sim.bench.closed_loop`), the detection track clip by
+clip, and writes the entry's ``result.json``: its scores with intervals, the raw metrics
+and the per-seed parts the leaderboard compares entries by.
+
+Layout of an entry's folder (``OUT/<entry>``): ``goal/`` and ``arena/`` (closed-loop
+bench run folders, their episodes, tables and figures), ``detection/`` (a run folder of
+one record per clip) and ``result.json``. Every part keeps its finished jobs: running the
+same command again completes an interrupted benchmark.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable, Mapping
+from pathlib import Path
+from typing import Any
+
+from lgmd_sim import __version__
+from lgmd_sim.benchmark import detection, scores
+from lgmd_sim.benchmark.entries import Entry
+from lgmd_sim.benchmark.protocol import ClosedLoopTrack, Protocol
+from lgmd_sim.fileio import canonical_json, write_text_atomic
+from lgmd_sim.machine import machine
+from lgmd_sim.runs import RunFolder
+
+__all__ = ["RESULT", "benchmark"]
+
+#: An entry's result, in its folder.
+RESULT = "result.json"
+#: What the closed-loop summary rows keep in a result, per jitter level.
+_GOAL_COLUMNS = ("episodes", "success_rate", "success_ci_low", "success_ci_high",
+                 "collision_rate", "collision_ci_low", "collision_ci_high",
+                 "false_alarms_per_min", "mean_progress", "mean_time_s")
+_ARENA_COLUMNS = ("episodes", "avoidance_rate", "avoidance_ci_low", "avoidance_ci_high",
+                  "encounters", "collisions_per_min", "false_alarms_per_min", "mean_distance_m")
+
+
+def _closed_loop(entry: Entry, protocol: Protocol, track: ClosedLoopTrack, out: Path,
+                 run_options: Mapping[str, Any]) -> list[dict[str, Any]]:
+    """Run the entry's cells of `track` (a closed-loop bench run in `out`); its records."""
+    from lgmd_sim.bench import closed_loop
+
+    config = closed_loop.ClosedLoopConfig(
+        scenarios=(track.scenario,), jitter=track.jitter,
+        **entry.bench_options(track.scenario, track.jitter), seeds=track.episodes,
+        first_seed=track.first_seed, resolution=protocol.resolution, cruise=protocol.cruise,
+        horizon=protocol.horizon)
+    closed_loop.run(config, out, resume=True, **run_options)
+    cells = config.cells()
+    return RunFolder(out, config.as_json(), "", resume=True, start=False).records(
+        [c.key(s) for c in cells for s in config.seed_list])
+
+
+def _detection(entry: Entry, protocol: Protocol, out: Path, run_options: Mapping[str, Any]
+               ) -> list[dict[str, Any]]:
+    """Run the detection track's clips through the entry's detector (a run folder in
+    `out`); one record per clip."""
+    from lgmd_sim.parallel import Job, run_jobs
+
+    track = protocol.detection
+    config = {"detection": protocol.identity(), "model": entry.model, "preset": entry.preset,
+              "detector_params": entry.to_json()["params"]}
+    folder = RunFolder(out, config, run_options.get("command", ""), resume=True,
+                       what="benchmark detection track")
+    done = folder.done()
+    approaching = set(track.approaching)
+    jobs = [Job(detection.key(c), detection.clip_job, {
+        "clip": c, "model": entry.model, "preset": entry.preset,
+        "resolution": protocol.resolution, "approaching": c[0] in approaching,
+        "window_s": track.window_s}) for c in detection.clips(track)
+        if detection.key(c) not in done]
+    run_jobs(jobs, lambda job, record: folder.store(job.key, record),
+             workers=run_options.get("workers"), ray_address=run_options.get("ray_address"),
+             progress=run_options.get("progress"), desc=f"{entry.label}: detection",
+             unit="clip")
+    records = folder.records([detection.key(c) for c in detection.clips(track)])
+    folder.finish(clips=len(records))
+    return records
+
+
+def _rows(records: list[dict[str, Any]], columns: tuple[str, ...],
+          score: Callable[[Mapping[str, Any]], float]) -> dict[str, dict[str, Any]]:
+    """Per jitter level: the bench summary's `columns` and the track's score."""
+    from lgmd_sim.bench.summary import summarise
+
+    out = {}
+    for row in summarise(records):
+        level = [r for r in records if r["jitter"] == row["jitter"]]
+        out[f"{row['jitter']:g}"] = {**{c: row.get(c) for c in columns},
+                                     "score": sum(map(score, level)) / len(level)}
+    return out
+
+
+def benchmark(entry: Entry, protocol: Protocol, out: str | Path, *,
+              workers: int | None = None, ray_address: str | None = None,
+              progress: bool | None = None, command: str = "") -> dict[str, Any]:
+    """Run (or complete) `entry` through every track of `protocol` in ``out/<entry.key>``
+    and write its ``result.json``; return the result.
+
+    A detector runs every track; a controller or a policy the closed-loop ones (it has no
+    detector to run on clips). The arguments are `lgmd_sim.bench.closed_loop.run`'s.
+    """
+    folder = Path(out) / entry.key
+    folder.mkdir(parents=True, exist_ok=True)
+    start = time.monotonic()
+    run_options = {"workers": workers, "ray_address": ray_address, "progress": progress,
+                   "command": command}
+    reference = protocol.arena.reference_distance_m
+    goal = _closed_loop(entry, protocol, protocol.goal, folder / "goal", run_options)
+    arena = _closed_loop(entry, protocol, protocol.arena, folder / "arena", run_options)
+
+    def arena_score(r: Mapping[str, Any]) -> float:
+        return scores.arena_score(r, reference[protocol.arena.jitter.index(r["jitter"])])
+
+    parts = {"goal": scores.parts_of(goal, scores.goal_score),
+             "arena": scores.parts_of(arena, arena_score)}
+    metrics = {"goal": _rows(goal, _GOAL_COLUMNS, scores.goal_score),
+               "arena": _rows(arena, _ARENA_COLUMNS, arena_score)}
+    if entry.kind == "detector":
+        clips = _detection(entry, protocol, folder / "detection", run_options)
+        parts["detection"] = scores.detection_parts(clips)
+        metrics["detection"] = detection.metrics(clips)
+    summary = scores.summarise(parts, protocol.bootstrap, protocol.bootstrap_seed)
+    result = {"protocol": protocol.identity(), "entry": entry.to_json(),
+              "lgmd_sim": __version__, "machine": machine(), "command": command,
+              "scores": summary.scores, "intervals": summary.intervals, "metrics": metrics,
+              "parts": {t: p.to_json() for t, p in parts.items()},
+              "timing": {"wall_time_s": round(time.monotonic() - start, 1)}}
+    write_text_atomic(folder / RESULT, canonical_json(result))
+    return result

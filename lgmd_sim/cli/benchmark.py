@@ -1,0 +1,61 @@
+"""`lgmd-sim benchmark`: entries through every track of a protocol, one result each."""
+
+from __future__ import annotations
+
+import argparse
+
+from lgmd_sim.cli.args import add_parallel_options
+
+
+def add(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "benchmark", help="run detectors, controllers or policies through the benchmark's "
+        "protocol: one comparable result each",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+        description="""\
+Run each ENTRY through every track of the protocol (lgmd_sim/benchmark/v1.toml: its
+seeds, 20000 and up, are no calibration's, training's or evaluation's) and write
+OUT/<entry>/result.json: the protocol's version and digest, the entry and its resolved
+parameters, the scores with 95% bootstrap intervals, the raw metrics, the machine.
+
+Tracks and scores (each in [0, 1], higher is better):
+  goal       RoughTerrainObstacles at jitter 0, 1, 2, 40 episodes each: success weighted
+             by path efficiency (SPL); a robot that never moves scores 0
+  arena      ArenaRoam at jitter 0, 1, 2, 40 episodes each: the share of encounters
+             avoided times the distance travelled over the Oracle's (at most 1)
+  detection  (detectors) 20 clips of each stimulus at jitter 0 and 1, no controller: the
+             mean of the hit rate on looming clips and the silence rate on receding,
+             crossing, rotating, grating and flickering ones
+  overall    the mean of goal and arena
+
+An ENTRY is a detector driving the reference controller (ReactiveAvoid, its published
+constants): MODEL[/PRESET][+FRONT...][@eyes], a built-in name or a package.module:Class
+spec; or a controller (oracle, straight, steer, a spec); or a policy folder (or
+shipped). Cost on a 2-core machine: about 15 minutes a detector (240 episodes and 240
+clips). Running the same command again completes an interrupted benchmark. Then:
+lgmd-sim leaderboard OUT/*/result.json --out leaderboard.md""")
+    p.add_argument("entries", nargs="+", metavar="ENTRY",
+                   help="detectors, controllers or policy folders (see above)")
+    p.add_argument("--out", default="benchmark-out", metavar="DIR",
+                   help="output folder, one subfolder per entry (default ./benchmark-out)")
+    p.add_argument("--protocol", default="v1", metavar="NAME|FILE",
+                   help="a shipped protocol (v1, the default) or a protocol TOML file")
+    add_parallel_options(p)
+
+
+def run(args: argparse.Namespace) -> int:
+    from lgmd_sim.benchmark import entries, protocol
+    from lgmd_sim.benchmark.run import RESULT, benchmark
+    from lgmd_sim.models.check import preflight
+
+    proto = protocol.load(args.protocol)
+    parsed = [entries.parse(e) for e in args.entries]  # every entry checked before any runs
+    preflight((e.model, e.preset) for e in parsed if e.kind == "detector")
+    for entry in parsed:
+        result = benchmark(entry, proto, args.out, workers=args.workers,
+                           ray_address=args.ray, progress=False if args.no_progress else None,
+                           command=args.command_line)
+        s = result["scores"]
+        shown = ", ".join(f"{k} {v:.2f}" for k, v in s.items())
+        print(f"{entry.label}: {shown}; wrote {args.out}/{entry.key}/{RESULT}")
+    return 0

@@ -1,0 +1,226 @@
+"""The benchmark: its protocol read and checked, the scores on hand-made episodes, the
+paired comparison on made-up ones, and the command end to end on a tiny protocol (the
+same result twice, resumed after an interruption, merged into a leaderboard of one
+protocol only)."""
+
+from __future__ import annotations
+
+import json
+import re
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from lgmd_sim import cli
+from lgmd_sim.benchmark import entries, protocol, scores
+from lgmd_sim.benchmark.leaderboard import leaderboard
+
+SHIPPED = protocol.PROTOCOLS["v1"].read_text()
+
+
+def _tiny(tmp_path: Path, **changes: str) -> Path:
+    """v1 at 64 x 64 with one jitter level, two episodes a track and one clip a stimulus;
+    `changes` replace whole lines ("key = value") of it."""
+    text = SHIPPED.replace('resolution = "rl"', 'resolution = "small"')
+    text = text.replace("jitter = [0.0, 1.0, 2.0]", "jitter = [1.0]")
+    text = text.replace("jitter = [0.0, 1.0]", "jitter = [1.0]")
+    text = text.replace("episodes = 40", "episodes = 2").replace("clips = 20", "clips = 1")
+    text = re.sub(r"reference_distance_m = \[.*\]", "reference_distance_m = [3.0]", text)
+    text = text.replace("bootstrap = 2000", "bootstrap = 200")
+    for old, new in changes.items():
+        text = re.sub(rf"(?m)^{re.escape(old)} = .*$", new, text)
+    file = tmp_path / "tiny.toml"
+    file.write_text(text)
+    return file
+
+
+# --- the protocol ------------------------------------------------------------------------
+
+
+def test_the_shipped_protocol_reads_as_it_says():
+    p = protocol.load()
+    assert (p.version, p.resolution, p.goal.scenario, p.arena.scenario) == (
+        1, "rl", "RoughTerrainObstacles", "ArenaRoam")
+    assert p.goal.seeds[0] == 20000 and len(p.goal.seeds) == p.goal.episodes
+    assert len(p.arena.reference_distance_m) == len(p.arena.jitter)
+    # disjoint from every seed a calibration, training, validation or evaluation uses
+    for seeds in (p.goal.seeds, p.arena.seeds, p.detection.seeds):
+        assert min(seeds) > 7103
+
+
+@pytest.mark.parametrize(("change", "message"), [
+    ({"horizon": "colour = 2"}, "unknown key colour"),
+    ({"cruise": ""}, "no key cruise"),
+    ({"episodes": 'episodes = "many"'}, "goal.episodes must be an int"),
+    ({"non_approach": 'non_approach = ["Receding", "Wobble"]'}, "stimulus 'Wobble'"),
+    ({"scenario": 'scenario = "Nowhere"'}, "goal.scenario 'Nowhere' is not a scenario"),
+    ({"jitter": "jitter = []"}, "goal.jitter must be a non-empty array"),
+    ({"reference_distance_m": "reference_distance_m = [1.0, 2.0]"},
+     "reference_distance_m must hold a distance > 0 per jitter level"),
+])
+def test_a_bad_protocol_is_one_line_naming_the_file_and_the_key(tmp_path, change, message):
+    file = _tiny(tmp_path, **change)
+    with pytest.raises(ValueError) as exc:
+        protocol.load(file)
+    text = str(exc.value)
+    assert len(text.splitlines()) == 1 and str(file) in text and message in text, text
+
+
+def test_an_unknown_protocol_or_a_file_that_is_no_toml_is_one_line(tmp_path):
+    with pytest.raises(ValueError, match="unknown protocol 'v9'"):
+        protocol.load("v9")
+    bad = tmp_path / "bad.toml"
+    bad.write_text("version = = 1\n")
+    with pytest.raises(ValueError, match=rf"protocol {re.escape(str(bad))}: not TOML"):
+        protocol.load(bad)
+
+
+# --- the scores --------------------------------------------------------------------------
+
+GOAL = {"goal_reached": False, "straight_line_m": 8.0, "distance_m": 0.0}
+
+
+def test_a_robot_that_never_moves_scores_nothing():
+    assert scores.goal_score(GOAL) == 0.0
+    still = {"encounters": 0, "avoided": 0, "distance_m": 0.05}
+    assert scores.arena_score(still, reference_m=6.0) == pytest.approx(0.05 / 6.0)
+
+
+def test_the_goal_score_weighs_success_by_the_path_taken():
+    assert scores.goal_score({**GOAL, "goal_reached": True, "distance_m": 8.0}) == 1.0
+    assert scores.goal_score({**GOAL, "goal_reached": True, "distance_m": 10.0}) == 0.8
+    # a path measured shorter than the straight line (it stopped within the goal's radius)
+    assert scores.goal_score({**GOAL, "goal_reached": True, "distance_m": 7.6}) == 1.0
+    assert scores.goal_score({**GOAL, "distance_m": 8.0}) == 0.0  # collided or timed out
+
+
+def test_the_arena_score_is_the_share_avoided_times_the_distance_share():
+    ep = {"encounters": 4, "avoided": 3, "distance_m": 3.0}
+    assert scores.arena_score(ep, reference_m=6.0) == pytest.approx(0.75 * 0.5)
+    assert scores.arena_score({**ep, "distance_m": 9.0}, reference_m=6.0) == 0.75
+    assert scores.arena_score({**ep, "encounters": 0, "avoided": 0}, reference_m=3.0) == 1.0
+
+
+def test_the_detection_score_is_balanced_accuracy():
+    always = [{"seed": s, "approaching": a, "outcome": "hit" if a else "false_alarm"}
+              for s in range(4) for a in (True, False, False, False)]
+    assert scores.detection_parts(always).score() == 0.5
+    perfect = [{**r, "outcome": "hit" if r["approaching"] else "correct_rejection"}
+               for r in always]
+    assert scores.detection_parts(perfect).score() == 1.0
+
+
+def _parts(values: np.ndarray) -> scores.Parts:
+    return scores.Parts(tuple(range(len(values))), np.stack([values, np.ones_like(values)], 1))
+
+
+def test_the_paired_comparison_separates_a_small_steady_gain_and_not_noise():
+    rng = np.random.default_rng(1)
+    hard = rng.uniform(0, 1, 40)  # how hard each seed is: shared by both entries
+    a = {t: _parts(hard) for t in scores.CLOSED_LOOP}
+    b = {t: _parts(np.clip(hard + 0.05, 0, 1)) for t in scores.CLOSED_LOOP}
+    shuffled = {t: _parts(rng.permutation(hard)) for t in scores.CLOSED_LOOP}
+    steady = scores.compare(b, a, 500, 0)["overall"]
+    assert steady["separable"] and steady["difference"] > 0
+    # the same scores on other seeds: no real difference, and the test does not claim one
+    assert not scores.compare(shuffled, a, 500, 0)["overall"]["separable"]
+    other = {t: scores.Parts(tuple(range(1, 41)), p.sums) for t, p in a.items()}
+    with pytest.raises(ValueError, match="other seeds"):
+        scores.compare(a, other, 500, 0)
+
+
+def test_intervals_are_the_same_for_the_same_parts():
+    p = {t: _parts(np.linspace(0, 1, 10)) for t in scores.CLOSED_LOOP}
+    first, again = scores.summarise(p, 300, 0), scores.summarise(p, 300, 0)
+    assert first == again and first.scores["overall"] == pytest.approx(0.5)
+    low, high = first.intervals["overall"]
+    assert low < 0.5 < high
+
+
+# --- entries -----------------------------------------------------------------------------
+
+
+def test_entries_are_detectors_controllers_or_policies():
+    lgmd1 = entries.parse("lgmd1/robot-image@eyes")
+    assert (lgmd1.kind, lgmd1.model, lgmd1.preset, lgmd1.side) == (
+        "detector", "lgmd1", "robot-image", "eyes")
+    assert lgmd1.label == "lgmd1/robot-image@eyes"
+    assert entries.parse("feedback").preset == "paper"
+    assert entries.parse("oracle").kind == "controller"
+    assert entries.parse("shipped").kind == "policy"
+    for bad, message in (("lgmd9", "not a controller, a policy folder or a detector"),
+                         ("lgmd1@left", "the side after '@' is one of halves, eyes")):
+        with pytest.raises(ValueError, match=re.escape(message)):
+            entries.parse(bad)
+
+
+# --- the command -------------------------------------------------------------------------
+
+
+def _benchmark(tiny: Path, out: Path, *entry: str) -> int:
+    return cli.main(["benchmark", *entry, "--protocol", str(tiny), "--out", str(out),
+                     "--workers", "1", "--no-progress"])
+
+
+def _timeless(file: Path) -> dict:
+    """A result but its wall time and command line (its folder's name in it)."""
+    result = json.loads(file.read_text())
+    del result["timing"], result["command"]
+    return result
+
+
+@pytest.fixture(scope="module")
+def tiny_run(tmp_path_factory):
+    """lgmd1 and Straight through the tiny protocol."""
+    tmp = tmp_path_factory.mktemp("bench")
+    tiny = _tiny(tmp)
+    out = tmp / "out"
+    assert _benchmark(tiny, out, "lgmd1", "straight") == 0
+    return tiny, out
+
+
+def test_a_benchmark_writes_every_track_s_scores_with_intervals(tiny_run):
+    _, out = tiny_run
+    result = json.loads((out / "lgmd1-published" / "result.json").read_text())
+    assert set(result["scores"]) == {"goal", "arena", "detection", "overall"}
+    for key, value in result["scores"].items():
+        low, high = result["intervals"][key]
+        assert 0 <= low <= value <= high <= 1
+    assert result["entry"]["params"]["threshold"] > 0
+    assert result["protocol"]["version"] == 1
+    straight = json.loads((out / "straight" / "result.json").read_text())
+    assert "detection" not in straight["scores"]
+
+
+def test_the_same_command_gives_the_same_result_and_resumes(tiny_run, tmp_path):
+    tiny, out = tiny_run
+    again = tmp_path / "again"
+    shutil.copytree(out / "straight", again / "straight")
+    records = sorted((again / "straight" / "goal" / "records").iterdir())
+    records[0].unlink()  # as if killed before its episode finished
+    (again / "straight" / "result.json").unlink()
+    assert _benchmark(tiny, again, "straight") == 0
+    assert _timeless(again / "straight" / "result.json") == _timeless(
+        out / "straight" / "result.json")
+
+
+def test_the_leaderboard_ranks_the_entries_and_refuses_another_protocol(tiny_run, tmp_path,
+                                                                         capsys):
+    tiny, out = tiny_run
+    md = tmp_path / "board.md"
+    assert cli.main(["leaderboard", str(out / "lgmd1-published"), str(out / "straight"),
+                     "--protocol", str(tiny), "--out", str(md)]) == 0
+    table = md.read_text()
+    assert "`lgmd1/published`" in table and "`straight`" in table
+    assert (tmp_path / "board.png").stat().st_size > 0
+    other = _tiny(tmp_path, bootstrap="bootstrap = 100")
+    assert cli.main(["leaderboard", str(out / "straight"), "--protocol", str(other),
+                     "--out", str(tmp_path / "x.md")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "a leaderboard merges one protocol's results" in err
+    assert not (tmp_path / "x.md").exists()
+    with pytest.raises(ValueError, match="two results of entry 'straight'"):
+        leaderboard([out / "straight", out / "straight"], tmp_path / "y.md",
+                    protocol.load(tiny))
