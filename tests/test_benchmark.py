@@ -6,6 +6,7 @@ protocol only)."""
 from __future__ import annotations
 
 import json
+import os
 import re
 import shutil
 from pathlib import Path
@@ -224,3 +225,22 @@ def test_the_leaderboard_ranks_the_entries_and_refuses_another_protocol(tiny_run
     with pytest.raises(ValueError, match="two results of entry 'straight'"):
         leaderboard([out / "straight", out / "straight"], tmp_path / "y.md",
                     protocol.load(tiny))
+
+
+def test_a_plug_in_calibrated_first_runs_at_the_preset_it_made(tmp_path, monkeypatch):
+    monkeypatch.syspath_prepend(str(Path(__file__).parent / "plugins"))
+    mine = tmp_path / "mine"  # the user's own presets folder, which must stay as it is
+    monkeypatch.setenv("LGMD_SIM_DATA_DIR", str(mine))
+    tiny = _tiny(tmp_path, budget="budget = 2", seeds="seeds = 1")
+    out = tmp_path / "out"
+    assert cli.main(["benchmark", "lgmd_plug:Blink+image", "--calibrate", "--protocol",
+                     str(tiny), "--out", str(out), "--workers", "1", "--no-progress"]) == 0
+    folder = out / "lgmd_plug_Blink-robot-image"
+    result = json.loads((folder / "result.json").read_text())
+    assert result["entry"]["preset"] == "robot-image"
+    tuned = json.loads((folder / "presets" / "calibrated.json").read_text())
+    made = tuned["presets"]["lgmd_plug:Blink"]["robot-image"]["params"]
+    assert made and made.items() <= result["entry"]["params"].items()
+    assert (folder / "calibration" / "run.json").is_file()
+    assert not mine.exists()
+    assert os.environ["LGMD_SIM_DATA_DIR"] == str(mine)  # as before the command

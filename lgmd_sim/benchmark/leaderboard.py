@@ -25,9 +25,10 @@ __all__ = ["RESULT_FIELDS", "leaderboard", "load_result", "markdown"]
 RESULT_FIELDS = {
     "protocol": {"version": int, "sha256": str},
     "entry": {"spec": str, "kind": str, "label": str},
-    "scores": {"goal": NUMBER, "arena": NUMBER, "overall": NUMBER, "detection": Maybe(NUMBER)},
+    "scores": {"goal": NUMBER, "arena": Maybe(NUMBER), "overall": Maybe(NUMBER),
+               "detection": Maybe(NUMBER)},
     "intervals": dict,
-    "metrics": {"goal": dict, "arena": dict, "detection": Maybe(dict)},
+    "metrics": {"goal": dict, "arena": Maybe(dict), "detection": Maybe(dict)},
     "parts": {t: Maybe({"seeds": [int], "sums": [[NUMBER]]}) for t in scores.TRACKS},
     "command": str,
     "machine": dict,
@@ -60,32 +61,45 @@ def _cell(result: Mapping[str, Any], key: str) -> str:
     return f"{value:.2f} [{low:.2f}, {high:.2f}]"
 
 
+def _order(results: Sequence[Mapping[str, Any]]) -> list[int]:
+    """The indices of `results` best first: by overall score, then (those without one) by
+    goal score."""
+    def rank(i: int) -> tuple:
+        s = results[i]["scores"]
+        return (s.get("overall") is None, -(s.get("overall") or s["goal"]),
+                results[i]["entry"]["label"])
+
+    return sorted(range(len(results)), key=rank)
+
+
 def _pooled(result: Mapping[str, Any], track: str, column: str) -> str:
     """The mean over the jitter levels of a track's per-level `column`, as a percentage."""
-    values = [row[column] for row in result["metrics"][track].values()
+    values = [row[column] for row in (result["metrics"].get(track) or {}).values()
               if row.get(column) is not None]
     return f"{100 * float(np.mean(values)):.0f}" if values else "-"
 
 
 def markdown(results: Sequence[Mapping[str, Any]], names: Sequence[str],
              resamples: int, seed: int) -> str:
-    """The ranked table of `results` (their files' `names`, for the commands' list)."""
-    order = sorted(range(len(results)), key=lambda i: (-results[i]["scores"]["overall"],
-                                                       results[i]["entry"]["label"]))
+    """The ranked table of `results` (their files' `names`, for the commands' list); those
+    without an overall score (a policy: no arena) unranked, after the others."""
+    order = _order(results)
     lines = ["| rank | entry | overall | goal | arena | detection | success % | "
              "collisions % | avoided % | false alarms / min | AUC |",
              "|---:|---|---|---|---|---|---:|---:|---:|---:|---:|"]
     rank, above = 0, None
     for i in order:
         r = results[i]
-        tied = above is not None and not scores.compare(
+        ranked = r["scores"].get("overall") is not None
+        tied = ranked and above is not None and not scores.compare(
             _parts(r), _parts(above), resamples, seed)["overall"]["separable"]
         rank = rank if tied else order.index(i) + 1
+        shown = ("=" if tied else "") + str(rank) if ranked else "-"
         auc = (r["metrics"].get("detection") or {}).get("auc")
         alarms = np.mean([row["false_alarms_per_min"] for row in r["metrics"]["goal"].values()
                           if row.get("false_alarms_per_min") is not None] or [np.nan])
         lines.append(
-            f"| {'=' if tied else ''}{rank} | `{r['entry']['label']}` | {_cell(r, 'overall')} "
+            f"| {shown} | `{r['entry']['label']}` | {_cell(r, 'overall')} "
             f"| {_cell(r, 'goal')} | {_cell(r, 'arena')} | {_cell(r, 'detection')} "
             f"| {_pooled(r, 'goal', 'success_rate')} | {_pooled(r, 'goal', 'collision_rate')} "
             f"| {_pooled(r, 'arena', 'avoidance_rate')} "
@@ -105,15 +119,16 @@ def _figure(results: Sequence[Mapping[str, Any]], file: Path) -> None:
     """Score by entry and track (and jitter level) as a heatmap, best entry on top."""
     from lgmd_sim.plots import figure
 
-    order = sorted(results, key=lambda r: -r["scores"]["overall"])
-    levels = {t: sorted(order[0]["metrics"][t], key=float) for t in scores.CLOSED_LOOP}
+    order = [results[i] for i in _order(results)]
+    levels = {t: sorted(next(r["metrics"][t] for r in order if r["metrics"].get(t)), key=float)
+              for t in scores.CLOSED_LOOP}
     columns = [(t, j) for t in scores.CLOSED_LOOP for j in levels[t]] + [("detection", None)]
     grid = np.full((len(order), len(columns)), np.nan)
     for row, r in enumerate(order):
         for col, (t, j) in enumerate(columns):
             if j is None:
                 grid[row, col] = r["scores"].get("detection") or np.nan
-            else:
+            elif r["metrics"].get(t):
                 grid[row, col] = r["metrics"][t][j]["score"]
     fig = figure(figsize=(2.2 + 0.75 * len(columns), 1.0 + 0.38 * len(order)))
     ax = fig.add_subplot()

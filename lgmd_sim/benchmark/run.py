@@ -11,8 +11,10 @@ same command again completes an interrupted benchmark.
 
 from __future__ import annotations
 
+import contextlib
+import os
 import time
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Iterator, Mapping
 from pathlib import Path
 from typing import Any
 
@@ -24,7 +26,7 @@ from lgmd_sim.fileio import canonical_json, write_text_atomic
 from lgmd_sim.machine import machine
 from lgmd_sim.runs import RunFolder
 
-__all__ = ["RESULT", "benchmark"]
+__all__ = ["RESULT", "benchmark", "calibrated", "user_presets"]
 
 #: An entry's result, in its folder.
 RESULT = "result.json"
@@ -92,14 +94,63 @@ def _rows(records: list[dict[str, Any]], columns: tuple[str, ...],
     return out
 
 
+def calibrated(entry: Entry, protocol: Protocol, out: str | Path, *,
+               workers: int | None = None, ray_address: str | None = None,
+               progress: bool | None = None, command: str = "") -> tuple[Entry, Path]:
+    """Tune detector `entry` by the protocol's calibration rule (`lgmd-sim calibrate` with
+    its task, budget and seeds, on the entry's front end); return the entry at the preset
+    it made and the data folder whose presets file holds it (see `user_presets`).
+
+    Everything goes in the calibrated entry's folder: ``calibration/`` (the calibration's
+    run folder) and ``presets/calibrated.json``.
+    """
+    import dataclasses
+
+    from lgmd_sim.calibration.run import CalibrateConfig, calibrate, preset_name
+
+    if entry.kind != "detector":
+        raise ValueError(f"--calibrate: entry {entry.spec!r} is no detector")
+    fronts = [f for f in entry.preset.split("+")[1:] if f != "gain"]
+    rule = protocol.calibration
+    model, preset = preset_name("+".join([entry.model, *fronts]), rule.task)
+    tuned = dataclasses.replace(entry, model=model, preset=preset)
+    folder = Path(out) / tuned.key
+    config = CalibrateConfig(task=rule.task, detectors=("+".join([entry.model, *fronts]),),
+                             budget=rule.budget, seeds=rule.seeds, first_seed=rule.first_seed,
+                             heldout_seed=rule.heldout_seed, resolution=protocol.resolution,
+                             presets_file=folder / "presets" / "calibrated.json")
+    calibrate(config, folder / "calibration", resume=True, workers=workers,
+              ray_address=ray_address, progress=progress, command=command)
+    return tuned, folder / "presets"
+
+
+@contextlib.contextmanager
+def user_presets(folder: Path | None) -> Iterator[None]:
+    """Within the block, the user's presets are those of `folder` (its calibrated.json),
+    for this process and the workers it starts (``LGMD_SIM_DATA_DIR``); None: as they are."""
+    from lgmd_sim.models.presets import DATA_DIR_VARIABLE
+
+    before = os.environ.get(DATA_DIR_VARIABLE)
+    if folder is not None:
+        os.environ[DATA_DIR_VARIABLE] = str(Path(folder).resolve())
+    try:
+        yield
+    finally:
+        if before is None:
+            os.environ.pop(DATA_DIR_VARIABLE, None)
+        else:
+            os.environ[DATA_DIR_VARIABLE] = before
+
+
 def benchmark(entry: Entry, protocol: Protocol, out: str | Path, *,
               workers: int | None = None, ray_address: str | None = None,
               progress: bool | None = None, command: str = "") -> dict[str, Any]:
     """Run (or complete) `entry` through every track of `protocol` in ``out/<entry.key>``
     and write its ``result.json``; return the result.
 
-    A detector runs every track; a controller or a policy the closed-loop ones (it has no
-    detector to run on clips). The arguments are `lgmd_sim.bench.closed_loop.run`'s.
+    A detector runs every track; a controller the closed-loop ones (it has no detector to
+    run on clips), a policy the goal track (it observes the goal, which the arena has not).
+    The arguments are `lgmd_sim.bench.closed_loop.run`'s.
     """
     folder = Path(out) / entry.key
     folder.mkdir(parents=True, exist_ok=True)
@@ -107,16 +158,17 @@ def benchmark(entry: Entry, protocol: Protocol, out: str | Path, *,
     run_options = {"workers": workers, "ray_address": ray_address, "progress": progress,
                    "command": command}
     reference = protocol.arena.reference_distance_m
-    goal = _closed_loop(entry, protocol, protocol.goal, folder / "goal", run_options)
-    arena = _closed_loop(entry, protocol, protocol.arena, folder / "arena", run_options)
 
     def arena_score(r: Mapping[str, Any]) -> float:
         return scores.arena_score(r, reference[protocol.arena.jitter.index(r["jitter"])])
 
-    parts = {"goal": scores.parts_of(goal, scores.goal_score),
-             "arena": scores.parts_of(arena, arena_score)}
-    metrics = {"goal": _rows(goal, _GOAL_COLUMNS, scores.goal_score),
-               "arena": _rows(arena, _ARENA_COLUMNS, arena_score)}
+    goal = _closed_loop(entry, protocol, protocol.goal, folder / "goal", run_options)
+    parts = {"goal": scores.parts_of(goal, scores.goal_score)}
+    metrics = {"goal": _rows(goal, _GOAL_COLUMNS, scores.goal_score)}
+    if entry.kind != "policy":  # a policy observes the goal, which the arena has not
+        arena = _closed_loop(entry, protocol, protocol.arena, folder / "arena", run_options)
+        parts["arena"] = scores.parts_of(arena, arena_score)
+        metrics["arena"] = _rows(arena, _ARENA_COLUMNS, arena_score)
     if entry.kind == "detector":
         clips = _detection(entry, protocol, folder / "detection", run_options)
         parts["detection"] = scores.detection_parts(clips)

@@ -40,21 +40,32 @@ lgmd-sim leaderboard OUT/*/result.json --out leaderboard.md""")
                    help="output folder, one subfolder per entry (default ./benchmark-out)")
     p.add_argument("--protocol", default="v1", metavar="NAME|FILE",
                    help="a shipped protocol (v1, the default) or a protocol TOML file")
+    p.add_argument("--calibrate", action="store_true",
+                   help="first tune each detector by the protocol's calibration rule (the "
+                   "robot task, budget 16, search seeds 0-5, held-out 100-105, as the shipped "
+                   "robot presets), on its front end, so that a new model is compared "
+                   "fairly: its row is MODEL/robot[-FRONT]; about 5 to 45 minutes more")
     add_parallel_options(p)
 
 
 def run(args: argparse.Namespace) -> int:
     from lgmd_sim.benchmark import entries, protocol
-    from lgmd_sim.benchmark.run import RESULT, benchmark
+    from lgmd_sim.benchmark.run import RESULT, benchmark, calibrated, user_presets
     from lgmd_sim.models.check import preflight
 
     proto = protocol.load(args.protocol)
     parsed = [entries.parse(e) for e in args.entries]  # every entry checked before any runs
     preflight((e.model, e.preset) for e in parsed if e.kind == "detector")
+    if args.calibrate and any(e.kind != "detector" for e in parsed):
+        raise ValueError("--calibrate tunes detectors: give detectors only")
+    options = {"workers": args.workers, "ray_address": args.ray,
+               "progress": False if args.no_progress else None, "command": args.command_line}
     for entry in parsed:
-        result = benchmark(entry, proto, args.out, workers=args.workers,
-                           ray_address=args.ray, progress=False if args.no_progress else None,
-                           command=args.command_line)
+        presets = None
+        if args.calibrate:
+            entry, presets = calibrated(entry, proto, args.out, **options)
+        with user_presets(presets):
+            result = benchmark(entry, proto, args.out, **options)
         s = result["scores"]
         shown = ", ".join(f"{k} {v:.2f}" for k, v in s.items())
         print(f"{entry.label}: {shown}; wrote {args.out}/{entry.key}/{RESULT}")
