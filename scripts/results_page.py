@@ -521,7 +521,9 @@ def _attribution(presets: dict[str, dict[str, dict]], n: dict[str, int]) -> list
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--closed-loop", type=Path, required=True)
+    # the first closed-loop table (built-in defaults, seeds 1000-1049) gave way to the
+    # benchmark's leaderboard: its run predates the LGMD1 steering-sign fix
+    parser.add_argument("--closed-loop", type=Path)
     parser.add_argument("--open-loop", type=Path, required=True)
     parser.add_argument("--calibration", type=Path)
     parser.add_argument("--closed-loop-calibrated", type=Path)
@@ -535,8 +537,12 @@ def main() -> None:
              "names the runs it was written for and is printed only while the conditions it "
              "states hold on the runs; every other sentence is computed from the runs. "
              "Regenerate it whenever a model or preset changes.", ""]
-    lines += closed_loop_section(args.closed_loop, "Closed loop: avoiding obstacles on rough "
-                                 "ground", "closed-loop", figures)
+    if args.closed_loop:
+        lines += closed_loop_section(args.closed_loop, "Closed loop: avoiding obstacles on "
+                                     "rough ground", "closed-loop", figures)
+    else:
+        lines += ["How each detector drives the robot, every model on the same seeds: the "
+                  "benchmark's [leaderboard](leaderboard.md).", ""]
     lines += open_loop_section(args.open_loop, figures)
     if args.open_loop_front_ends:
         lines += front_end_section(args.open_loop_front_ends, args.open_loop,
@@ -546,8 +552,9 @@ def main() -> None:
     if args.closed_loop_calibrated:
         lines += closed_loop_section(args.closed_loop_calibrated, "Closed loop with the "
                                      "calibrated presets", "closed-loop-calibrated", figures)
-        lines += compensation_verdict([args.closed_loop, args.closed_loop_calibrated],
-                                      args.calibration)
+        if args.closed_loop:
+            lines += compensation_verdict([args.closed_loop, args.closed_loop_calibrated],
+                                          args.calibration)
     text = "\n".join(lines).rstrip() + "\n"
     write_files({OUT: lambda tmp: tmp.write_text(text),
                  **{target: _copier(source) for target, source in figures.items()}})
