@@ -93,6 +93,20 @@ def add(sub: argparse._SubParsersAction) -> None:
     b.add_argument("--markdown", action="store_true", help="print the table as Markdown")
 
     b = speed.add_parser(
+        "benchmark", help="the benchmark's episodes/s vs the closed-loop bench's; a row's cost",
+        description="In one run, for ENTRY on the protocol's first seeds: episodes per "
+        "second of `lgmd-sim bench closed-loop` and of `lgmd-sim benchmark` on the same "
+        "goal and arena cells, on one and on two workers (target: the benchmark no "
+        "slower), and the minutes one entry's row of the full protocol takes on two "
+        "workers at that speed (target: 15 or less).",
+    )
+    b.add_argument("--entry", default="lgmd1/robot-image",
+                   help="the entry timed (default %(default)s)")
+    b.add_argument("--episodes", type=positive_int, default=4,
+                   help="episodes per jitter level of each track (default %(default)s)")
+    b.add_argument("--markdown", action="store_true", help="print the table as Markdown")
+
+    b = speed.add_parser(
         "train", help="training steps/s per algorithm vs the bare VecEnv (needs the rl extra)",
         description="In one run, per algorithm and observation (PPO on features and on "
         "privileged observations, SAC on features at three update rates): steps per second "

@@ -7,6 +7,8 @@
 - `lgmd_sim.speed.stabilize`: milliseconds per frame of each ego-motion front end.
 - `lgmd_sim.speed.closed_loop`: the closed loop's cost over the environment alone, and
   the benchmark's scaling with workers.
+- `lgmd_sim.speed.benchmark`: the benchmark's episodes against the closed-loop bench's on
+  the same cells, and one entry's row.
 - `lgmd_sim.speed.dataset`: dataset generation against the environment alone.
 - `lgmd_sim.speed.train`: training steps/s against the bare VecEnv it trains on.
 

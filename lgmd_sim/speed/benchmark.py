@@ -1,0 +1,78 @@
+"""`lgmd-sim speed benchmark`: the benchmark's closed-loop episodes against the closed-loop
+bench's on the same cells, and what one entry's row costs.
+
+In one run, for one entry on the protocol's first seeds (`episodes` per jitter level of
+each closed-loop track, a clip of each stimulus): the wall time of
+``lgmd-sim bench closed-loop`` running the entry's goal and arena cells in one run, and
+of ``lgmd-sim benchmark`` running the same cells (its goal and arena run folders' own wall
+times, so its detection clips are left out), on one and on two workers; the ratio of
+their episodes per second (target: 1 or more, no slower), and the full protocol's row
+extrapolated from the benchmark's speed on two workers (target: 15 minutes or less).
+Both start their pools anew, as a user's command does.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+from pathlib import Path
+
+from lgmd_sim.fileio import read_json, scratch_folder
+from lgmd_sim.machine import cpu_name
+from lgmd_sim.speed import format_table, met
+
+#: The targets: the benchmark's episodes per second over the bench's, and one row's
+#: minutes on two workers.
+RATIO_TARGET, ROW_MINUTES_TARGET = 1.0, 15.0
+
+
+def _wall(folder: Path) -> float:
+    """The wall seconds of a run folder's latest session."""
+    return float(read_json(folder / "run.json")["sessions"][-1]["wall_time_s"])
+
+
+def run(*, entry: str = "lgmd1/robot-image", episodes: int = 4, markdown: bool = False
+        ) -> int:
+    """Measure and print the table (Markdown with `markdown`)."""
+    from lgmd_sim.bench import closed_loop
+    from lgmd_sim.benchmark import entries, protocol
+    from lgmd_sim.benchmark.run import benchmark
+
+    full = protocol.load()
+    chosen = entries.parse(entry)
+    short = dataclasses.replace(
+        full, goal=dataclasses.replace(full.goal, episodes=episodes),
+        arena=dataclasses.replace(full.arena, episodes=episodes),
+        detection=dataclasses.replace(full.detection, clips=1))
+    tracks = (short.goal, short.arena)
+    count = sum(len(t.jitter) * t.episodes for t in tracks)
+    rows, per_episode = [], {}
+    for workers in (1, 2):
+        with scratch_folder("speed-benchmark") as tmp:
+            start = time.perf_counter()
+            for t in tracks:  # one bench run per scenario: its seeds and levels
+                config = closed_loop.ClosedLoopConfig(
+                    scenarios=(t.scenario,), jitter=t.jitter,
+                    **chosen.bench_options(t.scenario, t.jitter), seeds=t.episodes,
+                    first_seed=t.first_seed, resolution=short.resolution,
+                    cruise=short.cruise, horizon=short.horizon)
+                closed_loop.run(config, tmp / f"bench-{t.scenario}", workers=workers,
+                                progress=False)
+            bench = time.perf_counter() - start
+            benchmark(chosen, short, tmp / "benchmark", workers=workers, progress=False)
+            folder = tmp / "benchmark" / chosen.key
+            ours = _wall(folder / "goal") + _wall(folder / "arena")
+        per_episode[workers] = ours / count
+        rows.append([str(workers), f"{count / bench:.2f}", f"{count / ours:.2f}",
+                     f"{bench / ours:.2f}", met(bench / ours >= RATIO_TARGET)])
+    row_min = per_episode[2] * sum(len(t.jitter) * t.episodes for t in (full.goal, full.arena)
+                                   ) / 60
+    print(f"# lgmd-sim speed benchmark: {chosen.label}, {episodes} episodes per jitter level "
+          f"of goal and arena ({count} episodes), {short.resolution}; CPU: {cpu_name()}")
+    print(format_table(["workers", "bench episodes/s", "benchmark episodes/s",
+                        "benchmark / bench", f"target {RATIO_TARGET:g}"], rows, markdown))
+    print(f"\nOne row of protocol v{full.version} ({full.goal.episodes + full.arena.episodes} "
+          f"episodes a jitter level, without the detection clips) on 2 workers, from this "
+          f"speed: {row_min:.1f} min (target {ROW_MINUTES_TARGET:g}: "
+          f"{met(row_min <= ROW_MINUTES_TARGET)})")
+    return 0
