@@ -116,18 +116,21 @@ def markdown(results: Sequence[Mapping[str, Any]], names: Sequence[str],
 
 
 def _figure(results: Sequence[Mapping[str, Any]], file: Path) -> None:
-    """Score by entry and track (and jitter level) as a heatmap, best entry on top."""
+    """Score by entry: overall, each closed-loop track's by jitter level, detection, as a
+    heatmap, best entry on top."""
     from lgmd_sim.plots import figure
 
     order = [results[i] for i in _order(results)]
     levels = {t: sorted(next(r["metrics"][t] for r in order if r["metrics"].get(t)), key=float)
               for t in scores.CLOSED_LOOP}
-    columns = [(t, j) for t in scores.CLOSED_LOOP for j in levels[t]] + [("detection", None)]
+    columns = [("overall", None), *((t, j) for t in scores.CLOSED_LOOP for j in levels[t]),
+               ("detection", None)]
     grid = np.full((len(order), len(columns)), np.nan)
     for row, r in enumerate(order):
         for col, (t, j) in enumerate(columns):
             if j is None:
-                grid[row, col] = r["scores"].get("detection") or np.nan
+                value = r["scores"].get(t)
+                grid[row, col] = np.nan if value is None else value
             elif r["metrics"].get(t):
                 grid[row, col] = r["metrics"][t][j]["score"]
     fig = figure(figsize=(2.2 + 0.75 * len(columns), 1.0 + 0.38 * len(order)))
@@ -143,6 +146,7 @@ def _figure(results: Sequence[Mapping[str, Any]], file: Path) -> None:
     ax.set_yticks(range(len(order)), [r["entry"]["label"] for r in order], fontsize=8)
     ax.set_title("Score by track and jitter level (grey: not run)", fontsize=9)
     ax.set_facecolor("0.85")
+    ax.axvline(0.5, color="white", lw=3)  # the headline apart from what makes it
     fig.colorbar(image, ax=ax, shrink=0.8, label="score")
     fig.savefig(file, dpi=120)
 
