@@ -106,7 +106,12 @@ def markdown(results: Sequence[Mapping[str, Any]], names: Sequence[str],
             f"| {'-' if np.isnan(alarms) else f'{alarms:.1f}'} "
             f"| {'-' if auc is None else f'{auc:.2f}'} |")
         above = r
-    lines += ["", "Rows' commands, wall time and machine:", ""]
+    lines += ["", "_Scores in [0, 1] with 95% intervals: goal (SPL), arena (encounters avoided "
+              "x distance over the Oracle's), detection (balanced accuracy on looming and "
+              "non-looming clips), overall (mean of goal and arena). Success, collisions and "
+              "false alarms: the goal track's, averaged over its jitter levels; avoided: the "
+              "arena's encounters; AUC: the detection clips' frames. Unranked (-): no arena "
+              "(a policy observes a goal)._", "", "Rows' commands, wall time and machine:", ""]
     for i in order:
         r = results[i]
         cpu = r["machine"].get("cpu", "?")
@@ -179,8 +184,8 @@ def leaderboard(paths: Sequence[str | Path], out: str | Path, protocol: Protocol
     resamples, seed = protocol.bootstrap, protocol.bootstrap_seed
     header = (f"Protocol v{first['version']} (sha256 {first['sha256'][:12]}); 95% intervals "
               f"over {resamples} bootstrap resamples of the seeds; '=' marks an entry not "
-              "separable from the one above it (paired on the seeds). Figure: "
-              f"{figure_file.name}.\n\n")
+              "separable from the one above it (paired on the seeds).\n\n"
+              f"![Score by entry, track and jitter level]({figure_file.name})\n\n")
     table = markdown(results, [str(p) for p in paths], resamples, seed)
     with atomic_outputs([out, figure_file]) as (md, png):
         md.write_text(header + table)
