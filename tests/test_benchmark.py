@@ -152,7 +152,8 @@ def test_entries_are_detectors_controllers_or_policies():
     assert entries.parse("oracle").kind == "controller"
     assert entries.parse("shipped").kind == "policy"
     for bad, message in (("lgmd9", "not a controller, a policy folder or a detector"),
-                         ("lgmd1@left", "the side after '@' is one of halves, eyes")):
+                         ("lgmd1@left", "the side after '@' is one of halves, eyes"),
+                         ("reactive", "name the detector it drives")):
         with pytest.raises(ValueError, match=re.escape(message)):
             entries.parse(bad)
 

@@ -105,9 +105,10 @@ def parse(spec: str) -> Entry:
         raise ValueError("an entry is a detector, a controller or a policy folder, got ''")
     if text in ("shipped", *policies.available()) or (Path(text) / "policy.json").is_file():
         return Entry(spec, "policy", "policy", policy=policies.resolve(text).resolve())
-    if text in controllers.available() and text != REFERENCE:
-        if text == "policy":
-            raise ValueError("entry 'policy': name the policy's folder (or 'shipped')")
+    if text in ("policy", REFERENCE):
+        raise ValueError(f"entry {text!r}: name " + ("the policy's folder (or 'shipped')"
+                         if text == "policy" else "the detector it drives (e.g. lgmd1)"))
+    if text in controllers.available():
         return Entry(spec, "controller", text)
     head, at, side = text.partition("@")
     if at and side not in SIDES:
