@@ -245,3 +245,29 @@ def test_a_plug_in_calibrated_first_runs_at_the_preset_it_made(tmp_path, monkeyp
     assert (folder / "calibration" / "run.json").is_file()
     assert not mine.exists()
     assert os.environ["LGMD_SIM_DATA_DIR"] == str(mine)  # as before the command
+
+
+def _fake(label: str, goal: float, arena: float | None) -> dict:
+    """A result of hand-made scores (a policy's has no arena)."""
+    parts = {"goal": _parts(np.full(10, goal))}
+    if arena is not None:
+        parts["arena"] = _parts(np.full(10, arena))
+    summary = scores.summarise(parts, 100, 0)
+    row = {"score": goal, "success_rate": goal, "collision_rate": 0.1,
+           "false_alarms_per_min": 1.0}
+    return {"entry": {"label": label}, "scores": summary.scores,
+            "intervals": summary.intervals, "command": f"lgmd-sim benchmark {label}",
+            "metrics": {"goal": {"1": row}, **({"arena": {"1": {"score": arena}}}
+                                               if arena is not None else {})},
+            "parts": {t: p.to_json() for t, p in parts.items()},
+            "machine": {"cpu": "test"}, "timing": {"wall_time_s": 60.0}}
+
+
+def test_the_leaderboard_ranks_by_overall_and_leaves_a_policy_unranked_after():
+    from lgmd_sim.benchmark.leaderboard import markdown
+
+    results = [_fake("policy:p", 0.9, None), _fake("low", 0.1, 0.2), _fake("high", 0.5, 0.6)]
+    rows = [line for line in markdown(results, ["a", "b", "c"], 100, 0).splitlines()
+            if line.startswith("| ") and "`" in line]
+    assert [r.split("|")[1].strip() for r in rows] == ["1", "2", "-"]
+    assert "`high`" in rows[0] and "`low`" in rows[1] and "`policy:p`" in rows[2]
