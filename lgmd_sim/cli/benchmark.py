@@ -44,7 +44,8 @@ lgmd-sim leaderboard OUT/*/result.json --out leaderboard.md""")
                    help="first tune each detector by the protocol's calibration rule (the "
                    "robot task, budget 16, search seeds 0-5, held-out 100-105, as the shipped "
                    "robot presets), on its front end, so that a new model is compared "
-                   "fairly: its row is MODEL/robot[-FRONT]; about 5 to 45 minutes more")
+                   "fairly: its row is MODEL/robot[-FRONT]; a few minutes more (the eta "
+                   "example plug-in: 3 minutes here)")
     add_parallel_options(p)
 
 
