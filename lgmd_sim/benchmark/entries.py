@@ -14,7 +14,7 @@ from lgmd_sim.bench.episode import Cell
 __all__ = ["REFERENCE", "SIDES", "Entry", "parse"]
 
 #: The reference controller a detector drives (`lgmd_sim.controllers.avoid.ReactiveAvoid`
-#: with its published constants), and the ways it reads a side from the detector.
+#: with its constants as they ship), and the ways it reads a side from the detector.
 REFERENCE = "reactive"
 SIDES = ("halves", "eyes")
 
