@@ -31,8 +31,9 @@ Tracks and scores (each in [0, 1], higher is better):
 An ENTRY is a detector driving the reference controller (ReactiveAvoid, its constants
 as they ship): MODEL[/PRESET][+FRONT...][@eyes], a built-in name or a
 package.module:Class spec; or a controller (oracle, straight, steer, a spec); or a
-policy folder (or shipped). Cost on a 2-core machine: about 10 minutes a detector (240 episodes and 240
-clips). Running the same command again completes an interrupted benchmark. Then:
+policy folder (or shipped). Cost on a 2-core machine: about 10 minutes a detector
+(240 episodes and 240 clips). Running the same command again completes an interrupted
+benchmark. Then:
 lgmd-sim leaderboard OUT/*/result.json --out leaderboard.md""")
     p.add_argument("entries", nargs="+", metavar="ENTRY",
                    help="detectors, controllers or policy folders (see above)")
