@@ -217,7 +217,7 @@ def test_the_leaderboard_ranks_the_entries_and_refuses_another_protocol(tiny_run
     table = md.read_text()
     assert "`lgmd1/published`" in table and "`straight`" in table
     assert (tmp_path / "board.png").stat().st_size > 0
-    other = _tiny(tmp_path, bootstrap="bootstrap = 100")
+    other = _tiny(tmp_path, version="version = 2")
     assert cli.main(["leaderboard", str(out / "straight"), "--protocol", str(other),
                      "--out", str(tmp_path / "x.md")]) == 2
     err = capsys.readouterr().err.strip()
