@@ -62,3 +62,20 @@ def fresh_registries():
 
     with models._MODELS.isolated(), controllers._CONTROLLERS.isolated():
         yield
+
+
+@pytest.fixture(scope="session")
+def approach(tmp_path_factory):
+    """A video of an approach (48 x 64, grey as BGR), and its clip."""
+    import cv2
+
+    from lgmd_sim import stimuli
+
+    clip = stimuli.approaching((48, 64), start_distance=1.0, speed=2.0, still_frames=3,
+                               look=stimuli.Look(background="texture"))
+    video = tmp_path_factory.mktemp("video") / "approach.mp4"
+    writer = cv2.VideoWriter(str(video), cv2.VideoWriter_fourcc(*"mp4v"), 30.0, (64, 48))
+    for f in clip.frames:
+        writer.write(cv2.cvtColor(f, cv2.COLOR_GRAY2BGR))
+    writer.release()
+    return video, clip

@@ -19,7 +19,7 @@ def potentials(model: models.LGMDModel, frames: np.ndarray) -> np.ndarray:
 
 
 @pytest.fixture(scope="module")
-def approach() -> stimuli.Stimulus:
+def looming() -> stimuli.Stimulus:
     """An approach before a texture (48 x 64), three still frames first."""
     return stimuli.approaching((48, 64), start_distance=1.0, speed=2.0, still_frames=3,
                                look=stimuli.Look(background="texture"))
@@ -54,18 +54,18 @@ def test_frame_difference_rests_at_half_on_a_still_scene_and_under_steady_noise(
     assert not any(FrameDifference().step(f).alarm for f in noisy_still(200))
 
 
-def test_frame_difference_alarms_on_a_looming_clip_but_not_on_a_still_one(approach):
+def test_frame_difference_alarms_on_a_looming_clip_but_not_on_a_still_one(looming):
     model = models.make(FD)
-    alarms = np.array([model.step(f).alarm for f in approach.frames])
-    assert not alarms[:3].any() and alarms[3:approach.collision_frame + 1].any()
+    alarms = np.array([model.step(f).alarm for f in looming.frames])
+    assert not alarms[:3].any() and alarms[3:looming.collision_frame + 1].any()
     model.reset()
-    still = stimuli.static((48, 64), n_frames=len(approach)).frames
+    still = stimuli.static((48, 64), n_frames=len(looming)).frames
     assert not any(model.step(f).alarm for f in still)
 
 
-def test_frame_difference_runs_with_a_front_end(approach):
+def test_frame_difference_runs_with_a_front_end(looming):
     model = models.make(FD, preset="default+image")
-    assert any(model.step(f).alarm for f in approach.frames)
+    assert any(model.step(f).alarm for f in looming.frames)
 
 
 @pytest.mark.parametrize("rate", [RandomAlarm.Params().rate_per_min, 60.0])

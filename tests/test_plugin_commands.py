@@ -12,11 +12,10 @@ import json
 import re
 from pathlib import Path
 
-import cv2
 import numpy as np
 import pytest
 
-from lgmd_sim import cli, controllers, models, options, stimuli
+from lgmd_sim import cli, controllers, models, options
 from lgmd_sim.calibration import search
 from lgmd_sim.calibration.run import CalibrateConfig
 
@@ -162,19 +161,6 @@ def test_the_calibration_takes_a_model_that_declares_a_space(fresh_registries):
 
 
 # --- the commands -----------------------------------------------------------------------
-
-
-@pytest.fixture(scope="module")
-def approach(tmp_path_factory):
-    """A video of an approach (48 x 64), and its clip."""
-    clip = stimuli.approaching((48, 64), start_distance=1.0, speed=2.0, still_frames=3,
-                               look=stimuli.Look(background="texture"))
-    video = tmp_path_factory.mktemp("video") / "approach.mp4"
-    writer = cv2.VideoWriter(str(video), cv2.VideoWriter_fourcc(*"mp4v"), 30.0, (64, 48))
-    for f in clip.frames:
-        writer.write(cv2.cvtColor(f, cv2.COLOR_GRAY2BGR))
-    writer.release()
-    return video, clip
 
 
 def test_detect_runs_a_spec(approach, tmp_path):

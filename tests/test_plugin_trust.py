@@ -10,11 +10,10 @@ import json
 import pickle
 from pathlib import Path
 
-import cv2
 import numpy as np
 import pytest
 
-from lgmd_sim import cli, models, stimuli
+from lgmd_sim import cli, models
 from lgmd_sim.models import ModelCheckError, PluginError, check_model
 
 PLUGINS = Path(__file__).parent / "plugins"
@@ -27,17 +26,10 @@ def plugins(monkeypatch):
     monkeypatch.syspath_prepend(str(PLUGINS))
 
 
-@pytest.fixture(scope="module")
-def video(tmp_path_factory):
-    """A video of an approach, 48 x 64 (grey as BGR)."""
-    clip = stimuli.approaching((48, 64), start_distance=1.0, speed=2.0, still_frames=3,
-                               look=stimuli.Look(background="texture"))
-    file = tmp_path_factory.mktemp("video") / "approach.mp4"
-    writer = cv2.VideoWriter(str(file), cv2.VideoWriter_fourcc(*"mp4v"), 30.0, (64, 48))
-    for f in clip.frames:
-        writer.write(cv2.cvtColor(f, cv2.COLOR_GRAY2BGR))
-    writer.release()
-    return file
+@pytest.fixture
+def video(approach):
+    """The approach's video (conftest's)."""
+    return approach[0]
 
 
 def _one_line(capsys, *names: str) -> str:
