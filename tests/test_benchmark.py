@@ -183,6 +183,7 @@ def tiny_run(tmp_path_factory):
     return tiny, out
 
 
+@pytest.mark.slow  # whole benchmarks of a tiny protocol: 15-50 s each
 def test_a_benchmark_writes_every_track_s_scores_with_intervals(tiny_run):
     _, out = tiny_run
     result = json.loads((out / "lgmd1-published" / "result.json").read_text())
@@ -196,6 +197,7 @@ def test_a_benchmark_writes_every_track_s_scores_with_intervals(tiny_run):
     assert "detection" not in straight["scores"]
 
 
+@pytest.mark.slow  # whole benchmarks of a tiny protocol: 15-50 s each
 def test_the_same_command_gives_the_same_result_and_resumes(tiny_run, tmp_path):
     tiny, out = tiny_run
     again = tmp_path / "again"
@@ -208,6 +210,7 @@ def test_the_same_command_gives_the_same_result_and_resumes(tiny_run, tmp_path):
         out / "straight" / "result.json")
 
 
+@pytest.mark.slow  # whole benchmarks of a tiny protocol: 15-50 s each
 def test_the_leaderboard_ranks_the_entries_and_refuses_another_protocol(tiny_run, tmp_path,
                                                                          capsys):
     tiny, out = tiny_run
@@ -228,6 +231,7 @@ def test_the_leaderboard_ranks_the_entries_and_refuses_another_protocol(tiny_run
                     protocol.load(tiny))
 
 
+@pytest.mark.slow  # whole benchmarks of a tiny protocol: 15-50 s each
 def test_a_plug_in_calibrated_first_runs_at_the_preset_it_made(tmp_path, monkeypatch):
     monkeypatch.syspath_prepend(str(Path(__file__).parent / "plugins"))
     mine = tmp_path / "mine"  # the user's own presets folder, which must stay as it is
