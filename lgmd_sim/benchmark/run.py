@@ -108,12 +108,13 @@ def calibrated(entry: Entry, protocol: Protocol, out: str | Path, *,
 
     if entry.kind != "detector":
         raise ValueError(f"--calibrate: entry {entry.spec!r} is no detector")
-    fronts = [f for f in entry.preset.split("+")[1:] if f != "gain"]
+    # the robot task's front ends are rotations (image, imu): a +gain is not calibrated
+    detector = "+".join([entry.model, *(f for f in entry.preset.split("+")[1:] if f != "gain")])
     rule = protocol.calibration
-    model, preset = preset_name("+".join([entry.model, *fronts]), rule.task)
+    model, preset = preset_name(detector, rule.task)
     tuned = dataclasses.replace(entry, model=model, preset=preset)
     folder = Path(out) / tuned.key
-    config = CalibrateConfig(task=rule.task, detectors=("+".join([entry.model, *fronts]),),
+    config = CalibrateConfig(task=rule.task, detectors=(detector,),
                              budget=rule.budget, seeds=rule.seeds, first_seed=rule.first_seed,
                              heldout_seed=rule.heldout_seed, resolution=protocol.resolution,
                              presets_file=folder / "presets" / "calibrated.json")
