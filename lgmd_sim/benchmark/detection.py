@@ -1,12 +1,11 @@
 """The detection track: a detector alone on synthetic clips, no controller. Every clip
-is a stimulus of `lgmd_sim.calibration.clips.STIMULI` drawn from its seed and shaken at a
-jitter level (as the video calibration draws them), so that the same protocol gives every
+is a stimulus drawn from its seed and shaken at a jitter level as the video calibration
+draws them (`lgmd_sim.calibration.clips.stimulus_clip`), so that the same protocol gives every
 entry the same clips; `clip_job` runs one and judges its alarms.
 """
 
 from __future__ import annotations
 
-import zlib
 from collections.abc import Mapping, Sequence
 from typing import Any
 
@@ -14,7 +13,7 @@ import numpy as np
 
 from lgmd_sim.benchmark.protocol import DetectionTrack
 
-__all__ = ["ClipKey", "auc", "clip_job", "clips", "metrics"]
+__all__ = ["ClipKey", "auc", "clip_job", "clips", "key", "metrics"]
 
 #: A clip of the track: (stimulus, jitter level, seed).
 ClipKey = tuple[str, float, int]
@@ -42,14 +41,10 @@ def clip_job(clip: ClipKey, model: str, preset: str, resolution: Any, approachin
     The record keeps each frame's potential and whether it is in the window (ROC AUC
     pools them: in the window against every frame of the clips that do not loom)."""
     from lgmd_sim import metrics, models
-    from lgmd_sim.calibration.clips import STIMULI
-    from lgmd_sim.stimuli import jittered
-    from lgmd_sim.world.params import frame_size
+    from lgmd_sim.calibration.clips import stimulus_clip
 
     name, jitter, seed = clip
-    rng = np.random.default_rng([seed, zlib.crc32(name.encode())])
-    stimulus = jittered(STIMULI[name](frame_size(resolution), rng, seed, "texture"), jitter,
-                        seed)
+    stimulus = stimulus_clip(name, jitter, seed, resolution)
     model_ = models.make(model, preset=preset)
     still = np.zeros(3) if model_.rotation_key is not None else None
     outs = [model_.step(f, rotation=still) for f in stimulus.frames]
@@ -64,7 +59,7 @@ def clip_job(clip: ClipKey, model: str, preset: str, resolution: Any, approachin
     near = [hit is not None and hit - window <= t <= hit for t in range(len(potentials))]
     return {"stimulus": name, "jitter": jitter, "seed": seed, "approaching": approaching,
             "frames": len(potentials), "collision_frame": hit,
-            "first_alarm": next((t for t, a in enumerate(alarms) if a), None),
+            "first_alarm": judged.first_alarm,
             "outcome": judged.outcome, "lead_s": judged.lead_s,
             "potentials": potentials, "near": near}
 

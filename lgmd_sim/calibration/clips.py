@@ -30,7 +30,7 @@ from lgmd_sim.fileio import atomic_output
 __all__ = ["DEFAULT_GROUPS", "FRONT_ENDS", "LOOKAHEAD", "ROBOT_GROUPS", "STIMULI",
            "VIDEO_FOVY", "VIDEO_FOVY_RANGE", "VIDEO_GROUPS", "VIDEO_LOOKS", "ClipSpec",
            "HoldLine", "Looks", "clip_motions", "label", "load_clip", "load_gains", "load_truth",
-           "record_clip", "specs"]
+           "record_clip", "specs", "stimulus_clip"]
 
 #: The front ends a calibrated detector may have (see `lgmd_sim.models.stabilize`): the
 #: rotation fitted from the frames, or the IMU's, and the fitted rotation with the
@@ -131,6 +131,18 @@ STIMULI: dict[str, Callable[[tuple[int, int], np.random.Generator, int, str],
 }
 
 
+def stimulus_clip(name: str, jitter: float, seed: int, resolution: Any,
+                  background: str = "texture") -> stimuli.Stimulus:
+    """Stimulus `name` of `STIMULI` drawn from `seed` (its own generator: the same clip
+    whatever else a set holds) at the frame size of `resolution` on `background`, shaken
+    at `jitter` (`lgmd_sim.stimuli.jittered`, seeded by `seed`)."""
+    from lgmd_sim.world.params import frame_size
+
+    rng = np.random.default_rng([seed, zlib.crc32(name.encode())])
+    return stimuli.jittered(STIMULI[name](frame_size(resolution), rng, seed, background),
+                            jitter, seed)
+
+
 #: How far ahead on its line the robot's clips steer for (m).
 LOOKAHEAD = 2.0
 
@@ -179,13 +191,9 @@ def record_clip(spec: ClipSpec, folder: str, resolution: Any, cruise: float | No
     with `fovy` draws its camera's from `VIDEO_FOVY_RANGE`."""
     import cv2
 
-    from lgmd_sim.world.params import frame_size
-
     if spec.scenario in STIMULI:
-        rng = np.random.default_rng([spec.seed, zlib.crc32(spec.scenario.encode())])
-        shape = frame_size(resolution)
-        clip = stimuli.jittered(STIMULI[spec.scenario](shape, rng, spec.seed, looks.background),
-                                spec.jitter, spec.seed)
+        clip = stimulus_clip(spec.scenario, spec.jitter, spec.seed, resolution,
+                             looks.background)
         frames, truth, camera_fovy = list(clip.frames), {}, None
         hit, fps = clip.collision_frame, clip.fps
     else:
