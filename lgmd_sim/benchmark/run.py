@@ -25,7 +25,7 @@ from lgmd_sim.fileio import canonical_json, write_text_atomic
 from lgmd_sim.machine import machine
 from lgmd_sim.runs import RunFolder
 
-__all__ = ["RESULT", "benchmark", "calibrated", "user_presets"]
+__all__ = ["RESULT", "benchmark", "calibrated", "track_config", "user_presets"]
 
 #: An entry's result, in its folder.
 RESULT = "result.json"
@@ -36,20 +36,31 @@ _ARENA_COLUMNS = ("episodes", "avoidance_rate", "avoidance_ci", "encounters",
                   "collisions_per_min", "false_alarms_per_min", "mean_distance_m")
 
 
-def _closed_loop(entry: Entry, protocol: Protocol, track: ClosedLoopTrack, out: Path,
-                 run_options: Mapping[str, Any]) -> list[dict[str, Any]]:
-    """Run the entry's cells of `track` (a closed-loop bench run in `out`); its records."""
+def track_config(entry: Entry, protocol: Protocol, track: ClosedLoopTrack) -> Any:
+    """The closed-loop bench's configuration (`lgmd_sim.bench.closed_loop.ClosedLoopConfig`)
+    of the entry's cells in `track`: its scenario, jitter levels and seeds, at the
+    protocol's frame size, cruise and horizon."""
     from lgmd_sim.bench import closed_loop
 
-    config = closed_loop.ClosedLoopConfig(
+    return closed_loop.ClosedLoopConfig(
         scenarios=(track.scenario,), jitter=track.jitter,
         **entry.bench_options(track.scenario, track.jitter), seeds=track.episodes,
         first_seed=track.first_seed, resolution=protocol.resolution, cruise=protocol.cruise,
         horizon=protocol.horizon)
-    closed_loop.run(config, out, resume=True, **run_options)
-    cells = config.cells()
-    return RunFolder(out, config.as_json(), "", resume=True, start=False).records(
-        [c.key(s) for c in cells for s in config.seed_list])
+
+
+def _closed_loop(entry: Entry, protocol: Protocol, track: ClosedLoopTrack, out: Path,
+                 run_options: Mapping[str, Any]
+                 ) -> tuple[list[dict[str, Any]], list[dict[str, Any]]]:
+    """Run the entry's cells of `track` (a closed-loop bench run in `out`); its records and
+    the bench's summary rows of them."""
+    from lgmd_sim.bench import closed_loop
+
+    config = track_config(entry, protocol, track)
+    result = closed_loop.run(config, out, resume=True, **run_options)
+    records = RunFolder(out, config.as_json(), "", resume=True, start=False).records(
+        [c.key(s) for c in config.cells() for s in config.seed_list])
+    return records, result.rows
 
 
 def _detection(entry: Entry, protocol: Protocol, out: Path, run_options: Mapping[str, Any]
@@ -79,13 +90,12 @@ def _detection(entry: Entry, protocol: Protocol, out: Path, run_options: Mapping
     return records
 
 
-def _rows(records: list[dict[str, Any]], columns: tuple[str, ...],
+def _rows(records: list[dict[str, Any]], rows: list[dict[str, Any]], columns: tuple[str, ...],
           score: Callable[[Mapping[str, Any]], float]) -> dict[str, dict[str, Any]]:
-    """Per jitter level: the bench summary's `columns` and the track's score."""
-    from lgmd_sim.bench.summary import summarise
-
+    """Per jitter level: the `columns` of the bench's summary `rows` (one cell's, a row a
+    level) and the track's score over its `records`."""
     out = {}
-    for row in summarise(records):
+    for row in rows:
         level = [r for r in records if r["jitter"] == row["jitter"]]
         out[f"{row['jitter']:g}"] = {**{c: row.get(c) for c in columns},
                                      "score": sum(map(score, level)) / len(level)}
@@ -170,13 +180,14 @@ def benchmark(entry: Entry, protocol: Protocol, out: str | Path, *,
     def arena_score(r: Mapping[str, Any]) -> float:
         return scores.arena_score(r, reference[protocol.arena.jitter.index(r["jitter"])])
 
-    goal = _closed_loop(entry, protocol, protocol.goal, folder / "goal", run_options)
+    goal, rows = _closed_loop(entry, protocol, protocol.goal, folder / "goal", run_options)
     parts = {"goal": scores.parts_of(goal, scores.goal_score)}
-    metrics = {"goal": _rows(goal, _GOAL_COLUMNS, scores.goal_score)}
+    metrics = {"goal": _rows(goal, rows, _GOAL_COLUMNS, scores.goal_score)}
     if entry.kind != "policy":  # a policy observes the goal, which the arena has not
-        arena = _closed_loop(entry, protocol, protocol.arena, folder / "arena", run_options)
+        arena, rows = _closed_loop(entry, protocol, protocol.arena, folder / "arena",
+                                   run_options)
         parts["arena"] = scores.parts_of(arena, arena_score)
-        metrics["arena"] = _rows(arena, _ARENA_COLUMNS, arena_score)
+        metrics["arena"] = _rows(arena, rows, _ARENA_COLUMNS, arena_score)
     if entry.kind == "detector":
         clips = _detection(entry, protocol, folder / "detection", run_options)
         parts["detection"] = scores.detection_parts(clips)

@@ -36,7 +36,7 @@ def run(*, entry: str = "lgmd1/robot-image", episodes: int = 4, markdown: bool =
     """Measure and print the table (Markdown with `markdown`)."""
     from lgmd_sim.bench import closed_loop
     from lgmd_sim.benchmark import entries, protocol
-    from lgmd_sim.benchmark.run import benchmark
+    from lgmd_sim.benchmark.run import benchmark, track_config
 
     full = protocol.load()
     chosen = entries.parse(entry)
@@ -51,13 +51,8 @@ def run(*, entry: str = "lgmd1/robot-image", episodes: int = 4, markdown: bool =
         with scratch_folder("speed-benchmark") as tmp:
             start = time.perf_counter()
             for t in tracks:  # one bench run per scenario: its seeds and levels
-                config = closed_loop.ClosedLoopConfig(
-                    scenarios=(t.scenario,), jitter=t.jitter,
-                    **chosen.bench_options(t.scenario, t.jitter), seeds=t.episodes,
-                    first_seed=t.first_seed, resolution=short.resolution,
-                    cruise=short.cruise, horizon=short.horizon)
-                closed_loop.run(config, tmp / f"bench-{t.scenario}", workers=workers,
-                                progress=False)
+                closed_loop.run(track_config(chosen, short, t), tmp / f"bench-{t.scenario}",
+                                workers=workers, progress=False)
             bench = time.perf_counter() - start
             benchmark(chosen, short, tmp / "benchmark", workers=workers, progress=False)
             folder = tmp / "benchmark" / chosen.key
