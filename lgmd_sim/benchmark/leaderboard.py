@@ -16,7 +16,7 @@ import numpy as np
 
 from lgmd_sim.benchmark import scores
 from lgmd_sim.benchmark.protocol import Protocol
-from lgmd_sim.fileio import atomic_outputs, read_json
+from lgmd_sim.fileio import atomic_outputs
 from lgmd_sim.runs import NUMBER, Maybe, read_record
 
 __all__ = ["RESULT_FIELDS", "leaderboard", "load_result", "markdown"]
@@ -44,7 +44,6 @@ def load_result(path: str | Path) -> dict[str, Any]:
     """
     path = Path(path)
     file = path / "result.json" if path.is_dir() else path
-    read_json(file)  # bounded, one line naming it when it is no JSON
     return read_record(file, RESULT_FIELDS, "run lgmd-sim benchmark again for it")
 
 
@@ -88,12 +87,12 @@ def markdown(results: Sequence[Mapping[str, Any]], names: Sequence[str],
              "collisions % | avoided % | false alarms / min | AUC |",
              "|---:|---|---|---|---|---|---:|---:|---:|---:|---:|"]
     rank, above = 0, None
-    for i in order:
+    for place, i in enumerate(order, 1):
         r = results[i]
         ranked = r["scores"].get("overall") is not None
         tied = ranked and above is not None and not scores.compare(
             _parts(r), _parts(above), resamples, seed)["overall"]["separable"]
-        rank = rank if tied else order.index(i) + 1
+        rank = rank if tied else place
         shown = ("=" if tied else "") + str(rank) if ranked else "-"
         auc = (r["metrics"].get("detection") or {}).get("auc")
         alarms = np.mean([row["false_alarms_per_min"] for row in r["metrics"]["goal"].values()
