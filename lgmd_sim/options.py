@@ -13,6 +13,8 @@ import math
 from collections.abc import Callable, Iterable, Sequence
 from typing import Any
 
+from lgmd_sim.params import comma_list
+
 __all__ = [
     "check_detectors",
     "check_jitter",
@@ -29,11 +31,6 @@ __all__ = [
     "noise_levels",
     "resolution",
 ]
-
-
-def comma_list(text: str) -> list[str]:
-    """The items of a comma-separated list, stripped, empty ones dropped."""
-    return [t.strip() for t in text.split(",") if t.strip()]
 
 
 def names(text: str | Iterable[str], valid: Sequence[str], what: str, *,

@@ -17,6 +17,12 @@ import numpy as np
 Check = Callable[[Any], str | None]  # returns an error message, or None when valid
 
 
+def comma_list(text: str) -> list[str]:
+    """The items of a comma-separated list, stripped, empty ones dropped (a parameter or an
+    option that lists names, as text)."""
+    return [t.strip() for t in text.split(",") if t.strip()]
+
+
 def param(default: Any, source: str, *, check: Check | None = None, doc: str = "") -> Any:
     """A parameter: its default, where that default comes from, and its check."""
     return dataclasses.field(

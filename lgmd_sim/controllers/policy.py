@@ -11,7 +11,7 @@ import numpy as np
 
 from lgmd_sim.controllers.base import Controller
 from lgmd_sim.controllers.straight import DESIGN
-from lgmd_sim.params import CheckedParams, param
+from lgmd_sim.params import CheckedParams, comma_list, param
 
 __all__ = ["Policy", "PolicyParams"]
 
@@ -63,8 +63,7 @@ class Policy(Controller):
         from lgmd_sim import policies
 
         super().__init__(**params)
-        plugins = [s.strip() for s in self.params.plugins.split(",") if s.strip()]
-        self.policy = policies.load(self.params.path, plugins)
+        self.policy = policies.load(self.params.path, comma_list(self.params.plugins))
         # one thread: a small network's forward pass, and one controller per core in a sweep
         import torch
 
