@@ -7,7 +7,6 @@ key by key, so that a bad file is one line naming it and the key.
 from __future__ import annotations
 
 import hashlib
-import math
 import tomllib
 from collections.abc import Mapping
 from dataclasses import dataclass
@@ -15,6 +14,7 @@ from pathlib import Path
 from typing import Any
 
 from lgmd_sim.fileio import read_text
+from lgmd_sim.params import finite
 
 __all__ = ["CURRENT", "PROTOCOLS", "ArenaTrack", "Calibration", "ClosedLoopTrack",
            "DetectionTrack", "Protocol", "load"]
@@ -106,9 +106,8 @@ class Protocol:
 
 
 def _is(value: Any, kind: type) -> bool:
-    if kind is float:  # TOML's true is no number; an integer is a float here
-        return isinstance(value, int | float) and not isinstance(value, bool) and math.isfinite(
-            value)
+    if kind is float:  # the parameters' check: an integer is a float here, true is none
+        return finite(value) is None
     if kind is int:
         return isinstance(value, int) and not isinstance(value, bool)
     return isinstance(value, kind)

@@ -34,10 +34,10 @@ from __future__ import annotations
 import tomllib
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from types import UnionType
 from typing import Any
 
 from lgmd_sim.fileio import read_text
+from lgmd_sim.params import finite, int_at_least
 
 __all__ = ["CURRICULA", "Curriculum", "Stage", "load"]
 
@@ -117,8 +117,8 @@ def _parse(data: Mapping[str, Any], env_id: str, name: str) -> Curriculum:
     unknown = sorted(set(data) - {"window", "stage"})
     window = data.get("window", 50)
     raw = data.get("stage", [])
-    if unknown or not _is_number(window, int) or window < 1 or not isinstance(raw, list) \
-            or not raw:
+    # the parameters' checks: TOML's true and false are no numbers, though Python's are
+    if unknown or int_at_least(1)(window) or not isinstance(raw, list) or not raw:
         raise ValueError(f"--curriculum {name}: needs a positive integer `window` and one "
                          "or more [[stage]] tables" + (f", not {', '.join(unknown)}"
                                                        if unknown else ""))
@@ -131,7 +131,7 @@ def _parse(data: Mapping[str, Any], env_id: str, name: str) -> Curriculum:
                              "([[stage]])")
         overrides = {k: v for k, v in table.items() if k != "advance_at"}
         at = table.get("advance_at")
-        if not _is_number(at, int | float) or not 0.0 < at <= 1.0:
+        if finite(at) or not 0.0 < at <= 1.0:
             raise ValueError(f"{where}: advance_at must be a success rate in (0, 1], got {at!r}")
         if fixed := sorted(set(overrides) & set(_FIXED)):
             raise ValueError(f"{where}: {', '.join(fixed)} cannot change between stages (what "
@@ -146,7 +146,3 @@ def _parse(data: Mapping[str, Any], env_id: str, name: str) -> Curriculum:
         stages.append(Stage(overrides, float(at)))
     return Curriculum(tuple(stages), window, name)
 
-
-def _is_number(value: Any, kind: type | UnionType) -> bool:
-    # TOML's true and false are no numbers, though Python's bool is an int
-    return isinstance(value, kind) and not isinstance(value, bool)
