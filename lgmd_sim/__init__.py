@@ -12,7 +12,7 @@ Packages, in floors (each imports only from the floors below it):
              parsed and checked), plots (figure conventions)
     jobs     lgmd_sim.detect, record, demo, data (labelled datasets), bench (the model
              benchmark), calibration, training, speed: each job a function taking a
-             typed, frozen configuration (docs/api.md)
+             typed, frozen configuration (docs/reference/api.md)
     command  lgmd_sim.cli (`lgmd-sim`: parses options into a job's configuration)
 
 Importing lgmd_sim registers every scenario of the catalogue as `lgmd_sim/<Name>-v0`.

@@ -1,9 +1,9 @@
 """`lgmd-sim demo`: the robot drives straight at an obstacle over rough ground.
 
-One episode of RoughTerrainObstacles at the paper's 270 x 480: a proportional heading
-controller keeps the robot on the line to the goal, with an obstacle standing in the way,
-while LGMD detectors watch the camera: by default the best one of the calibration
-(docs/results.md) beside the paper's feedback LGMD (`lgmd_sim.cli.demo.DETECTORS`).
+One episode of RoughTerrainObstacles at 120 x 160 (the robot presets' calibration's
+size): a proportional heading controller keeps the robot on the line to the goal, with an
+obstacle standing in the way, while LGMD detectors watch the camera: by default the
+feedback LGMD at its robot preset beside the paper's (`lgmd_sim.cli.demo.DETECTORS`).
 Writes
 
 - ``demo.mp4``: the camera view beside the first detector's S layer, and below them every
@@ -38,6 +38,9 @@ SCENARIO = "lgmd_sim/RoughTerrainObstacles-v0"
 CRUISE, HEADING_GAIN = 0.6, 1.5
 #: Height (pixels) of the membrane-potential panel under the video.
 TRACE_HEIGHT = 210
+#: Frames smaller than this are shown enlarged by a whole factor, pixels kept square and
+#: sharp (nearest neighbour): a 120 x 160 camera is too small to watch at its own size.
+SHOWN_HEIGHT = 240
 #: Dash length (points) of the thresholds in the summary.
 DASH = 4.0
 #: The closed-loop episode's files (`lgmd_sim.demo_avoid`): the video, the figure.
@@ -79,7 +82,7 @@ class Episode:
 
 
 def drive(seed: int, jitter: float, detectors: list[str],
-          resolution: str | Sequence[int] = "paper") -> Episode:
+          resolution: str | Sequence[int] = "rl") -> Episode:
     """Run one episode with the robot heading for the goal through the obstacle ahead,
     each detector ("model/preset+front", `models.parse_spec`) watching the camera."""
     import gymnasium as gym
@@ -182,22 +185,30 @@ class _Compositor:
         self.ep = ep
         # One scale for the whole episode: S brightness compares across frames.
         self.s_scale = max(float(np.percentile(np.stack(ep.s_layers), 99.9)), 1e-6)
+        h, w = ep.frames[0].shape[:2]
+        self.zoom = max(1, SHOWN_HEIGHT // h)
+        self.size = (self.zoom * h + TRACE_HEIGHT, 2 * self.zoom * w)
+
+    def _shown(self, image: np.ndarray) -> np.ndarray:
+        return cv2.resize(image, None, fx=self.zoom, fy=self.zoom,
+                          interpolation=cv2.INTER_NEAREST)
 
     def __call__(self, t: int) -> np.ndarray:
         frame, s = self.ep.frames[t], self.ep.s_layers[t]
         s = np.maximum(s, 0)  # LGMD1's S is negative where inhibition wins
         s8 = np.clip(255.0 * np.sqrt(s / self.s_scale), 0, 255).astype(np.uint8)
-        s_rgb = cv2.cvtColor(cv2.applyColorMap(s8, cv2.COLORMAP_INFERNO), cv2.COLOR_BGR2RGB)
+        s_rgb = self._shown(cv2.cvtColor(cv2.applyColorMap(s8, cv2.COLORMAP_INFERNO),
+                                         cv2.COLOR_BGR2RGB))
         cv2.putText(s_rgb, f"S layer of {next(iter(self.ep.potentials))}", (8, 20),
                     cv2.FONT_HERSHEY_SIMPLEX, 0.55, (255, 255, 255), 1, cv2.LINE_AA)
-        return np.vstack([np.hstack([frame, s_rgb]), _trace_panel(self.ep, t, 2 * s.shape[1])])
+        return np.vstack([np.hstack([self._shown(frame), s_rgb]),
+                          _trace_panel(self.ep, t, self.size[1])])
 
 
 def write_video(ep: Episode, path: Path, still: Path | None = None) -> None:
     """The episode as a video; with `still`, also its frame 0.5 s before the collision."""
     compose = _Compositor(ep)
-    h, w = ep.frames[0].shape[:2]
-    with video_writer(path, ep.fps, (h + TRACE_HEIGHT, 2 * w)) as write:
+    with video_writer(path, ep.fps, compose.size) as write:
         for t in range(len(ep.frames)):
             write(compose(t))
     if still is not None:
@@ -285,8 +296,8 @@ def write_summary(ep: Episode, path: Path, title: str) -> None:
 
 
 def run(*, out: str | Path = "demo-out", seed: int = 2, jitter: float = 1.0,
-        detectors: Sequence[str] = ("feedback/calibrated-image", "feedback/paper"),
-        resolution: str | Sequence[int] = "paper", avoider: str | None = None,
+        detectors: Sequence[str] = ("feedback/robot-image", "feedback/paper"),
+        resolution: str | Sequence[int] = "rl", avoider: str | None = None,
         avoid_seed: int = 0, avoid_resolution: str | Sequence[int] | None = None) -> int:
     """Drive one episode with `detectors` watching (the first one's S layer shown) at the
     camera `resolution`, and with `avoider` ("DETECTOR[,SIDE]", `demo_avoid.parse_avoider`;

@@ -31,6 +31,8 @@ SCENARIO = "lgmd_sim/RoughTerrainObstacles-v0"
 TTC_CLIP = 5.0
 #: The path, its manoeuvres and the alarm onsets, in the figure and the video alike.
 PATH_COLOUR, MANOEUVRE_COLOUR = "#0072B2", "#E69F00"
+#: The time to collision's line: grey, no model's colour (not to be read as a detector's).
+TTC_COLOUR = "0.35"
 ALARM_MARK: dict[str, Any] = {"marker": "v", "ms": 10, "color": "#D62728", "mec": "black",
                               "ls": "none"}
 #: The goal, as the benchmark's trajectories figure marks it.
@@ -160,7 +162,8 @@ def figure(ep: AvoidEpisode) -> Figure:
     from matplotlib import patheffects
 
     from lgmd_sim.bench.figures import draw_world
-    from lgmd_sim.plots import COLLISION, THRESHOLD, figure, model_style
+    from lgmd_sim.detect.figure import draw_thresholds
+    from lgmd_sim.plots import COLLISION, figure, model_style
 
     (x0, y0), (x1, y1) = _top_view_bounds(ep)
     width = 6.0  # inches of the map; its height follows the extent (equal axes)
@@ -187,14 +190,16 @@ def figure(ep: AvoidEpisode) -> Figure:
     _draw_goal(top, ep.view, label="goal")
     top.set(xlim=(x0, x1), ylim=(y0, y1), aspect="equal", xlabel="x (m)", ylabel="y (m)",
             title="from above (obstacles brown, terrain height grey)")
-    top.legend(loc="upper center", bbox_to_anchor=(0.5, -0.1), ncols=3, fontsize="small")
+    # below the x axis' label, not on it
+    top.legend(loc="upper center", bbox_to_anchor=(0.5, -0.16), ncols=3, fontsize="small")
 
     time = np.arange(len(ep.frames)) / ep.fps
     colour = model_style(ep.detector)["color"]
     eye = " (the more excited eye)" if ep.side == "eyes" else ""
     trace.plot(time, ep.potential, color=colour, lw=1.6,
                label=f"potential of {ep.detector}{eye}")
-    trace.axhline(ep.threshold, **THRESHOLD, label=f"threshold {ep.threshold:g}")
+    # its value not beside the right edge: the time to collision's axis is there
+    draw_thresholds(trace, {ep.detector: ep.threshold}, values=False)
     for k, t in enumerate(onsets, 1):
         trace.annotate(str(k), (time[t], ep.potential[t]), xytext=(0, 9),
                        textcoords="offset points", ha="center", fontsize="small",
@@ -208,13 +213,13 @@ def figure(ep: AvoidEpisode) -> Figure:
     trace.set(xlabel="time (s)", ylabel="membrane potential", xlim=(0, time[-1]),
               title="the detector, and the ground truth")
     ttc = trace.twinx()
-    ttc.plot(time, np.where(ep.ttc < TTC_CLIP, ep.ttc, np.nan), color="#009E73", lw=1.2,
+    ttc.plot(time, np.where(ep.ttc < TTC_CLIP, ep.ttc, np.nan), color=TTC_COLOUR, lw=1.2,
              ls="--", label="time to collision of the most threatening obstacle "
              f"(< {TTC_CLIP:g} s)")
     ttc.set(ylim=(0, TTC_CLIP * 1.6), ylabel="time to collision (s)")
     lines, twin = trace.get_legend_handles_labels(), ttc.get_legend_handles_labels()
     trace.legend(lines[0] + twin[0], lines[1] + twin[1], loc="upper center",
-                 bbox_to_anchor=(0.5, -0.1), ncols=2, fontsize="small")
+                 bbox_to_anchor=(0.5, -0.16), ncols=2, fontsize="small")
     n = len(onsets)
     fig.suptitle(f"ReactiveAvoid driven by {ep.detector} ({ep.side}): RoughTerrainObstacles, "
                  f"seed {ep.seed}, jitter {ep.jitter:g}: {ep.outcome}, "

@@ -241,8 +241,8 @@ def sensitivity_index(
 
     F_n counts frames from 1 (the paper's numbering), so an alarm on the last frame gives
     1. The paper leaves the never-crossed case undefined: it is reported as si = 1.0 with
-    crossed = False, never silently (docs/models.md). `rule`: when the potentials alarm
-    (a model's `AlarmRule`).
+    crossed = False, never silently (docs/experiments/models-log.md). `rule`: when the
+    potentials alarm (a model's `AlarmRule`).
     """
     mp = _series(potentials, "sensitivity_index")
     first = first_alarm(mp, threshold, rule)

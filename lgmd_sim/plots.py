@@ -34,14 +34,15 @@ THRESHOLD: dict[str, Any] = {"color": "0.45", "ls": "--", "lw": 1.0}
 
 def model_style(name: str) -> dict[str, Any]:
     """Line style of a detector ("model", "model/preset", with front ends): the model's
-    own; a calibrated preset in a darker shade of its colour, a front end (a camera
-    stabilized by "image", "imu" or "pose") dotted, so that variants of one model differ."""
+    own; a calibrated preset (calibrated, robot, video) in a darker shade of its colour, a
+    front end (a camera stabilized by "image", "imu" or "pose") dotted, so that variants
+    of one model differ."""
     head, *fronts = name.split("+")
     base, _, preset = head.partition("/")
     if base not in _STYLES:
         return {"color": _OTHERS[sum(map(ord, name)) % len(_OTHERS)], "ls": "-", "lw": 1.6}
     style = dict(_STYLES[base])
-    if preset.startswith("calibrated"):
+    if preset.startswith(("calibrated", "robot", "video")):
         style["color"] = tuple(0.6 * c for c in to_rgb(style["color"]))
     if fronts or any(f in preset.split("-") for f in ("image", "imu", "pose")):
         # dotted (f_off, dotted already: long dashes), unlike every model's own style

@@ -1,5 +1,5 @@
 """The baselines against ports of their published code, and their answer to light and dark
-looming objects: the tables of docs/models.md, "Baselines".
+looming objects: the tables of docs/experiments/models-log.md, "Baselines".
 
 For every preset that reproduces a published file (`lgmd_sim.models.reference.published`
 .ORACLES), and for this project's first reading (preset ``v0.1``) against the same file:

@@ -25,7 +25,8 @@ from lgmd_sim.bench.episode import Cell
 HORIZONS = (0.3, 0.45, 0.6, 0.8, 1.0, 1.15, 1.3, 1.7, 2.2)
 #: Seeds 200 and up: not the calibration's (0-7, 100-107) nor the benchmark's (1000-1049).
 FIRST_SEED = 200
-#: The closed-loop target at jitter 1 (docs/results.md): success and collision rates.
+#: The closed-loop target at jitter 1 (issue 16; docs/experiments/results-log.md): success
+#: and collision rates.
 SUCCESS, COLLISIONS = 0.60, 0.15
 
 

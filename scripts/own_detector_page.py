@@ -1,23 +1,24 @@
-"""The measured sections of docs/own-detector.md: the checker's output on the worked
-example and on a broken variant of it, the example's calibration, and its open-loop and
-closed-loop rows beside the built-ins', each run's command beside its results. Each
+"""The measured sections of the own-detector pages: the checker's output on the worked
+example and on a broken variant of it (docs/guides/own-detector.md), the example's
+calibration, and its open-loop and closed-loop rows beside the built-ins'
+(docs/experiments/own-detector-rows.md), each run's command beside its results. Each
 section replaces the text between its markers (`<!-- own-detector: SECTION made by ... -->`
 ... `<!-- own-detector: SECTION end -->`, SECTION one of checker, calibration, open-loop,
-closed-loop); a section whose runs are not given keeps what is there, and the rest of the
-page stays as written.
+closed-loop) on its page (PAGES); a section whose runs are not given keeps what is there,
+and the rest of the pages stays as written.
 
     .venv/bin/python scripts/own_detector_page.py \
         --calibration runs/calibration-eta --beside runs/calibration-robot \
         --open-loop runs/open-loop-eta runs/open-loop \
         --closed-loop runs/closed-loop-eta runs/closed-loop-robot
 
-The checker section is always remade: it runs `lgmd-sim models --check` on the example
-and on tests/plugins/eta_broken.py. The runs, with tests/plugins on the path (the
-calibration is the built-ins' robot calibration's task, budget and seeds; its presets,
-saved, are what the closed loop runs; the open-loop run beside is docs/results.md's, all
-the built-ins at their default presets):
+The checker section is always remade: it runs `lgmd-sim models --check` on the example,
+examples/eta_lgmd.py, and on tests/plugins/eta_broken.py. The runs, with examples on the
+path (the calibration is the built-ins' robot calibration's task, budget and seeds; its
+presets, saved, are what the closed loop runs; the open-loop run beside is that of
+docs/experiments/results-log.md, all the built-ins at their default presets):
 
-    export PYTHONPATH=tests/plugins LGMD_SIM_DATA_DIR=runs/eta-presets  # presets saved there
+    export PYTHONPATH=examples LGMD_SIM_DATA_DIR=runs/eta-presets  # presets saved there
     lgmd-sim calibrate --task robot --budget 16 --seeds 6 --save-presets \
         --detectors eta_lgmd:EtaLGMD,eta_lgmd:EtaLGMD+imu,eta_lgmd:EtaLGMD+image \
         --out runs/calibration-eta --workers 2 --no-progress
@@ -44,10 +45,16 @@ from robot_page import _cell, _cell_id, _pct, _wall
 
 from lgmd_sim.fileio import write_files
 
-PAGE = ROOT / "docs" / "own-detector.md"
-#: The checker's subjects: the worked example, and the same broken on purpose.
+GUIDE = ROOT / "docs" / "guides" / "own-detector.md"
+ROWS = ROOT / "docs" / "experiments" / "own-detector-rows.md"
+#: The page that holds each section: the checker in the user's guide, the measured rows in
+#: the research log.
+PAGES = {"checker": GUIDE, "calibration": ROWS, "open-loop": ROWS, "closed-loop": ROWS}
+#: The checker's subjects, each with the folders that make it importable (PYTHONPATH): the
+#: worked example, and the same broken on purpose (a test plug-in built on the example).
 EXAMPLE = "eta_lgmd:EtaLGMD"
 BROKEN = "eta_broken:ResetEveryStream"
+SUBJECTS = ((EXAMPLE, ("examples",)), (BROKEN, ("examples", "tests/plugins")))
 #: What a bench's runs must share for their rows to stand in one table: the same values,
 #: and (the list) every one the example's run ran.
 SAME = {"closed-loop": ("seeds", "resolution"), "open-loop": ("resolution",)}
@@ -75,11 +82,11 @@ def _fail(message: str) -> None:
 # --- the checker ---------------------------------------------------------------------------
 
 
-def check(spec: str) -> tuple[str, str, int]:
-    """`PYTHONPATH=tests/plugins lgmd-sim models --check SPEC`, run: (the command, what
-    it printed, its exit status)."""
-    command = f"PYTHONPATH=tests/plugins lgmd-sim models --check {spec}"
-    env = {**os.environ, "PYTHONPATH": "tests/plugins"}
+def check(spec: str, path: Sequence[str]) -> tuple[str, str, int]:
+    """`PYTHONPATH=PATH lgmd-sim models --check SPEC`, run in the checkout: (the command,
+    what it printed, its exit status)."""
+    command = f"PYTHONPATH={':'.join(path)} lgmd-sim models --check {spec}"
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(path)}
     done = subprocess.run([sys.executable, "-m", "lgmd_sim.cli", "models", "--check", spec],
                           cwd=ROOT, env=env, capture_output=True, text=True)
     return command, (done.stdout + done.stderr).strip(), done.returncode
@@ -88,10 +95,11 @@ def check(spec: str) -> tuple[str, str, int]:
 def checker_section() -> list[str]:
     """The checker on the example (it passes) and on its broken variant (it fails)."""
     lines = ["`lgmd-sim models --check` on the example, and on a copy of it broken on "
-             "purpose, [`tests/plugins/eta_broken.py`](../tests/plugins/eta_broken.py), whose "
-             "`reset_streams` resets every stream instead of the streams it is given:", ""]
-    for spec in (EXAMPLE, BROKEN):
-        command, output, status = check(spec)
+             "purpose, [`tests/plugins/eta_broken.py`](../../tests/plugins/eta_broken.py), "
+             "whose `reset_streams` resets every stream instead of the streams it is given:",
+             ""]
+    for spec, path in SUBJECTS:
+        command, output, status = check(spec, path)
         lines += ["```console", f"$ {command}", output, "```", "", f"Exit status {status}.",
                   ""]
     return lines
@@ -297,8 +305,8 @@ def open_loop_section(runs: Sequence[Path]) -> list[str]:
                    key=lambda kr: (get(kr[1], "scenario"), float(get(kr[1], "jitter")),
                                    kr[0], get(kr[1], "detector")))
     return ["### Open loop", "", "The example (in bold) beside the built-ins on the same "
-            "clips (the measures of docs/results.md's open-loop tables; the noisy variants "
-            "left out):", "", *_commands(runs), *head,
+            "clips (the measures of the open-loop tables of [the results log](results-log.md); "
+            "the noisy variants left out):", "", *_commands(runs), *head,
             *(_bold(r, at["detector"]) if k == 0 else r for k, r in clean), "",
             _open_loop_reading([(k, get(r, "jitter"), get(r, "detector"), get(r, "ROC AUC"))
                                 for k, r in clean]), ""]
@@ -336,19 +344,25 @@ def main() -> None:
                         help="open-loop runs on the same clips: the example's first")
     parser.add_argument("--closed-loop", type=Path, nargs="+", default=[],
                         help="closed-loop runs on the same seeds: the example's first")
-    parser.add_argument("--page", type=Path, default=PAGE)
     args = parser.parse_args()
     if args.beside and not args.calibration:
         _fail("--beside needs --calibration")
-    page = replace(args.page.read_text(), "checker", checker_section())
+    sections = {"checker": checker_section}
     if args.calibration:
-        page = replace(page, "calibration", calibration_section(args.calibration, args.beside))
+        sections["calibration"] = lambda: calibration_section(args.calibration, args.beside)
     if args.open_loop:
-        page = replace(page, "open-loop", open_loop_section(args.open_loop))
+        sections["open-loop"] = lambda: open_loop_section(args.open_loop)
     if args.closed_loop:
-        page = replace(page, "closed-loop", closed_loop_section(args.closed_loop))
-    write_files({args.page: lambda tmp: tmp.write_text(page)})
-    print(f"wrote {args.page}")
+        sections["closed-loop"] = lambda: closed_loop_section(args.closed_loop)
+    pages: dict[Path, str] = {}
+    for section, make in sections.items():
+        path = PAGES[section]
+        pages[path] = replace(pages.get(path) or path.read_text(), section, make())
+    # every page written only once every section is made: a failed run leaves none half done
+    write_files({path: lambda tmp, text=text: tmp.write_text(text)
+                 for path, text in pages.items()})
+    for path in pages:
+        print(f"wrote {path.relative_to(ROOT)}")
 
 
 if __name__ == "__main__":

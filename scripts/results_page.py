@@ -1,10 +1,9 @@
-"""docs/results.md from benchmark runs: every table and figure made from the runs' files,
-every sentence's figures computed from them, each run's command printed beside its results.
+"""docs/experiments/results-log.md from benchmark runs: every table and figure made from
+the runs' files, every sentence's figures computed from them, each run's command printed
+beside its results. The figures go to docs/results/ (the page links them from beside it).
 
-    .venv/bin/python scripts/results_page.py --closed-loop runs/closed-loop \
-        --open-loop runs/open-loop --calibration runs/calibration-v3 \
-        --closed-loop-calibrated runs/closed-loop-calibrated \
-        --open-loop-front-ends runs/open-loop-compensated
+    .venv/bin/python scripts/results_page.py --open-loop runs/open-loop \
+        --calibration runs/calibration-v3 --open-loop-front-ends runs/open-loop-compensated
 
 Only these are typed by hand: the paper's numbers (its Tables 2 and 3, quoted with
 their source), the targets, the descriptions of the measures, and commentary
@@ -20,6 +19,7 @@ from __future__ import annotations
 import argparse
 import csv
 import json
+import os
 import re
 import shutil
 import sys
@@ -31,8 +31,10 @@ from lgmd_sim.fileio import write_files
 from lgmd_sim.world.params import RESOLUTIONS
 
 ROOT = Path(__file__).resolve().parents[1]
-OUT = ROOT / "docs" / "results.md"
+OUT = ROOT / "docs" / "experiments" / "results-log.md"
 FIGURES = ROOT / "docs" / "results"
+#: The figures' folder as the page links it (relative to the page).
+FIGURES_LINK = Path(os.path.relpath(FIGURES, OUT.parent)).as_posix()
 
 #: The paper's Table 2 (ISI, MpSI) and Table 3 (SI), quoted: (stream, kind, ISI, MpSI of
 #: feedback, LGMD1, LGMD2, F(ONn), F(OFFp), SI of the same five).
@@ -51,6 +53,8 @@ PAPER = [
      (0.9020, 0.0392, 0.0392, 0.1569, 0.1569)),
 ]
 PAPER_MODELS = ("feedback", "lgmd1", "lgmd2", "f_on", "f_off")
+#: Where the calibration's targets for the best detector come from.
+TARGETS_SOURCE = "issue 9's (ego-motion compensation and honest calibration)"
 
 #: A page's figures to write beside it: target -> the run's file to copy, or a function
 #: that draws the figure into the path it is given.
@@ -128,8 +132,8 @@ WHY_LATE = Commentary(
         "while those without one that collide least alarm all the time and avoid by backing",
         "away, never reaching the goal. The calibration tuned them on the walker's clips,",
         "whose objective asks for an alarm late in the approach; the robot needs one earlier,",
-        "and sees its own ground flow ([models.md](models.md), \"The robot: the ground's own",
-        "flow\"). The robot's own calibration: \"The robot: its own calibration, two eyes,",
+        "and sees its own ground flow ([models-log.md](models-log.md), \"The robot: the ground's",
+        "own flow\"). The robot's own calibration: \"The robot: its own calibration, two eyes,",
         "two tasks\" below.")))
 
 
@@ -153,7 +157,7 @@ def _copy(run: Path, names: list[str], tag: str, figures: Figures) -> list[str]:
     for name in names:
         if (run / name).is_file():
             figures[FIGURES / tag / name] = run / name
-            out.append(f"results/{tag}/{name}")
+            out.append(f"{FIGURES_LINK}/{tag}/{name}")
     return out
 
 
@@ -250,7 +254,8 @@ def compensation_verdict(runs: list[Path], calibration: Path | None = None) -> l
            f"Over every ReactiveAvoid cell above ({_same_seeds(runs)}), at each "
            "jitter level: the detector with a front end with the fewest collisions (then the "
            "fewest false alarms) against the detector without one chosen the same way. "
-           "Target: at most half the collisions, at no more false alarms a minute.", ""]
+           f"The target, {TARGETS_SOURCE}: at most half the collisions, at no more false "
+           "alarms a minute.", ""]
     # per jitter level: the Oracle's cell, the best without a front end, all those with one
     levels = []
     for jitter in sorted({r["jitter"] for r in cells}, key=float):
@@ -499,7 +504,7 @@ def _attribution(presets: dict[str, dict[str, dict]], n: dict[str, int]) -> list
            f"alarm late and before the collision (target 85% or more), "
            f"{100 * b['stationary']:.0f}% of the stationary clips before the collision "
            f"(target 95%), {100 * (1 - b['near_miss']):.0f}% of the near misses alarm "
-           "(target 10% or less)."]
+           f"(target 10% or less). The targets are {TARGETS_SOURCE}."]
     for model in presets:
         plain, image = held.get(f"{model}/calibrated"), held.get(f"{model}/calibrated-image")
         if plain and image:
@@ -526,11 +531,15 @@ def main() -> None:
     parser.add_argument("--closed-loop", type=Path)
     parser.add_argument("--open-loop", type=Path, required=True)
     parser.add_argument("--calibration", type=Path)
+    # the closed loop with the calibrated presets (runs/closed-loop-calibrated) went the same
+    # way: its ReactiveAvoid cells of LGMD1 ran before the steering-sign fix
     parser.add_argument("--closed-loop-calibrated", type=Path)
     parser.add_argument("--open-loop-front-ends", type=Path)
     args = parser.parse_args()
     figures: Figures = {}
-    lines = ["# Results", "",
+    lines = ["# Results log", "",
+             "The research log of the open-loop benchmark and the calibrations, whole; the "
+             "findings in short: [findings](../findings.md). "
              "Made by `scripts/results_page.py` from the runs whose commands stand beside "
              "their results. Typed by hand: the paper's quoted numbers, the targets, the "
              "descriptions of the measures, and commentary, set apart as a quoted block that "
@@ -542,7 +551,7 @@ def main() -> None:
                                      "rough ground", "closed-loop", figures)
     else:
         lines += ["How each detector drives the robot, every model on the same seeds: the "
-                  "benchmark's [leaderboard](leaderboard.md).", ""]
+                  "benchmark's [leaderboard](../leaderboard.md).", ""]
     lines += open_loop_section(args.open_loop, figures)
     if args.open_loop_front_ends:
         lines += front_end_section(args.open_loop_front_ends, args.open_loop,

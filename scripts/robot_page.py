@@ -1,8 +1,8 @@
-"""The robot's section of docs/results.md, from its runs: how early the manoeuvre must
-start, the robot calibration, and the closed-loop benchmark of both tasks with the
-targets and which part does the work. Every table, figure and sentence's figures come
-from the runs' files, each run's command beside its results; the section replaces the
-one between the markers (or is appended), the rest of the page stays as
+"""The robot's section of docs/experiments/results-log.md, from its runs: how early the
+manoeuvre must start, the robot calibration, and the closed-loop benchmark of both tasks
+with the targets and which part does the work. Every table, figure and sentence's figures
+come from the runs' files, each run's command beside its results; the section replaces
+the one between the markers (or is appended), the rest of the page stays as
 `scripts/results_page.py` made it.
 
     .venv/bin/python scripts/robot_page.py --oracle-window runs/oracle-window \
@@ -20,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 from oracle_window import COLLISIONS, SUCCESS, horizon, window
-from results_page import FIGURES, OUT, ROOT, Figures, _command, _copier, _copy, _rows
+from results_page import FIGURES, FIGURES_LINK, OUT, ROOT, Figures, _command, _copier, _copy, _rows
 
 from lgmd_sim.bench import encounters
 from lgmd_sim.calibration import robot
@@ -31,9 +31,10 @@ from lgmd_sim.fileio import write_files
 
 BEGIN = "<!-- robot: made by scripts/robot_page.py from the runs named below -->"
 END = "<!-- robot: end -->"
-#: The issue's targets on held-out seeds: goal task (jitter: success at least, collisions
-#: at most), arena (jitter: avoidance rate at least), and the arena's least distance
-#: against the Oracle's.
+#: The robot issue's targets on held-out seeds: goal task (jitter: success at least,
+#: collisions at most), arena (jitter: avoidance rate at least), and the arena's least
+#: distance against the Oracle's; `TARGETS_SOURCE` names the issue.
+TARGETS_SOURCE = "issue 16's (the robot avoids obstacles)"
 GOAL_TARGETS = {1.0: (0.60, 0.15), 2.0: (0.50, None)}
 ARENA_TARGETS = {0.0: 0.95, 1.0: 0.90}
 ARENA_DISTANCE = 0.70
@@ -85,7 +86,8 @@ def oracle_section(run: Path) -> list[str]:
         found = window([r for r in rows if float(r["jitter"]) == j])
         text = (f"from {found[0]:g} to {found[1]:g} s" if found else "at no horizon tried")
         agrees = found == (robot.TTC_LO, robot.TTC_HI)
-        lines.append(f"- **jitter {j:g}:** the Oracle meets the target (success "
+        lines.append(f"- **jitter {j:g}:** the Oracle meets the target, {TARGETS_SOURCE} "
+                     f"at jitter 1 (success "
                      f"{100 * SUCCESS:.0f}% or more, collisions {100 * COLLISIONS:.0f}% or "
                      f"fewer) when triggered {text}; the robot objective's window is "
                      f"[{robot.TTC_LO:g}, {robot.TTC_HI:g}] s"
@@ -162,7 +164,7 @@ def targets(rows: Sequence[dict[str, str]]) -> list[str]:
             met = (success is not None and float(best["success_rate"]) >= success
                    and (collisions is None or float(best["collision_rate"]) <= collisions))
             goal = ("" if success is None else
-                    f" Target: success {100 * success:.0f}% or more"
+                    f" Target, {TARGETS_SOURCE}: success {100 * success:.0f}% or more"
                     + (f" with collisions {100 * collisions:.0f}% or fewer" if collisions
                        else "") + (": met." if met else ": not met."))
             out.append(f"- **{scenario}, jitter {jitter:g}:** the most successes with "
@@ -178,7 +180,8 @@ def targets(rows: Sequence[dict[str, str]]) -> list[str]:
             if best is None:
                 out.append(f"- **{scenario}, jitter {jitter:g}:** no LGMD-driven cell covers "
                            f"{100 * ARENA_DISTANCE:.0f}% of the Oracle's distance."
-                           + (" Target not met." if need else ""))
+                           + (f" Target, {TARGETS_SOURCE}: {100 * need:.0f}% or more: not "
+                              "met." if need else ""))
                 continue
             met = need is not None and float(best["avoidance_rate"]) >= need
             out.append(f"- **{scenario}, jitter {jitter:g}:** of the LGMD-driven cells covering "
@@ -189,7 +192,8 @@ def targets(rows: Sequence[dict[str, str]]) -> list[str]:
                        f"{float(best['collisions_per_min']):.1f} collisions and "
                        f"{float(best['false_alarms_per_min']):.1f} false alarms a minute."
                        + (f" Oracle: {_pct(oracle, 'avoidance')} avoided." if oracle else "")
-                       + ("" if need is None else f" Target: {100 * need:.0f}% or more"
+                       + ("" if need is None else f" Target, {TARGETS_SOURCE}: "
+                          f"{100 * need:.0f}% or more"
                           + (": met." if met else ": not met.")) + why(best))
     return [*out, ""]
 
@@ -363,7 +367,7 @@ def closed_loop_section(runs: Sequence[Path], figures: Figures) -> list[str]:
     if bests:
         target = FIGURES / "closed-loop-robot" / "collisions_lead.png"
         figures[target] = lambda tmp: collisions_figure(bests, tmp)
-        name = f"results/closed-loop-robot/{target.name}"
+        name = f"{FIGURES_LINK}/closed-loop-robot/{target.name}"
         lines += ["What came before each collision of the goal task's best LGMD-driven cell "
                   "per jitter level (the most successes): the lead of the last alarm onset "
                   "before the collision, the window shaded.", "", f"![{name}]({name})", ""]

@@ -7,7 +7,8 @@ Copies the run's policy.npz and policy.json (with --best, those of RUN/best, its
 validation; a policy folder: arrays and JSON, no pickle) into the package and writes
 POLICY.md beside them: the command that started the training, the run's summary (its
 sessions and validation), and that policy's rows of the evaluation's table (the rows of
-docs/training.md, whose page scripts/training_page.py writes from the same runs). NAME
+docs/experiments/training-runs.md, which scripts/training_page.py writes from the same
+runs). NAME
 (--name) defaults to the policy `lgmd-sim eval` and the "policy" controller use
 (lgmd_sim.policies.DEFAULT), so releasing a run without --name replaces it. The three
 files move into place together (lgmd_sim.fileio.write_files): a failed release leaves
@@ -24,7 +25,7 @@ import shutil
 from collections.abc import Callable
 from pathlib import Path
 
-from training_page import ROOT, run_summary, table
+from training_page import PAGE, ROOT, run_summary, table
 
 from lgmd_sim.fileio import write_files
 from lgmd_sim.policies import DEFAULT
@@ -48,7 +49,8 @@ def policy_md(run: Path, eval_run: Path, name: str, best: bool = False) -> str:
     which = "The best policy by validation (`best/`)" if best else "The final policy"
     return (f"# {name}\n\n{which} of the training run started by\n\n```bash\n{command}\n"
             f"```\n\n{run_summary(run)}\n\n"
-            "Evaluated on held-out seeds by `lgmd-sim eval` (all rows: docs/training.md):\n\n"
+            "Evaluated on held-out seeds by `lgmd-sim eval` (all rows: "
+            f"{PAGE.relative_to(ROOT).as_posix()}):\n\n"
             + "\n".join([*rows[:2], *mine]) + "\n")
 
 

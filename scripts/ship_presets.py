@@ -9,7 +9,7 @@ that made it (its command, objective, seeds, resolution, budget and figure). Thi
 only way the shipped presets change; `lgmd-sim calibrate --save-presets` writes the user's
 presets file (lgmd_sim.models.presets). The file moves into place complete or not at all. Afterwards
 run the tests (tests/test_presets.py, tests/test_calibration.py) and remake
-docs/results.md from the same run (scripts/results_page.py).
+docs/experiments/results-log.md from the same run (scripts/results_page.py).
 """
 
 from __future__ import annotations

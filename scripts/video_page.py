@@ -1,7 +1,7 @@
-"""The `video` presets' section of docs/models.md, and the README's detection figure, from
-a video calibration run (`lgmd-sim calibrate --task video`). Every table and figure comes
-from the run's files or from the shipped presets; the section replaces the one between
-the markers (or is appended), the rest of the page stays.
+"""The `video` presets' section of docs/experiments/models-log.md, and the README's
+detection figure, from a video calibration run (`lgmd-sim calibrate --task video`). Every
+table and figure comes from the run's files or from the shipped presets; the section
+replaces the one between the markers (or is appended), the rest of the page stays.
 
     .venv/bin/python scripts/video_page.py runs/calibration-video runs/footage-check
 
@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
 from collections.abc import Sequence
 from pathlib import Path
@@ -31,8 +32,10 @@ from lgmd_sim.fileio import write_files
 from lgmd_sim.plots import model_style
 
 ROOT = Path(__file__).resolve().parents[1]
-PAGE = ROOT / "docs" / "models.md"
+PAGE = ROOT / "docs" / "experiments" / "models-log.md"
 FIGURES = ROOT / "docs" / "video"
+#: The figures' folder as the page links it (relative to the page).
+FIGURES_LINK = Path(os.path.relpath(FIGURES, PAGE.parent)).as_posix()
 BEGIN = "<!-- video: made by scripts/video_page.py from the run named below -->"
 END = "<!-- video: end -->"
 #: The README's clip: a seed outside the run's sets, in the transfer looks (a worse
@@ -48,6 +51,8 @@ FRONTS = {"none": {"stabilize": "none", "gain": False},
           "image": {"stabilize": "image", "gain": False},
           "image+gain": {}}
 DASHES = {"none": "-", "image": (0, (5, 2)), "image+gain": (0, (1, 1.2))}
+#: Where the footage targets (`footage_check.TARGETS`) come from.
+TARGETS_SOURCE = "issue 18's (detection that transfers to real footage)"
 
 
 def _front_style(name: str) -> dict:
@@ -195,7 +200,8 @@ def detect_figure(out: Path) -> tuple[str, int]:
     for ax, (title, built) in zip(axes, runs.items(), strict=True):
         d = detect(frames, fps, built, hit, name=name)
         draw_potentials(ax, d, legend=False)
-        ax.legend(fontsize="x-small", loc="upper left", ncols=3)
+        # beside the axes (inside, it covered the potentials), clear of the thresholds' values
+        ax.legend(fontsize="x-small", loc="upper left", bbox_to_anchor=(1.07, 1.0))
         ax.set_title(title, fontsize="medium", loc="left")
     described = (f"{name}, jitter {jitter:g}, seed {seed}, 270 x 480, a camera of {fovy:.0f} "
                  f"degrees (vertical), low sun, shade and flicker, with the noise "
@@ -208,7 +214,7 @@ def detect_figure(out: Path) -> tuple[str, int]:
 def footage_lines(folder: Path) -> list[str]:
     """The outside check's protocol on clips of our own (scripts/footage_check.py's run
     in `folder`): its command, what the clips are, the table with the targets missed."""
-    from footage_check import FIRST_SEED, HELDOUT_SEED, KINDS, LOOKS, SHAKE, table
+    from footage_check import FIRST_SEED, HELDOUT_SEED, KINDS, LOOKS, SHAKE, TARGETS, table
 
     record = json.loads((folder / "footage_check.json").read_text())
     if record["seeds"][0] != HELDOUT_SEED:
@@ -233,6 +239,11 @@ def footage_lines(folder: Path) -> list[str]:
         f"again with {SHAKE} on top (per frame: a shift of sd 2 px, a roll of sd 1 degree, "
         "a gain of sd 5%):", "",
         "```bash", f".venv/bin/python {record['command']}", "```", "",
+        f"The targets, {TARGETS_SOURCE}, for the best model: approaching clips fired on "
+        f"{100 * TARGETS['approaching']:g}%, non-approach clips fired on "
+        f"{100 * TARGETS['non_approach']:g}% or fewer, crashes fired on "
+        f"{100 * TARGETS['crash']:g}% or more, the shaken crashes' mean SI "
+        f"{TARGETS['si']:g} or more; `targets missed` names those a detector misses:", "",
         table(record["rows"]), "",
         f"The video presets' alarm rule ({VIDEO.alarm.frames} frames running and rising, "
         f"against {VIDEO.alarm.frames} frames alone) was chosen on the check's clips of "
@@ -283,7 +294,7 @@ def section(run: Path, footage: Path) -> str:
         f"({LOOKS.noise}; the scene with low sun, passing shade and flicker; the stimuli on "
         "plain grounds). Each part is a kind's hit rate in the same order:", "",
         *summary_markdown(chosen, VIDEO).splitlines(), "",
-        "![docs/video/calibration.png](video/calibration.png)", "",
+        f"![docs/video/calibration.png]({FIGURES_LINK}/calibration.png)", "",
         "What the calibration and the front end each bring: each model's objective "
         "(held-out / transfer) at its published defaults with no front end, with its video "
         "preset's parameters and threshold but no front end, and at its video preset, "
@@ -300,9 +311,9 @@ def section(run: Path, footage: Path) -> str:
         "with the rotation alone, and with none, on a synthetic approach shaken at "
         f"jitter 1 on a textured ground, with the calibration's own noise "
         f"({STIMULUS_LOOKS.noise}) and a seed outside its sets:", "",
-        "![docs/video/potentials.png](video/potentials.png)", "",
+        f"![docs/video/potentials.png]({FIGURES_LINK}/potentials.png)", "",
         f"The README's figure: {described}.", "",
-        "![docs/video/detect.png](video/detect.png)", "",
+        f"![docs/video/detect.png]({FIGURES_LINK}/detect.png)", "",
         END,
     ]
     return "\n".join(lines) + "\n"

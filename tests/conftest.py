@@ -55,6 +55,13 @@ def installed(wheel, tmp_path_factory) -> dict[str, str]:
 
 
 @pytest.fixture
+def examples_on_path(monkeypatch):
+    """examples/ on sys.path, as `PYTHONPATH=examples` puts it for a user: the worked
+    plug-in by its spec, eta_lgmd:EtaLGMD."""
+    monkeypatch.syspath_prepend(str(ROOT / "examples"))
+
+
+@pytest.fixture
 def fresh_registries():
     """The model and controller registries as the session began for the test (nothing
     registered, the entry points read afresh), and as they were after it."""

@@ -24,7 +24,7 @@ SMALL = (40, 56)
 # Selectivity set: a 0.2 m square, contrast 0.3, approaching from 3 m at 2 m/s; the same
 # object receding from 1.5 to 3 m (the approach's first half, reversed) and crossing the
 # view at 3 m at 2 m/s. With the published sigmoid coefficients, nearer or faster motion
-# of any kind drives every baseline over the threshold (docs/models.md, "Baselines").
+# of any kind drives every baseline over the threshold (docs/reference/models.md, "Baselines").
 SELECTIVITY_SHAPE = (120, 160)
 SELECTIVITY = stimuli.Look(contrast=0.3)
 

@@ -251,12 +251,14 @@ def test_a_plug_in_calibrated_first_runs_at_the_preset_it_made(tmp_path, monkeyp
     assert os.environ["LGMD_SIM_DATA_DIR"] == str(mine)  # as before the command
 
 
-def _fake(label: str, goal: float, arena: float | None) -> dict:
-    """A result of hand-made scores (a policy's has no arena)."""
-    parts = {"goal": _parts(np.full(10, goal))}
+def _fake(label: str, goal: float | np.ndarray, arena: float | np.ndarray | None) -> dict:
+    """A result of hand-made scores, the same on every seed or one per seed (a policy's has
+    no arena)."""
+    parts = {"goal": _parts(np.broadcast_to(goal, 10).astype(float))}
     if arena is not None:
-        parts["arena"] = _parts(np.full(10, arena))
+        parts["arena"] = _parts(np.broadcast_to(arena, 10).astype(float))
     summary = scores.summarise(parts, 100, 0)
+    goal = float(np.mean(goal))
     row = {"score": goal, "success_rate": goal, "collision_rate": 0.1,
            "false_alarms_per_min": 1.0}
     return {"entry": {"label": label}, "scores": summary.scores,
@@ -275,3 +277,18 @@ def test_the_leaderboard_ranks_by_overall_and_leaves_a_policy_unranked_after():
             if line.startswith("| ") and "`" in line]
     assert [r.split("|")[1].strip() for r in rows] == ["1", "2", "-"]
     assert "`high`" in rows[0] and "`low`" in rows[1] and "`policy:p`" in rows[2]
+
+
+def test_a_rank_counts_only_the_entries_better_beyond_doubt():
+    """A chain of close neighbours does not carry one rank down the table: b is not
+    separable from a, c not from b, yet c is worse than a on every seed."""
+    from lgmd_sim.benchmark.leaderboard import markdown
+
+    x = np.full(10, 0.6)
+    noise = np.tile([0.3, -0.3], 5)
+    a, b, c = x, x - 0.05 + noise, x - 0.1
+    results = [_fake("c", c, c), _fake("a", a, a), _fake("b", b, b)]
+    rows = [line for line in markdown(results, ["c", "a", "b"], 200, 0).splitlines()
+            if line.startswith("| ") and "`" in line]
+    assert [(r.split("|")[1].strip(), r.split("|")[2].strip()) for r in rows] == [
+        ("1", "`a`"), ("=1", "`b`"), ("=2", "`c`")]

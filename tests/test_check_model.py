@@ -237,8 +237,8 @@ def test_a_valid_plug_in_passes_saying_what_it_skipped(model, skipped):
                                 "'eta_lgmd:EtaLGMD'; available: gabbiani"),
     ("nosuch", "nosuch: unknown model 'nosuch'; available: feedback"),
 ])
-def test_a_bad_preset_or_front_end_is_the_specs_fault(spec, message, monkeypatch):
-    monkeypatch.syspath_prepend(str(Path(__file__).parent / "plugins"))
+@pytest.mark.usefixtures("examples_on_path")
+def test_a_bad_preset_or_front_end_is_the_specs_fault(spec, message):
     with pytest.raises(ModelCheckError, match=re.escape(message)) as exc:
         check_model(spec, **SMALL)
     assert len(str(exc.value).splitlines()) == 1
@@ -339,10 +339,10 @@ def test_models_check_of_a_broken_spec_exits_2_with_one_line(tmp_path, monkeypat
         "default, source, check=...)\n")
 
 
-def test_a_slow_model_whose_reset_streams_does_nothing_is_caught(monkeypatch):
+@pytest.mark.usefixtures("examples_on_path")
+def test_a_slow_model_whose_reset_streams_does_nothing_is_caught():
     """The eta example is still at rest a third of the way into the checker's frames: a
     stream reset there says nothing, so the checker resets one late as well."""
-    monkeypatch.syspath_prepend(str(Path(__file__).parent / "plugins"))
     from eta_lgmd import EtaLGMD
 
     class Forgetful(EtaLGMD):

@@ -130,3 +130,13 @@ def test_an_os_error_is_one_line_with_its_file_and_reason_and_no_errno(
     monkeypatch.setattr(models_command, "run", fail)
     assert cli.main(["models"]) == 2
     assert capsys.readouterr().err == f"lgmd-sim models: error: {shown}\n"
+
+
+def test_a_run_records_the_pythonpath_its_plug_in_came_from(monkeypatch):
+    from lgmd_sim.cli import command_line
+
+    monkeypatch.delenv("PYTHONPATH", raising=False)
+    assert command_line(["benchmark", "a b:C"]) == "lgmd-sim benchmark 'a b:C'"
+    monkeypatch.setenv("PYTHONPATH", "my plugins")
+    assert command_line(["benchmark", "eta_lgmd:EtaLGMD", "--calibrate"]) == \
+        "PYTHONPATH='my plugins' lgmd-sim benchmark eta_lgmd:EtaLGMD --calibrate"

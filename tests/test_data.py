@@ -178,7 +178,7 @@ def test_other_video_formats_record_their_codec(tmp_path, video):
 
 
 def test_docs_describe_every_label_column():
-    text = (Path(__file__).resolve().parents[1] / "docs" / "datasets.md").read_text()
+    text = (Path(__file__).resolve().parents[1] / "docs" / "guides" / "datasets.md").read_text()
     assert [c.name for c in layout.COLUMNS if f"| `{c.name}` |" not in text] == []
 
 

@@ -36,7 +36,11 @@ def test_video_summary_and_still(episode, tmp_path):
     cap.release()
     still = cv2.imread(str(tmp_path / "demo_frame.png"))
     h, w = episode.frames[0].shape[:2]
-    assert still.shape == (h + demo.TRACE_HEIGHT, 2 * w, 3)
+    zoom = demo.SHOWN_HEIGHT // h  # a small camera is shown enlarged, by a whole factor
+    assert zoom > 1 and still.shape == (zoom * h + demo.TRACE_HEIGHT, 2 * zoom * w, 3)
+    assert np.array_equal(still[:zoom * h:zoom, :zoom * w:zoom],
+                          cv2.cvtColor(episode.frames[episode.before_collision],
+                                       cv2.COLOR_RGB2BGR))
     assert (tmp_path / "demo.png").stat().st_size > 20_000
 
 
@@ -44,3 +48,10 @@ def test_an_unknown_detector_is_refused_before_the_episode(tmp_path, capsys):
     assert cli.main(["demo", "--models", "lgmd2/nope", "--out", str(tmp_path / "d")]) == 2
     assert "unknown preset 'nope'" in capsys.readouterr().err
     assert not (tmp_path / "d").exists()
+
+
+def test_the_demo_s_two_variants_of_one_model_are_told_apart_by_colour():
+    from lgmd_sim.plots import model_style
+
+    calibrated, paper = (model_style(d)["color"] for d in demo.run.__kwdefaults__["detectors"])
+    assert calibrated != paper

@@ -1,8 +1,6 @@
-"""The worked example of a model of one's own, tests/plugins/eta_lgmd.py (the eta function
-of the LGMD, Gabbiani et al. 1999), used by its spec as a researcher would use theirs
-(docs/own-detector.md)."""
-
-from pathlib import Path
+"""The worked example of a model of one's own, examples/eta_lgmd.py (the eta function of
+the LGMD, Gabbiani et al. 1999), used by its spec as a researcher would use theirs
+(docs/guides/own-detector.md)."""
 
 import numpy as np
 import pytest
@@ -13,10 +11,7 @@ SPEC = "eta_lgmd:EtaLGMD"
 SIZE = 128  # the model wants frames of 128 pixels or more (its docstring, "Limits")
 FOCAL = SIZE / (2 * np.tan(np.radians(55.0) / 2))  # pixels, at the default fovy
 
-
-@pytest.fixture(autouse=True)
-def plugins_on_path(monkeypatch):
-    monkeypatch.syspath_prepend(str(Path(__file__).parent / "plugins"))
+pytestmark = pytest.mark.usefixtures("examples_on_path")
 
 
 def _disc(radius: float, x: float) -> np.ndarray:

@@ -42,5 +42,5 @@ def test_no_source_cites_an_issue_number(capsys):
     assert cli.main(["models"]) == 0
     out = capsys.readouterr().out
     assert not re.search(r"\bissue\b", out, re.I)
-    assert "docs/models.md" in out.split("stabilize = ")[1].splitlines()[0]
+    assert "docs/reference/models.md" in out.split("stabilize = ")[1].splitlines()[0]
 

@@ -1,6 +1,7 @@
-"""scripts/own_detector_page.py: docs/own-detector.md's measured sections from run folders
-(here small hand-made ones: the few files the sections read), each run's command beside
-its rows, and runs that do not share their seeds or clips refused in one line."""
+"""scripts/own_detector_page.py: the own-detector pages' measured sections (the checker in
+docs/guides/own-detector.md, the rows in docs/experiments/own-detector-rows.md) from run
+folders (here small hand-made ones: the few files the sections read), each run's command
+beside its rows, and runs that do not share their seeds or clips refused in one line."""
 
 from __future__ import annotations
 
@@ -155,8 +156,10 @@ def test_the_open_loop_rows_beside_the_built_ins(page, tmp_path):
 
 def test_the_checker_passes_the_example_and_fails_its_broken_copy(page):
     text = "\n".join(page.checker_section())
-    assert "$ PYTHONPATH=tests/plugins lgmd-sim models --check eta_lgmd:EtaLGMD\n" \
+    assert "$ PYTHONPATH=examples lgmd-sim models --check eta_lgmd:EtaLGMD\n" \
            "eta_lgmd:EtaLGMD: passes 10 checks, skips 0" in text
+    assert "$ PYTHONPATH=examples:tests/plugins lgmd-sim models --check " \
+           "eta_broken:ResetEveryStream\n" in text
     assert ("lgmd-sim models: error: eta_broken:ResetEveryStream: reset: reset([1]) changed "
             "stream 0") in text
     assert text.count("Exit status 0.") == 1 and text.count("Exit status 2.") == 1
@@ -168,7 +171,19 @@ def test_a_section_replaces_the_text_between_its_markers_only(page):
     assert page.replace(text, "checker", ["new"]) == f"before\n{begin}\n\nnew\n\n{end}\nafter\n"
     with pytest.raises(SystemExit, match="no calibration markers"):
         page.replace(text, "calibration", ["new"])
-    # the page itself has every section's markers
-    shipped = (ROOT / "docs" / "own-detector.md").read_text()
-    for section in ("checker", "calibration", "open-loop", "closed-loop"):
-        assert page.replace(shipped, section, ["x"]).count("\nx\n") == 1
+    # each section's page has its markers
+    assert set(page.PAGES) == {"checker", "calibration", "open-loop", "closed-loop"}
+    for section, path in page.PAGES.items():
+        assert page.replace(path.read_text(), section, ["x"]).count("\nx\n") == 1
+
+
+def test_the_image_rows_are_those_of_the_committed_benchmark_calibration(page):
+    """The research log's +image calibration row and robot-image preset are the benchmark's
+    own calibration of the example, a committed run folder (the other rows' runs were not
+    committed: the page says so)."""
+    run = ROOT / "docs" / "benchmark" / "runs" / "eta_lgmd_EtaLGMD-robot-image" / "calibration"
+    lines = page.calibration_section(run)
+    row = next(line for line in lines if line.startswith("| eta_lgmd:EtaLGMD+image |"))
+    preset = next(line for line in lines if line.startswith("| eta_lgmd:EtaLGMD/robot-image |"))
+    text = page.ROWS.read_text()
+    assert page._bold(row) in text and preset in text

@@ -12,7 +12,7 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
-DOCS = [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]
+DOCS = [ROOT / "README.md", *sorted((ROOT / "docs").rglob("*.md"))]
 # A ```python block must run as it stands, from the wheel; ```py marks an excerpt, or code
 # that needs a module of the checkout (a test plug-in) on the path.
 PYTHON_BLOCK = re.compile(r"^```python\n(.*?)^```", re.S | re.M)
@@ -62,18 +62,19 @@ def test_installed_wheel_works_outside_the_checkout(installed, tmp_path):
 
 
 @pytest.mark.parametrize(("doc", "code"), BLOCKS,
-                         ids=[f"{d.name}-{i}" for i, (d, _c) in enumerate(BLOCKS)])
+                         ids=[f"{d.relative_to(ROOT)}-{i}" for i, (d, _c) in enumerate(BLOCKS)])
 def test_every_python_block_of_the_documents_runs(installed, tmp_path, doc, code):
     result = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, capture_output=True,
                             text=True, env=installed, timeout=120)
     assert result.returncode == 0, f"{doc.name}:\n{code}\n{result.stderr}"
 
 
-def test_the_readme_record_and_detect_walkthrough_runs(installed, tmp_path):
-    """The README's `lgmd-sim record` then `lgmd-sim detect` block, verbatim, from the
+def test_the_video_guide_s_record_and_detect_walkthrough_runs(installed, tmp_path):
+    """The video guide's `lgmd-sim record` then `lgmd-sim detect` block, verbatim, from the
     wheel: the printed collision frame is the one the detect line uses."""
-    block = next(b for b in re.findall(r"^```bash\n(.*?)^```", (ROOT / "README.md").read_text(),
-                                       re.S | re.M) if "lgmd-sim record" in b)
+    guide = (ROOT / "docs" / "guides" / "video.md").read_text()
+    block = next(b for b in re.findall(r"^```bash\n(.*?)^```", guide, re.S | re.M)
+                 if "lgmd-sim record" in b)
     lines = [ln for ln in block.splitlines() if ln.startswith("lgmd-sim")]
     record = subprocess.run(lines[0].split(), cwd=tmp_path, capture_output=True, text=True,
                             env=installed, timeout=300)
@@ -91,16 +92,16 @@ def test_the_readme_record_and_detect_walkthrough_runs(installed, tmp_path):
     assert version.stdout.strip() == f"lgmd-sim {lgmd_sim.__version__}"
 
 
-def test_the_readme_states_the_observation_spaces_the_environment_has():
-    """The README's comment lines `# obs["KEY"]: dtype (shape)` match the main task's
+def test_the_api_reference_states_the_observation_spaces_the_environment_has():
+    """The API reference's comment lines `# obs["KEY"]: dtype (shape)` match the main task's
     observation space: every key, its dtype, and its shape (the frame's as (H, W, 3))."""
     import gymnasium as gym
 
     import lgmd_sim  # noqa: F401  (registers the scenarios)
 
-    readme = (ROOT / "README.md").read_text()
+    page = (ROOT / "docs" / "reference" / "api.md").read_text()
     stated = {key: (dtype, shape) for key, dtype, shape in
-              re.findall(r'^# obs\["(\w+)"\]:\s+(\w+) \(([^)]*)\)', readme, re.M)}
+              re.findall(r'^# obs\["(\w+)"\]:\s+(\w+) \(([^)]*)\)', page, re.M)}
     env = gym.make("lgmd_sim/RoughTerrainObstacles-v0", resolution="rl")
     try:
         spaces = env.observation_space.spaces

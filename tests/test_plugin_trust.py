@@ -177,6 +177,7 @@ def test_a_parameter_named_like_the_base_s_is_refused_naming_it():
         models.make("hostile:Shadow")  # else its gain of 2.0 would turn the front end on
 
 
+@pytest.mark.usefixtures("examples_on_path")
 def test_the_reserved_names_are_the_base_s_but_threshold():
     assert set(models.RESERVED_PARAMETERS) == {
         "stabilize", "fovy", "gain", "alarm_frames", "alarm_rising", "working_height"}

@@ -1,10 +1,12 @@
-"""scripts/training_page.py: what it computes from evaluations, on small made-up ones."""
+"""scripts/training_page.py: what it computes from evaluations, on small made-up ones, and
+where it writes (docs/experiments/training-runs.md, the research log)."""
 
 from __future__ import annotations
 
 import csv
 import importlib
 import json
+import re
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -84,3 +86,92 @@ def test_choice_ships_the_best_score_on_validation_seeds_only(tmp_path, monkeypa
     assert lines[-3] == "| policy: c | 100 / 0 | 100 / 0 | 1.00 |"
     with pytest.raises(SystemExit, match="played other seeds"):
         page.choice([run, _choice(tmp_path / "other", 910, ends)], "b")
+
+
+def _cell(reached: int, collided: int, n: int = 30) -> dict[str, float]:
+    return {"n": n, "reached": reached, "collided": collided, "distance": 8.0, "progress": 0.8}
+
+
+def test_targets_state_issue_17_s_once_and_give_each_policy_one_verdict(monkeypatch):
+    monkeypatch.syspath_prepend(str(ROOT / "scripts"))
+    page = importlib.import_module("training_page")
+    best = {1.0: "reactive: lgmd1/robot-image", 2.0: "reactive: lgmd1/robot-image"}
+    cells = {(1.0, best[1.0]): _cell(13, 16), (2.0, best[2.0]): _cell(10, 20),
+             # meets 60% / 10% at jitter 1 and 50% at jitter 2, and beats ReactiveAvoid
+             (1.0, "policy: good"): _cell(20, 3), (2.0, "policy: good"): _cell(15, 12),
+             # 63% at jitter 1 and 50% at jitter 2, but 37% collisions at jitter 1: not met
+             (1.0, "policy: split"): _cell(19, 11), (2.0, "policy: split"): _cell(15, 14),
+             (1.0, "policy: truth"): _cell(22, 0), (2.0, "policy: truth"): _cell(12, 0),
+             (1.0, "policy: cnn"): _cell(14, 15), (2.0, "policy: cnn"): _cell(17, 13)}
+    lines = page.targets(cells, best, {"good": "features", "split": "features",
+                                       "truth": "privileged", "cnn": "pixels"})
+    text = "\n".join(lines)
+    assert lines[0].startswith("Issue 17 (policies that reach the goal) set these targets")
+    assert text.count("60% successes or more with 10% collisions or fewer at jitter 1") == 1
+    rows = {line.split(" | ")[0][2:]: line for line in lines if line.startswith("| ")
+            and " | " in line and not line.startswith("| policy")}
+    assert rows["good"].endswith("| 67 / 10 | 50 / 40 | none | met |")
+    assert rows["split"].endswith("| collisions over 10% at jitter 1 | not met |")
+    assert rows["truth"].endswith("| successes under 75% at jitter 1 | not met |")  # 22 / 30
+    assert rows["cnn"].endswith("| - | none set for pixels |")
+    # each policy has one verdict: "met" or "not met" once, in its own row only
+    for name in ("good", "split", "truth"):
+        assert sum(f"| {name} |" in line for line in lines) == 1
+    assert "No policy on" not in text
+    # a student that ties ReactiveAvoid's successes does not beat it
+    cells[(2.0, "policy: good")] = _cell(10, 0)
+    row = next(r for r in page.targets(cells, best, {"good": "features"}) if "| good |" in r)
+    assert "successes under 50% at jitter 2; ReactiveAvoid not beaten at jitter 2" in row
+    assert "- No policy on `--obs privileged` is in this evaluation." in page.targets(
+        cells, best, {"good": "features"})
+
+
+def test_reading_gives_the_numbers_and_leaves_the_verdict_to_targets(monkeypatch):
+    monkeypatch.syspath_prepend(str(ROOT / "scripts"))
+    page = importlib.import_module("training_page")
+    best = {1.0: "reactive: lgmd1/robot-image"}
+    cells = {(1.0, best[1.0]): _cell(13, 16), (1.0, "policy: a"): _cell(20, 3)}
+    assert page.reading(cells, best, ["a"], 1.0) == [
+        "- jitter 1 (trained), a: 10% collisions, 67% successes, 8.0 m travelled; "
+        "ReactiveAvoid with lgmd1/robot-image: 53% and 43%."]
+
+
+def test_the_page_is_the_research_log_s_and_its_figures_resolve_from_it(tmp_path,
+                                                                       monkeypatch):
+    monkeypatch.syspath_prepend(str(ROOT / "scripts"))
+    page = importlib.import_module("training_page")
+    assert page.PAGE == ROOT / "docs" / "experiments" / "training-runs.md"
+    figure = tmp_path / "learning_curve.png"
+    figure.write_bytes(b"png")
+    figures: dict[Path, Path] = {}
+    link = page._copy(figure, "learning_curve_x.png", figures)
+    assert link == "../training/learning_curve_x.png"
+    assert (page.PAGE.parent / link).resolve() == page.FIGURES / "learning_curve_x.png"
+    assert figures == {page.FIGURES / "learning_curve_x.png": figure}
+
+
+def test_each_shipped_policy_s_policy_md_names_the_page_of_all_its_rows(monkeypatch):
+    """ship_policy.py writes the page's path into POLICY.md (from training_page.PAGE):
+    a shipped one names the page that holds its evaluation's rows today."""
+    monkeypatch.syspath_prepend(str(ROOT / "scripts"))
+    page = importlib.import_module("training_page")
+    from lgmd_sim import policies
+
+    named = f"(all rows: {page.PAGE.relative_to(ROOT).as_posix()})"
+    for name in policies.available():
+        assert named in (policies.path(name) / "POLICY.md").read_text(), name
+
+
+def test_the_log_says_met_only_in_its_targets_table_once_per_policy(monkeypatch):
+    """The issue found a policy "met" on one line and "not met" on another: the page
+    states its targets once, and gives each policy one verdict, in one table."""
+    monkeypatch.syspath_prepend(str(ROOT / "scripts"))
+    page = importlib.import_module("training_page")
+    text = page.PAGE.read_text()
+    targets = text[text.index("### Targets\n"):]
+    targets = targets[:targets.find("\n#")] if "\n#" in targets else targets
+    verdicts = [line for line in text.splitlines() if re.search(r"\bmet\b", line)]
+    assert verdicts and all(line in targets and line.startswith("| ") for line in verdicts)
+    names = [line.split(" | ")[0] for line in verdicts]
+    assert len(names) == len(set(names)), "a policy with two verdicts"
+    assert targets.startswith("### Targets\n\nIssue 17")

@@ -121,8 +121,8 @@ class RandomAlarmParams(ModelParams):
 
     rate_per_min: float = param(
         6.0, "ours: matched to the LGMD-driven reactive controller at jitter 1 (docs/"
-        "results.md, robot section): the mean false alarms a minute of lgmd1/robot-image "
-        "and feedback/robot-image, the robot presets that beat Straight, on "
+        "experiments/results-log.md, robot section): the mean false alarms a minute of "
+        "lgmd1/robot-image and feedback/robot-image, the robot presets that beat Straight, on "
         "RoughTerrainObstacles (10.6, 7.5) and ArenaRoam (4.2, 2.0)",
         check=in_range(0.0, 60_000.0),
         doc="alarms a minute (each frame alarms with probability rate_per_min / 60 / fps, "

@@ -86,13 +86,17 @@ def markdown(results: Sequence[Mapping[str, Any]], names: Sequence[str],
     lines = ["| rank | entry | overall | goal | arena | detection | success % | "
              "collisions % | avoided % | false alarms / min | AUC |",
              "|---:|---|---|---|---|---|---:|---:|---:|---:|---:|"]
-    rank, above = 0, None
-    for place, i in enumerate(order, 1):
+    above: list[Mapping[str, Any]] = []
+    rank = 1
+    for i in order:
         r = results[i]
         ranked = r["scores"].get("overall") is not None
-        tied = ranked and above is not None and not scores.compare(
-            _parts(r), _parts(above), resamples, seed)["overall"]["separable"]
-        rank = rank if tied else place
+        # A rank counts only the entries better beyond doubt (paired on the seeds), so that
+        # a chain of close neighbours does not carry one rank down the table.
+        separable = [scores.compare(_parts(r), _parts(a), resamples, seed)["overall"][
+            "separable"] for a in above] if ranked else []
+        tied = bool(separable) and not separable[-1]
+        rank = max(rank, 1 + sum(separable))  # never above an entry higher in the table
         shown = ("=" if tied else "") + str(rank) if ranked else "-"
         auc = (r["metrics"].get("detection") or {}).get("auc")
         alarms = np.mean([row["false_alarms_per_min"] for row in r["metrics"]["goal"].values()
@@ -104,8 +108,11 @@ def markdown(results: Sequence[Mapping[str, Any]], names: Sequence[str],
             f"| {_pooled(r, 'arena', 'avoidance_rate')} "
             f"| {'-' if np.isnan(alarms) else f'{alarms:.1f}'} "
             f"| {'-' if auc is None else f'{auc:.2f}'} |")
-        above = r
-    lines += ["", "_Scores in [0, 1] with 95% intervals: goal (SPL), arena (encounters avoided "
+        if ranked:
+            above.append(r)
+    lines += ["", "_Rank: 1 + the entries above that are better beyond their interval (paired "
+              "on the seeds); '=': not separable from the entry just above. Scores in [0, 1] "
+              "with 95% intervals: goal (SPL), arena (encounters avoided "
               "x distance over the Oracle's), detection (balanced accuracy on looming and "
               "non-looming clips), overall (mean of goal and arena). Success, collisions and "
               "false alarms: the goal track's, averaged over its jitter levels; avoided: the "
@@ -181,9 +188,9 @@ def leaderboard(paths: Sequence[str | Path], out: str | Path, protocol: Protocol
     out = Path(out)
     figure_file = out.with_suffix(".png")
     resamples, seed = protocol.bootstrap, protocol.bootstrap_seed
-    header = (f"Protocol v{first['version']} (sha256 {first['sha256'][:12]}); 95% intervals "
-              f"over {resamples} bootstrap resamples of the seeds; '=' marks an entry not "
-              "separable from the one above it (paired on the seeds).\n\n"
+    header = (f"# Leaderboard\n\nProtocol v{first['version']} (sha256 {first['sha256'][:12]}); "
+              f"95% intervals over {resamples} bootstrap resamples of the seeds; '=' marks "
+              "an entry not separable from the one above it (paired on the seeds).\n\n"
               f"![Score by entry, track and jitter level]({figure_file.name})\n\n")
     table = markdown(results, [str(p) for p in paths], resamples, seed)
     with atomic_outputs([out, figure_file]) as (md, png):

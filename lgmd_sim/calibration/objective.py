@@ -11,7 +11,8 @@ Clips fall in three kinds, and each kind weighs the same in the objective:
 - **near miss**: no collision. A hit (a correct rejection) when the model never alarms.
 
 objective = mean of the three kinds' hit rates, in [0, 1]. Never crossing the threshold
-is a miss on a collision clip: the mean SI rewarded exactly that silence (docs/models.md).
+is a miss on a collision clip: the mean SI rewarded exactly that silence
+(docs/experiments/models-log.md).
 """
 
 from __future__ import annotations

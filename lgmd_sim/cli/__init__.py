@@ -12,6 +12,7 @@ unknown model, a bad value) print one line naming the thing and exit with status
 from __future__ import annotations
 
 import argparse
+import os
 import shlex
 import signal
 import sys
@@ -25,7 +26,7 @@ from lgmd_sim.parallel import WorkerDied, stop_again_when_swallowed
 
 #: The subcommands, in the order `--help` lists them.
 COMMANDS = ("demo", "detect", "record", "models", "envs", "bench", "calibrate", "speed", "dataset",
-            "train", "eval", "benchmark", "leaderboard")
+            "train", "eval", "benchmark", "leaderboard", "reference")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -50,10 +51,18 @@ def _terminate(signum: int, frame: object) -> None:
     raise Terminated
 
 
+def command_line(argv: Sequence[str]) -> str:
+    """What a run's records say was run: the command, with the PYTHONPATH it ran under
+    (where a plug-in's module comes from), so that the line reruns it."""
+    path = os.environ.get("PYTHONPATH")
+    return (f"PYTHONPATH={shlex.quote(path)} " if path else "") + shlex.join(
+        ["lgmd-sim", *argv])
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
     args = build_parser().parse_args(argv)
-    args.command_line = shlex.join(["lgmd-sim", *argv])  # what the run records say was run
+    args.command_line = command_line(argv)
     previous = signal.signal(signal.SIGTERM, _terminate)
     previous_hook = stop_again_when_swallowed({Terminated: signal.SIGTERM,
                                                KeyboardInterrupt: signal.SIGINT})

@@ -16,7 +16,7 @@ def add(sub: argparse._SubParsersAction) -> None:
         "dataset", help="generate, verify and export labelled jitter datasets",
         description="Labelled jitter datasets: camera frames stored losslessly with the "
         "world's exact ground truth on every frame, in a LeRobot-like layout "
-        "(see docs/datasets.md). Needs the 'data' extra (pyarrow).",
+        "(see docs/guides/datasets.md). Needs the 'data' extra (pyarrow).",
     )
     what = p.add_subparsers(dest="what", required=True, metavar="WHAT")
     g = what.add_parser(

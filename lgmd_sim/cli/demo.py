@@ -7,21 +7,23 @@ import argparse
 
 from lgmd_sim.cli.args import non_negative_float, non_negative_int, resolution
 
-#: The best detector of the calibration (its held-out objective, docs/results.md).
-BEST = "feedback/calibrated-image"
-#: An episode in which the best detector alarms before the collision; it does not in
-#: every one (at seed 0 it stays silent): docs/results.md gives the rates.
+#: The feedback LGMD at its robot calibration, the rotation fitted from the frames: the
+#: preset made for this camera (docs/concepts.md, "Presets").
+BEST = "feedback/robot-image"
+#: An episode in which it alarms 0.8 s before the collision and the paper's model in the
+#: first frames, from the shake; not every episode goes so (at seed 0 it stays silent):
+#: the leaderboard gives the rates.
 SEED = 2
 #: What the demo shows by default: the best detector, then the paper's model.
 DETECTORS = (BEST, "feedback/paper")
 #: The detector that drives ReactiveAvoid in the closed-loop episode, and how it tells the
 #: threat's side ("DETECTOR[,SIDE]"): the one that reached the goal most often on the
 #: robot benchmark's search seeds at jitter 1 (LGMD2 with the IMU's rotation removed, its
-#: robot calibration, two eyes); its held-out rates are in docs/results.md.
+#: robot calibration, two eyes); its held-out rates are in docs/experiments/results-log.md.
 AVOIDER = "lgmd2/robot-imu,eyes"
 #: An episode (a search seed of that benchmark) in which it avoids the obstacles in the
 #: way and reaches the goal, with four alarms and none false. Not every episode goes so:
-#: docs/results.md gives the rates.
+#: docs/experiments/results-log.md gives the rates.
 AVOID_SEED = 309
 
 
@@ -30,7 +32,7 @@ def add(sub: argparse._SubParsersAction) -> None:
         "demo", help="drive the robot at an obstacle over rough ground, LGMDs watching",
         description="One episode of RoughTerrainObstacles: the robot drives straight at an "
         "obstacle over rough ground while LGMD detectors watch its camera: by default the "
-        "best detector of the calibration beside the paper's feedback LGMD. Writes "
+        "feedback LGMD at its robot preset beside the paper's model. Writes "
         "an MP4 (camera view, the first detector's S layer, every membrane potential with "
         "the collision frame), a PNG summary and a still. Then one episode in which the "
         "ReactiveAvoid controller, driven by a detector (--avoider) at the closed-loop "
@@ -47,11 +49,11 @@ def add(sub: argparse._SubParsersAction) -> None:
                    help="terrain roughness on the common jitter scale (default 1.0)")
     p.add_argument("--models", default=",".join(DETECTORS), metavar="DETECTORS",
                    help="comma-separated detectors, MODEL[/PRESET][+FRONT END] (default "
-                   f"{','.join(DETECTORS)}: the best detector, then the paper's model); "
+                   f"{','.join(DETECTORS)}: the robot preset, then the paper's model); "
                    "the first one's S layer is shown")
-    p.add_argument("--resolution", type=resolution, default="paper",
-                   help="camera resolution: paper (270x480, default), rl (120x160), small "
-                   "(64x64) or HxW")
+    p.add_argument("--resolution", type=resolution, default="rl",
+                   help="camera resolution: rl (120x160, default: the robot presets' "
+                   "calibration's), paper (270x480), small (64x64) or HxW")
     p.add_argument("--avoider", default=AVOIDER, metavar="DETECTOR[,SIDE]",
                    help="the detector that drives the avoiding robot, and how it tells the "
                    "threat's side: halves (of one LGMD's S layer) or eyes (two LGMDs over "

@@ -9,7 +9,7 @@
   `lgmd_sim.data.torch.WindowDataset` for PyTorch.
 
 The layout (`lgmd_sim.data.layout`) follows the LeRobot dataset v3 conventions where
-they fit; docs/datasets.md describes it. Needs the 'data' extra (pyarrow).
+they fit; docs/guides/datasets.md describes it. Needs the 'data' extra (pyarrow).
 
 >>> from lgmd_sim import data
 >>> ds = data.open("my-dataset")

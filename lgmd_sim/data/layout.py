@@ -1,6 +1,7 @@
 """Where everything of a dataset lives, and the per-frame label schema.
 
-The layout follows the LeRobot dataset v3 conventions where they fit (see docs/datasets.md)::
+The layout follows the LeRobot dataset v3 conventions where they fit (see
+docs/guides/datasets.md)::
 
     DIR/README.md                                         the dataset card
     DIR/meta/info.json                                    fps, feature schema, totals, paths

@@ -17,6 +17,23 @@ from lgmd_sim.world.core import PROPRIO_RANGE, JitterWorld
 GOAL_RANGE = 1000.0
 #: Where ``proximity_penalty`` applies: the Oracle's trigger zone.
 PROXIMITY_ZONE = TriggerZone()
+#: What each key of the observation holds.
+OBSERVATION_KEYS: dict[str, str] = {
+    "frame": "the camera frame: uint8 RGB (H, W, 3), or grey (H, W, 1) with frame=\"grey\"",
+    "proprio": "proprioception, float32 (11,): left and right wheel speeds (rad/s; 0 for "
+               "carriers without wheels), the IMU's angular velocity (rad/s) and specific "
+               "force (m/s^2) in the carrier's frame, and its rotation of the camera over "
+               "the last frame interval (rad, info[\"imu_rotation\"])",
+    "goal": f"the goal, float32 (3,): distance (m, at most {GOAL_RANGE:g}), sine and cosine "
+            "of its bearing from the camera's heading (positive to the left)",
+}
+#: What each key of ``info`` holds besides the ground truth of the frame.
+INFO_KEYS: dict[str, str] = {
+    "task_reward": "the task's own reward of the step, without the shaping options (on "
+                   "steps, not on reset)",
+    "goal_reached": "the goal is reached on this step",
+    "is_success": "goal_reached, under the name stable-baselines3 logs as the success rate",
+}
 
 
 class JitterEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
@@ -24,15 +41,9 @@ class JitterEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
 
     One step is one camera frame (1/fps s of physics).
 
-    - Observation: a Dict of ``frame`` (uint8 (H, W, 3) RGB or (H, W, 1) grey; no
-      ``frame`` key when ``frame="none"``: nothing is rendered, for policies that read
-      the ground truth),
-      ``proprio`` (float32 (11,): left and right wheel speeds in rad/s, 0 for carriers
-      without wheels; IMU angular velocity in rad/s and specific force in m/s^2, in the
-      carrier's frame; the IMU's rotation of the camera over the last frame interval,
-      ``info["imu_rotation"]``) and, when the scenario has a goal, ``goal`` (float32:
-      distance in m, sine and cosine of its bearing from the camera's heading, positive
-      to the left).
+    - Observation: a Dict of the keys of `OBSERVATION_KEYS`: ``frame`` (none when
+      ``frame="none"``: nothing is rendered, for policies that read the ground truth),
+      ``proprio``, and ``goal`` when the scenario has a goal.
     - Action: Box [-1, 1]^2, scaled to (linear velocity, angular velocity) by
       ``max_speed`` and ``max_turn``; values outside are clipped; NaN, infinite or
       complex values raise ValueError. A tripod ignores the action.
@@ -42,22 +53,15 @@ class JitterEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
       shaping options, all 0 by default: ``goal_bonus`` on the step the goal is reached,
       minus ``time_penalty`` per second, minus ``proximity_penalty`` per second while the
       threat is in the Oracle's trigger zone (`lgmd_sim.envs.zone`).
-    - Terminated on a collision (if ``terminate_on_collision``) or on reaching the goal;
-      truncated after ``time_limit * fps`` steps. A step after either, without a reset,
-      raises ``gymnasium.error.ResetNeeded`` (Gymnasium's `OrderEnforcing` only checks
-      the first step).
-    - ``info``: the ground truth of the frame (see `JitterWorld`): time, frame_index, carrier
-      and camera pose, camera angular and linear velocity (camera frame: x right, y up,
-      z backwards), the camera's rotation since the previous frame (rotation vectors in
-      the previous camera frame, rad; zero on the reset frame) from its poses,
-      ``pose_rotation``, and from its IMU, ``imu_rotation`` (the camera's angular velocity
-      integrated over the frame's physics steps, with ``gyro_noise`` and ``gyro_bias``),
-      the most threatening obstacle's (or arena wall's; one touched in the frame first)
-      index, distance, bearing, closing speed and time to collision, collision flag and
-      first collision frame, with ``ssim=True`` ``ssim`` (the SSIM with the previous
-      frame; NaN on the reset frame and when ``frame="none"``), goal distance and bearing,
-      ``task_reward`` (on steps), ``goal_reached`` and its alias
-      ``is_success`` (the key stable-baselines3 logs as the success rate).
+    - Episode end: terminated on a collision (if ``terminate_on_collision``) or on
+      reaching the goal (within ``goal_radius``); truncated after ``time_limit * fps``
+      steps. A step after either, without a reset, raises ``gymnasium.error.ResetNeeded``
+      (Gymnasium's `OrderEnforcing` only checks the first step).
+    - Info: the ground truth of the frame (`lgmd_sim.world.core.TRUTH_KEYS`, see
+      `JitterWorld`) and the keys of `INFO_KEYS`.
+
+    The scenario reference (docs/reference/scenarios.md, ``lgmd-sim reference``) is made
+    from these items, `OBSERVATION_KEYS`, `INFO_KEYS` and `TRUTH_KEYS`.
 
     Args:
         scenario: a catalogue scenario name (envs/<name>.toml) or None for the defaults.

@@ -53,8 +53,8 @@ class ModelParams(CheckedParams):
     )
     stabilize: str = param(
         "none",
-        "our choice: off, as in the paper, which compensates no ego-motion (docs/models.md, "
-        "'Ego-motion compensation (front ends)')",
+        "our choice: off, as in the paper, which compensates no ego-motion "
+        "(docs/reference/models.md, 'Ego-motion compensation (front ends)')",
         check=one_of(*FRONT_ENDS),
         doc="ego-motion compensation: every stored map is warped by the camera's rotation "
             "between frames before the frame goes in; 'pose' / 'imu': the rotation given "
@@ -69,8 +69,8 @@ class ModelParams(CheckedParams):
     )
     gain: bool = param(
         False,
-        "our choice: off, as in the paper (docs/models.md, 'Ego-motion compensation (front "
-        "ends)', 'Brightness')",
+        "our choice: off, as in the paper (docs/reference/models.md, 'Ego-motion "
+        "compensation (front ends)'; measured: docs/experiments/models-log.md, 'Brightness')",
         check=one_of(True, False),
         doc="compensate global brightness changes (auto-exposure, shade, flicker): the "
             "previous frame is scaled by the gain fitted between it and this frame",
@@ -78,16 +78,17 @@ class ModelParams(CheckedParams):
     alarm_frames: int = param(
         1,
         "paper Eq. 23: an alarm is a potential above the threshold; the published LGMD1 "
-        "code asks 5 consecutive spiking frames, the Colias robot's LGMD 4 (docs/models.md, "
-        "'Footage from any camera')",
+        "code asks 5 consecutive spiking frames, the Colias robot's LGMD 4 "
+        "(docs/reference/models.md, 'Footage from any camera')",
         check=int_in_range(1, 30),
         doc="an alarm needs the membrane potential above the threshold in this many "
             "consecutive frames: a shake's one-frame surges then raise none",
     )
     alarm_rising: bool = param(
         False,
-        "ours (docs/models.md, 'Footage from any camera'): a looming object's response "
-        "climbs to the collision, a motion's onset transient and a shake's surge fall back",
+        "ours (docs/reference/models.md, 'Footage from any camera'): a looming object's "
+        "response climbs to the collision, a motion's onset transient and a shake's surge "
+        "fall back",
         check=one_of(True, False),
         doc="an alarm also needs the membrane potential never to fall within those "
             "alarm_frames frames",
@@ -95,7 +96,8 @@ class ModelParams(CheckedParams):
     working_height: int = param(
         0,
         "our choice: off, as in the paper (each frame at its own size); the video presets "
-        "set their calibration's clip height (docs/models.md, 'Footage from any camera')",
+        "set their calibration's clip height (docs/reference/models.md, 'Footage from any "
+        "camera')",
         check=int_in_range(0, 3840),
         doc="frames taller than this many rows are shrunk to it (area average, the width "
             "in proportion) before the front end and the model see them: the model's "

@@ -14,8 +14,8 @@ Layers, per frame t (grey levels 0..255):
 
 Phi(t) uses D from frames before t only, so the loop is causal: Phi(t) feeds P_on(t),
 which makes S(t). Every reading of an ambiguity of the paper is a named parameter; see
-docs/models.md. `lgmd_sim.models.reference.feedback` is the per-equation float64 version
-this one is tested against.
+docs/reference/models.md. `lgmd_sim.models.reference.feedback` is the per-equation float64
+version this one is tested against.
 """
 
 from __future__ import annotations
@@ -83,7 +83,8 @@ class FeedbackParams(ModelParams):
     beta2: float = param(0.003, "paper Table 1 (Eq. 7); Sec. 4.1.1 says -0.01", check=finite,
                          doc="feedback coefficient of the OFF channel")
     feedback_gain: float = param(
-        1.0, "ours: 1 is the paper's literal loop (docs/models.md, choice 2)", check=non_negative,
+        1.0, "ours: 1 is the paper's literal loop (docs/reference/models.md, choice 2)",
+        check=non_negative,
         doc="multiplies beta1 and beta2: the loop's gain (0 opens the loop)")
     sigma1: float = param(0.1, "paper Table 1 (Eq. 8, 14)", check=in_range(1e-6, MAX_SIGMA),
                           doc="s.d. of the excitation Gaussian, pixels")
@@ -99,33 +100,34 @@ class FeedbackParams(ModelParams):
                        doc="scale of D in the spline's argument")
     eta: tuple[float, ...] = param(
         (100.0, 300.0),
-        "paper Table 1 (Eq. 19); one spline term per value (docs/models.md, choice 3)",
+        "paper Table 1 (Eq. 19); one spline term per value (docs/reference/models.md, choice 3)",
         check=tuple_of(finite, max_length=MAX_TERMS),
         doc="translation of each spline term (centre eta_i K)")
     zeta: tuple[float, ...] = param(
-        (0.5, 1.0), "paper Table 1 (Eq. 19); pairs with eta (docs/models.md, choice 3)",
+        (0.5, 1.0), "paper Table 1 (Eq. 19); pairs with eta (docs/reference/models.md, choice 3)",
         check=tuple_of(finite, max_length=MAX_TERMS), doc="weight of each spline term")
     spline_order: int = param(
-        4, "ours: cubic, the usual choice; the paper leaves m open (docs/models.md, choice 4)",
+        4, "ours: cubic, the usual choice; the paper leaves m open (docs/reference/models.md, "
+        "choice 4)",
         check=_spline_order, doc="order m of the cardinal B-spline N_m (4: cubic)")
     k_mode: str = param(
-        "constant", "ours (docs/models.md, choice 5): Eq. 19 calls K an integer",
+        "constant", "ours (docs/reference/models.md, choice 5): Eq. 19 calls K an integer",
         check=one_of("constant", "potential"),
         doc="K of Eq. 19: the integer k, or the previous frame's membrane potential")
-    k: int = param(1, "ours (docs/models.md, choice 5): K = 1 centres the terms at eta",
+    k: int = param(1, "ours (docs/reference/models.md, choice 5): K = 1 centres the terms at eta",
                    check=int_at_least(0), doc="K when k_mode is 'constant'")
     delay_taps: int = param(
-        2, "ours (docs/models.md, choice 6): phi(3)/phi(1) = 1.2e-11, below float32 "
+        2, "ours (docs/reference/models.md, choice 6): phi(3)/phi(1) = 1.2e-11, below float32 "
         "resolution",
         check=int_in_range(1, MAX_DELAY_TAPS),
         doc="frames of delayed inhibition (delays 1..delay_taps)")
     tv_window: int = param(
-        5, "ours (docs/models.md, choice 8): 1/6 s at 30 fps",
+        5, "ours (docs/reference/models.md, choice 8): 1/6 s at 30 fps",
         check=int_in_range(1, MAX_TV_WINDOW), doc="T of Eq. 18: frames of |dS/dt| summed into D")
     mu: float = param(
-        3.0, "ours (docs/models.md, choice 9): the synthetic approaches cross 0.8 in their last "
-        "10%, "
-        "receding and translating objects stay below 0.68 (docs/models.md)", check=positive,
+        3.0, "ours (docs/reference/models.md, choice 9): the synthetic approaches cross 0.8 in "
+        "their last 10%, receding and translating objects stay below 0.68",
+        check=positive,
         doc="scale of the sigmoid of Eq. 20: potential 0.8 at a mean S per pixel of 1.39 mu")
 
     def __post_init__(self) -> None:
@@ -179,8 +181,9 @@ class FeedbackLGMD(LGMDModel):
         # Table 1 with the feedback coefficients of Sec. 4.1.1
         "paper-text": {**TABLE_1, "beta1": 0.001, "beta2": -0.01},
     }
-    # The free parameters of docs/models.md, choices 2-9, loop closed. Drawn in this order,
-    # that of the first calibration's sampler, so that its seeds give the same candidates.
+    # The free parameters of docs/reference/models.md, choices 2-9, loop closed. Drawn in this
+    # order, that of the first calibration's sampler, so that its seeds give the same
+    # candidates.
     search_space: ClassVar[dict[str, SearchRange]] = {
         "eta[0]": SearchRange(0.5, 200.0),
         "feedback_gain": SearchRange(1.0, 1e6),

@@ -1,6 +1,6 @@
 """F(ONn)-LGMD and F(OFFp)-LGMD: the oLGMD, LGMD2 with contrast polarity-specific FFI.
 
-The paper's [37] is read as the oLGMD of Chang, Fu et al. (Biomimetics 2024, "A
+The paper's [37] is read as the oLGMD of Gao, Liu, Wang & Fu (Biomimetics 2024, "A
 computationally efficient collision-detection neuronal model with contrast
 polarity-specific feed-forward inhibition"), whose published Python model is
 Ryannnice/Supplementary_Materials_FFI_ON_OFF, Core_of_Source_Code/Computer_oLGMD_Python/

@@ -1,7 +1,7 @@
 """LGMD1: the classic LGMD of Yue & Rind (2006) with the G layer and feed-forward inhibition.
 
 Layers, per frame t (grey levels 0..255), with the switches that tell the published
-implementations apart (docs/models.md, "Baselines"):
+implementations apart (docs/reference/models.md, "Baselines"):
 
 - P = L(t) - L(t-1) (0 on the first frame of a stream), plus ``persistence`` of the last
   two P (pLGMD); E = P.

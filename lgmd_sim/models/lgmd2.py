@@ -1,7 +1,7 @@
 """LGMD2 (Fu, Hu, Peng, Yue 2018/2019): ON/OFF channels, adaptive delayed inhibition, SFA.
 
 Layers, per frame t (grey levels 0..255), with the switches that tell the published
-implementations apart (docs/models.md, "Baselines"):
+implementations apart (docs/reference/models.md, "Baselines"):
 
 - P = L(t) - L(t-1), 0 on the first frame of a stream (plus ``persistence``).
 - ON = [P]+ + carry ON(t-1), OFF = [-P]+ + carry OFF(t-1).

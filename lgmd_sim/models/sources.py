@@ -9,7 +9,7 @@ from __future__ import annotations
 __all__ = ["SOURCES"]
 
 #: The published implementations the baselines reproduce: repository, file and the commit
-#: read (docs/models.md, "Baselines", lists the full commit ids).
+#: read (docs/reference/models.md, "Baselines", lists the full commit ids).
 SOURCES = {
     "pi-lgmd": "XuelongSun/InsectInspiredNavigation_PI-LGMD simulations/models.py @176e097 "
                "(LobulaGiantMotionDetectorModel.run)",

@@ -123,7 +123,8 @@ def ground_motion(rotvec: np.ndarray, displacement: np.ndarray, up: np.ndarray,
 class ImageRotationParams(CheckedParams):
     """How `ImageRotation` fits the camera's rotation from two frames."""
 
-    scale: int = param(2, "ours: measured (lgmd-sim speed stabilize; docs/models.md)",
+    scale: int = param(2, "ours: measured (lgmd-sim speed stabilize; "
+                          "docs/experiments/models-log.md)",
                        check=one_of(1, 2, 4),
                        doc="frames are tracked at 1/scale of their size (2: halved)")
     max_corners: int = param(100, "ours: measured (as scale)", check=int_in_range(8, 2000),
@@ -281,7 +282,7 @@ def _kabsch(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 #: The gain field's grid (rows, columns): a gain per block of about 30 x 30 pixels at
 #: 270 x 480, smooth in between. Lighting changes are not global: a passing shade or a
 #: flickering sun changes the lit ground, not the sky, and one gain for the whole frame
-#: then turned the sky into P (measured: docs/models.md, "Brightness").
+#: then turned the sky into P (measured: docs/experiments/models-log.md, "Brightness").
 GAIN_GRID = (9, 16)
 #: Each block is judged on this many x this many pixels of the frames shrunk to the grid.
 _GAIN_CELL = 8

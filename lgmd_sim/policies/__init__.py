@@ -33,7 +33,7 @@ __all__ = ["DEFAULT", "EVAL_SEEDS", "EVAL_TOP_VIEWS", "LoadedPolicy", "Normalize
 #: The shipped policy that `lgmd-sim eval` (and the "policy" controller) use by default.
 DEFAULT = "feedback-student"
 #: Episodes per cell of `lgmd-sim eval` by default: those of the evaluation that a shipped
-#: policy's POLICY.md and docs/training.md quote, so that the defaults reproduce its rows.
+#: policy's POLICY.md and docs/guides/training.md quote, so that the defaults reproduce its rows.
 EVAL_SEEDS = 30
 #: Seeds of it drawn from above in its trajectories figure: the policies beside the Oracle.
 EVAL_TOP_VIEWS = 3

@@ -303,8 +303,8 @@ def critic_only(policy: Any) -> Iterator[None]:
     Why: `fit` trains the action distribution alone, so after DAgger the value function
     is still the initial one. PPO's advantages are then noise, normalised to unit scale
     per minibatch, and its first updates move a cloned policy far from what it learnt
-    (docs/training.md: the approximate KL per update of the runs that unlearnt their
-    task). Warming the critic up on the student's own rollouts first gives PPO
+    (docs/experiments/training-runs.md: the approximate KL per update of the runs that
+    unlearnt their task). Warming the critic up on the student's own rollouts first gives PPO
     advantages that mean something.
     """
     critic = [policy.value_net, policy.mlp_extractor.value_net]

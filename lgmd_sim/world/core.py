@@ -60,6 +60,39 @@ ROTATION_RANGE = math.pi
 #: Bounds of the proprioception vector (wheels, gyro, accelerometer, IMU rotation).
 PROPRIO_RANGE = np.array([WHEEL_RANGE] * 2 + [GYRO_RANGE] * 3 + [ACCEL_RANGE] * 3
                          + [ROTATION_RANGE] * 3)
+#: What each key of ``truth`` holds, as the environments' ``info`` passes it on (the
+#: scenario reference, docs/reference/scenarios.md, is made from it).
+TRUTH_KEYS: dict[str, str] = {
+    "time": "simulated time of the frame (s)",
+    "frame_index": "the frame within the episode, 0 on reset",
+    "carrier_pos": "carrier position, world frame (m)",
+    "carrier_quat": "carrier orientation, quaternion (w, x, y, z)",
+    "camera_pos": "camera position, world frame (m)",
+    "camera_quat": "camera orientation, quaternion (w, x, y, z)",
+    "camera_angvel": "camera angular velocity, camera frame: x right, y up, z backwards "
+                     "(rad/s)",
+    "camera_linvel": "camera linear velocity, camera frame (m/s)",
+    "pose_rotation": "the camera's rotation since the previous frame from its poses, a "
+                     "rotation vector in the previous camera frame (rad; 0 on reset)",
+    "imu_rotation": "the same rotation from the IMU: the camera's angular velocity "
+                    "integrated over the frame's physics steps, with gyro_noise and "
+                    "gyro_bias (rad; 0 on reset)",
+    "collision": "the carrier touches an obstacle, an arena wall or the mover in this frame",
+    "first_collision_frame": "the episode's first collision frame so far (-1: none yet)",
+    "threat_index": "the most threatening object (one touched in the frame first, else the "
+                    "soonest to collide, else the nearest): static obstacles 0..n-1, then "
+                    "the arena walls (front, back, left, right), then the mover; -1: none",
+    "threat_distance": "its surface distance from the carrier (m; inf: none)",
+    "threat_bearing": "its bearing from the camera's heading, positive to the left (rad)",
+    "threat_closing_speed": "its closing speed, positive when approaching (m/s)",
+    "threat_ttc": "its time to collision, distance / closing speed (s; inf when not closing)",
+    "goal_distance": "distance from the camera to the goal, on the ground plane (m; only "
+                     "with a goal)",
+    "goal_bearing": "bearing of the goal from the camera's heading, positive to the left "
+                    "(rad; only with a goal)",
+    "ssim": "SSIM of the frame with the previous one (NaN on reset and without frames; "
+            "only with ssim=True)",
+}
 
 
 class JitterWorld:

@@ -1,4 +1,4 @@
-"""The eta function of the LGMD, from frames: a model of your own (docs/own-detector.md).
+"""The eta function of the LGMD, from frames: a model of your own (docs/guides/own-detector.md).
 
 Gabbiani, Krapp & Laurent (1999, J Neurosci 19:1122) found that the locust LGMD's firing
 rate during an approach follows

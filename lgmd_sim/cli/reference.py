@@ -1,0 +1,102 @@
+"""`lgmd-sim reference`: the reference pages, generated from the code so that they cannot
+drift: the scenarios (`lgmd_sim.envs.reference`) with a picture of each, and the command
+line (`cli_page`: every command's --help, from the parser itself)."""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import os
+from collections.abc import Iterator
+from pathlib import Path
+
+#: The width --help is wrapped to on the page, whatever the terminal's.
+HELP_WIDTH = 100
+
+
+def add(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "reference", help="write the scenario and command-line reference pages",
+        description="Write the reference pages into the folder --out: scenarios.md (each "
+        "scenario's spaces, reward, episode end, info keys and arguments, from the "
+        "environments themselves), cli.md (every command's --help) and "
+        "scenes/<Scenario>.png (each scenario seen from outside). The tests compare the "
+        "committed pages with what this writes: run it after changing a scenario, the "
+        "environment or an option.")
+    p.add_argument("--out", default="docs/reference", metavar="DIR",
+                   help="the folder to write into (default docs/reference)")
+    p.add_argument("--no-pictures", action="store_true",
+                   help="write the pages only, not the pictures (a few seconds each)")
+
+
+def run(args: argparse.Namespace) -> int:
+    """`lgmd-sim reference`: the pages (and pictures) into --out, as one set."""
+    import cv2
+
+    from lgmd_sim.envs import reference
+    from lgmd_sim.fileio import write_files
+
+    out = Path(args.out)
+    if out.exists() and not out.is_dir():
+        raise ValueError(f"--out {out} is a file; give the folder to write the pages into")
+    pages = {out / "scenarios.md": reference.scenarios_page(), out / "cli.md": cli_page()}
+    writers = {path: (lambda tmp, text=text: tmp.write_text(text, encoding="utf-8"))
+               for path, text in pages.items()}
+    if not args.no_pictures:
+        for name in reference.packaged():
+            rgb = reference.scene_picture(name)
+            png = cv2.imencode(".png", cv2.cvtColor(rgb, cv2.COLOR_RGB2BGR))[1].tobytes()
+            writers[out / reference.SCENES / f"{name}.png"] = (
+                lambda tmp, png=png: tmp.write_bytes(png))
+    write_files(writers)
+    print(f"wrote {', '.join(map(str, writers))}")
+    return 0
+
+
+def _commands(parser: argparse.ArgumentParser, path: tuple[str, ...] = ("lgmd-sim",)
+              ) -> Iterator[tuple[tuple[str, ...], str, argparse.ArgumentParser]]:
+    """Every command's (path, one-line help, parser), the program's own first, then each
+    subcommand's in the order --help lists them, depth first."""
+    if len(path) == 1:
+        yield path, parser.description or "", parser
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            for choice in action._choices_actions:  # one per command, aliases left out
+                sub = action.choices[choice.dest]
+                yield (*path, choice.dest), choice.help or "", sub
+                yield from _commands(sub, (*path, choice.dest))
+
+
+@contextlib.contextmanager
+def _help_width(columns: int) -> Iterator[None]:
+    """argparse wraps help to the terminal's width (COLUMNS): fix it while formatting."""
+    previous = os.environ.get("COLUMNS")
+    os.environ["COLUMNS"] = str(columns)
+    try:
+        yield
+    finally:
+        if previous is None:
+            del os.environ["COLUMNS"]
+        else:
+            os.environ["COLUMNS"] = previous
+
+
+def cli_page() -> str:
+    """docs/reference/cli.md: a contents list, then every command's --help."""
+    from lgmd_sim.cli import build_parser
+    from lgmd_sim.envs.reference import REGENERATE
+
+    commands = list(_commands(build_parser()))
+    with _help_width(HELP_WIDTH):
+        helps = [parser.format_help().rstrip() for _path, _summary, parser in commands]
+    lines = ["# Command line", "",
+             f"Generated from the code by `{REGENERATE}`; do not edit. Every command's "
+             "`--help`, as `lgmd-sim COMMAND --help` prints it: first the program's own "
+             "([lgmd-sim](#lgmd-sim)), then these.", ""]
+    for path, summary, _parser in commands[1:]:  # the program's own help comes first
+        title = " ".join(path)
+        lines.append(f"{'  ' * (len(path) - 2)}- [{title}](#{title.replace(' ', '-')}): "
+                     f"{summary}")
+    for (path, _summary, _parser), text in zip(commands, helps, strict=True):
+        lines += ["", f"## {' '.join(path)}", "", "```text", text, "```"]
+    return "\n".join(lines) + "\n"
