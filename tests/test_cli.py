@@ -140,3 +140,137 @@ def test_a_run_records_the_pythonpath_its_plug_in_came_from(monkeypatch):
     monkeypatch.setenv("PYTHONPATH", "my plugins")
     assert command_line(["benchmark", "eta_lgmd:EtaLGMD", "--calibrate"]) == \
         "PYTHONPATH='my plugins' lgmd-sim benchmark eta_lgmd:EtaLGMD --calibrate"
+
+
+#: Every command's options: those --help lists first, then (after "|") those it lists under
+#: "advanced". A refactor of the command line keeps these; a new option joins one side.
+OPTIONS = {
+    "": "--version",
+    "demo": "--out --seed --jitter --models --no-avoid"
+            " | --resolution --avoider --avoid-seed --avoid-resolution",
+    "detect": "--models --preset --collision-frame --out --json --no-progress"
+              " | --window --noise --noise-seed --stabilize --fov",
+    "record": "--seed --jitter --resolution --cruise --no-progress",
+    "models": "--check",
+    "envs": "",
+    "bench": "",
+    "bench closed-loop": "--scenarios --controllers --models --presets --jitter --seeds --out"
+                         " --resume --workers --no-progress"
+                         " | --sides --first-seed --cruise --horizon --top-views --resolution"
+                         " --ray",
+    "bench open-loop": "--scenarios --jitter --models --presets --seeds --dataset --out --resume"
+                       " --workers --no-progress"
+                       " | --first-seed --noise-levels --resolution --horizon --window --ray",
+    "calibrate": "--task --detectors --budget --seeds --save-presets --out --resume --workers"
+                 " --no-progress"
+                 " | --first-seed --heldout-seed --seed --resolution --presets-file --ray",
+    "speed": "",
+    "speed models": "--height --width --frames --streams --published --markdown",
+    "speed envs": "--steps --markdown",
+    "speed stabilize": "--height --width --frames --markdown",
+    "speed dataset": "--scenarios --episodes --resolution --workers --repeat --video --markdown",
+    "speed closed-loop": "--scenario --resolution --steps --episodes --markdown",
+    "speed benchmark": "--entry --episodes --markdown",
+    "speed train": "--env --resolution --steps --envs --markdown",
+    "dataset": "",
+    "dataset generate": "--scenarios --jitter --episodes --out --resolution --workers"
+                        " --no-progress"
+                        " | --controller --models --noise --video --seed --set --ray",
+    "dataset verify": "",
+    "dataset export": "--format --codec",
+    "train": "--algo --env --obs --model --preset --steps --envs --seed --out --resume"
+             " --no-progress"
+             " | --grid --grid-history --resolution --jitter --eval-every --eval-seeds"
+             " --checkpoint-every --hp --reward --curriculum --teacher --imitation-steps"
+             " --dagger-rounds --dagger-epochs --dagger-student --value-warmup",
+    "eval": "--controllers --models --presets --jitter --seeds --out --resume --workers"
+            " --no-progress"
+            " | --first-seed --cruise --horizon --top-views --ray",
+    "benchmark": "--out --calibrate --workers --no-progress | --protocol --ray",
+    "leaderboard": "--out --protocol",
+    "reference": "--out --no-pictures",
+}
+
+
+def test_every_command_lists_the_options_a_user_needs_first_and_the_rest_as_advanced():
+    """The command line's options, none lost: each command's first ones, then the research
+    and tuning ones under the heading "advanced" in its --help."""
+    found = {}
+    for path, parser in _subcommand_parsers():
+        more = [g for g in parser._action_groups if g.title == "advanced"]
+        late = {id(a) for g in more for a in g._group_actions}
+        sides = ([], [])
+        for a in parser._actions:
+            if a.option_strings and a.dest != "help":
+                sides[id(a) in late].extend(a.option_strings)
+        found[" ".join(path)] = (set(sides[0]), set(sides[1]))
+        assert len(more) == (1 if sides[1] else 0)
+        assert ("\nadvanced:\n" in parser.format_help()) == bool(sides[1])
+    assert found == {command: tuple(set(side.split()) for side in text.partition(" | ")[::2])
+                     for command, text in OPTIONS.items()}
+
+
+#: Command lines of the docs (docs/guides/training.md's recipe; the others with fewer models
+#: or policies) and what they parse to: where --help lists an option changes nothing.
+PARSED = {
+    "train --obs features --model feedback --preset robot-image --grid 3x5 --grid-history 4 "
+    "--teacher steer --dagger-student mean --dagger-epochs 10 --steps 104000 "
+    "--reward goal_bonus=10 --reward effort_penalty=0.001 --out runs/mine": {
+        "command": "train", "algo": None, "env": None, "obs": "features", "model": "feedback",
+        "preset": "robot-image", "steps": 104000, "envs": None, "seed": None,
+        "out": "runs/mine", "resume": None, "no_progress": False, "grid": (3, 5),
+        "grid_history": 4, "resolution": None, "jitter": None, "eval_every": None,
+        "eval_seeds": None, "checkpoint_every": None, "hp": None,
+        "reward": ["goal_bonus=10", "effort_penalty=0.001"], "curriculum": None,
+        "teacher": "steer", "imitation_steps": None, "dagger_rounds": None,
+        "dagger_epochs": 10, "dagger_student": "mean", "value_warmup": None},
+    "eval runs/mine runs/mine/best --controllers none --first-seed 900 --seeds 50 "
+    "--out runs/choice --no-progress": {
+        "command": "eval", "policies": ["runs/mine", "runs/mine/best"], "controllers": "none",
+        "models": None, "presets": None, "jitter": "1,2", "seeds": 50, "first_seed": 900,
+        "cruise": 0.6, "horizon": 2.0, "top_views": 3, "out": "runs/choice", "resume": False,
+        "workers": None, "ray": None, "no_progress": True},
+    "bench closed-loop --scenarios RoughTerrainObstacles,ArenaRoam --jitter 1 "
+    "--models lgmd2/robot-imu,lgmd1/robot-image --sides halves,eyes "
+    "--out runs/closed-loop-robot-j1 --workers 2 --no-progress": {
+        "command": "bench", "what": "closed-loop",
+        "scenarios": "RoughTerrainObstacles,ArenaRoam", "controllers": "straight,oracle,reactive",
+        "models": "lgmd2/robot-imu,lgmd1/robot-image", "presets": None, "sides": "halves,eyes",
+        "jitter": "1", "seeds": 50, "first_seed": 1000, "cruise": 0.6, "horizon": 2.0,
+        "top_views": 1, "resolution": "rl", "out": "runs/closed-loop-robot-j1",
+        "resume": False, "workers": 2, "ray": None, "no_progress": True},
+    "bench open-loop --jitter 0,1 --noise-levels '' --first-seed 200 "
+    "--models feedback/paper+image,lgmd1/calibrated-image --out runs/open-loop-compensated "
+    "--workers 2 --no-progress": {
+        "command": "bench", "what": "open-loop", "scenarios": "all", "jitter": "0,1",
+        "models": "feedback/paper+image,lgmd1/calibrated-image", "presets": None, "seeds": 8,
+        "dataset": None, "out": "runs/open-loop-compensated", "resume": False,
+        "first_seed": 200, "noise_levels": "", "resolution": "paper", "horizon": 1.0,
+        "window": 1.0, "workers": 2, "ray": None, "no_progress": True},
+    "calibrate --task robot --budget 16 --seeds 6 --save-presets "
+    "--detectors eta_lgmd:EtaLGMD+imu --out runs/calibration-eta --workers 2 --no-progress "
+    "--resume": {
+        "command": "calibrate", "task": "robot", "detectors": "eta_lgmd:EtaLGMD+imu",
+        "budget": 16, "seeds": 6, "save_presets": True, "out": "runs/calibration-eta",
+        "resume": True, "first_seed": 0, "heldout_seed": 100, "seed": 0, "resolution": "rl",
+        "presets_file": None, "workers": 2, "ray": None, "no_progress": True},
+    "dataset generate --scenarios PassBy --jitter 0,1 --episodes 2 --resolution small "
+    "--ray local --out ray-dataset": {
+        "command": "dataset", "what": "generate", "scenarios": "PassBy", "jitter": "0,1",
+        "episodes": 2, "out": "ray-dataset", "resolution": "small", "controller": "straight",
+        "models": "none", "noise": "", "video": "huffyuv", "seed": 0, "set": [],
+        "workers": None, "ray": "local", "no_progress": False},
+    "detect handheld.mp4 --collision-frame 96 --stabilize image --fov 55 "
+    "--out docs/stabilize/image": {
+        "command": "detect", "videos": ["handheld.mp4"], "models": "all", "preset": None,
+        "collision_frame": 96, "out": "docs/stabilize/image", "json": False,
+        "no_progress": False, "window": 1.0, "noise": None, "noise_seed": 0,
+        "stabilize": "image", "fov": 55.0},
+}
+
+
+@pytest.mark.parametrize("line", PARSED, ids=lambda line: line[:30])
+def test_a_documented_command_line_parses_to_the_same_arguments(line):
+    import shlex
+
+    assert vars(cli.build_parser().parse_args(shlex.split(line))) == PARSED[line]

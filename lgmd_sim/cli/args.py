@@ -1,11 +1,15 @@
 """What the subcommands share: argument types that reject a bad value with a clear message,
-the option groups of the run-folder, parallel and detector options, and the keyword
-arguments and printout of a job that keeps a run folder."""
+the "advanced" group that --help lists after the options a user needs first, the option
+groups of the run-folder, parallel and detector options, and the keyword arguments and
+printout of a job that keeps a run folder."""
 
 from __future__ import annotations
 
 import argparse
 from typing import Any
+
+#: What an option helper adds its arguments to: a parser, or one of its groups.
+Options = argparse._ActionsContainer
 
 
 def positive_int(text: str) -> int:
@@ -50,17 +54,25 @@ def grid(text: str) -> tuple[int, int]:
     return cells
 
 
-def add_parallel_options(p: argparse.ArgumentParser, unit: str = "episodes") -> None:
-    """--workers, --ray and --no-progress: how a command's independent jobs run."""
+def advanced(p: argparse.ArgumentParser, about: str) -> argparse._ArgumentGroup:
+    """`p`'s research and tuning options: --help lists them under "advanced", after the
+    options a user needs first, with `about` saying what they are for. Where an option is
+    listed changes nothing of how it parses."""
+    return p.add_argument_group("advanced", about)
+
+
+def add_parallel_options(p: Options, more: Options, unit: str = "episodes") -> None:
+    """--workers and --no-progress in `p`, --ray in `more` (a cluster is not where one
+    starts): how a command's independent jobs run."""
     p.add_argument("--workers", type=positive_int, default=None,
                    help="local worker processes (default: every core)")
-    p.add_argument("--ray", metavar="ADDRESS", default=None,
-                   help=f"run the {unit} as Ray tasks: 'local' starts Ray here, 'auto' or "
-                   "HOST:PORT joins a cluster (needs the ray extra)")
+    more.add_argument("--ray", metavar="ADDRESS", default=None,
+                      help=f"run the {unit} as Ray tasks: 'local' starts Ray here, 'auto' or "
+                      "HOST:PORT joins a cluster (needs the ray extra)")
     p.add_argument("--no-progress", action="store_true", help="hide the progress bar")
 
 
-def add_run_folder_options(p: argparse.ArgumentParser, default: str) -> None:
+def add_run_folder_options(p: Options, default: str) -> None:
     """--out and --resume of a command that keeps its results in a run folder."""
     p.add_argument("--out", default=default, metavar="DIR",
                    help=f"output folder (default ./{default})")
@@ -83,7 +95,7 @@ def print_result(table: str, result: Any) -> int:
     return 0
 
 
-def add_detector_options(p: argparse.ArgumentParser, default: str | None = "all",
+def add_detector_options(p: Options, default: str | None = "all",
                          means: str = "all, each at its default preset") -> None:
     """--models and --presets: the detectors a benchmark compares (--models `default`,
     which `means` what the help says)."""
@@ -95,23 +107,23 @@ def add_detector_options(p: argparse.ArgumentParser, default: str | None = "all"
                    "each of these it has (its default when it has none of them)")
 
 
-def add_closed_loop_options(p: argparse.ArgumentParser, jitter: str, seeds: int = 50,
+def add_closed_loop_options(p: Options, more: Options, jitter: str, seeds: int = 50,
                             top_views: int = 1) -> None:
-    """The closed-loop benchmark's episodes: --jitter (default `jitter`), --seeds (default
-    `seeds`), --first-seed, --cruise, --horizon and --top-views (default `top_views`)
-    (`lgmd-sim bench closed-loop`, `lgmd-sim eval`)."""
+    """The closed-loop benchmark's episodes (`lgmd-sim bench closed-loop`, `lgmd-sim
+    eval`): --jitter (default `jitter`) and --seeds (default `seeds`) in `p`; --first-seed,
+    --cruise, --horizon and --top-views (default `top_views`) in `more`."""
     p.add_argument("--jitter", default=jitter,
                    help=f"comma-separated jitter levels (default {jitter})")
     p.add_argument("--seeds", type=positive_int, default=seeds,
                    help=f"episodes per cell (default {seeds})")
-    p.add_argument("--first-seed", type=non_negative_int, default=1000,
-                   help="the first episode seed; seeds are consecutive (default 1000: "
-                   "never a training or validation seed of `lgmd-sim train`)")
-    p.add_argument("--cruise", type=float, default=0.6,
-                   help="forward action of every controller while cruising (default 0.6)")
-    p.add_argument("--horizon", type=float, default=2.0,
-                   help="an alarm is false when no obstacle is within this time to "
-                   "collision (s, default 2)")
-    p.add_argument("--top-views", type=positive_int, default=top_views,
-                   help="how many of the seeds, the first ones, trajectories.png draws from "
-                   f"above, a row of panels each (default {top_views})")
+    more.add_argument("--first-seed", type=non_negative_int, default=1000,
+                      help="the first episode seed; seeds are consecutive (default 1000: "
+                      "never a training or validation seed of `lgmd-sim train`)")
+    more.add_argument("--cruise", type=float, default=0.6,
+                      help="forward action of every controller while cruising (default 0.6)")
+    more.add_argument("--horizon", type=float, default=2.0,
+                      help="an alarm is false when no obstacle is within this time to "
+                      "collision (s, default 2)")
+    more.add_argument("--top-views", type=positive_int, default=top_views,
+                      help="how many of the seeds, the first ones, trajectories.png draws "
+                      f"from above, a row of panels each (default {top_views})")

@@ -16,6 +16,7 @@ from lgmd_sim.cli.args import (
     add_detector_options,
     add_parallel_options,
     add_run_folder_options,
+    advanced,
     non_negative_int,
     positive_int,
     print_result,
@@ -49,17 +50,20 @@ def add(sub: argparse._SubParsersAction) -> None:
     b.add_argument("--controllers", default="straight,oracle,reactive",
                    help="comma-separated controllers (default straight,oracle,reactive)")
     add_detector_options(b)
-    b.add_argument("--sides", default="halves",
-                   help="comma-separated ways the reactive controller chooses the side to "
-                   "turn away to, each a cell of its own: halves (one LGMD over the whole "
-                   "view, the side from its S layer's left and right halves; the default) "
-                   "or eyes (two LGMDs over overlapping left and right parts of the view, "
-                   "turning away from the more excited one)")
-    add_closed_loop_options(b, jitter="0,1,2")
-    b.add_argument("--resolution", type=resolution, default="rl",
-                   help="frame size: rl (120x160, default), paper (270x480), small or HxW")
+    more = advanced(b, "how the reactive controller tells the side, the episodes' first "
+                    "seed, cruise speed and false-alarm horizon, the frame size, the "
+                    "figures, and Ray")
+    more.add_argument("--sides", default="halves",
+                      help="comma-separated ways the reactive controller chooses the side to "
+                      "turn away to, each a cell of its own: halves (one LGMD over the whole "
+                      "view, the side from its S layer's left and right halves; the default) "
+                      "or eyes (two LGMDs over overlapping left and right parts of the view, "
+                      "turning away from the more excited one)")
+    add_closed_loop_options(b, more, jitter="0,1,2")
+    more.add_argument("--resolution", type=resolution, default="rl",
+                      help="frame size: rl (120x160, default), paper (270x480), small or HxW")
     add_run_folder_options(b, "bench-closed-loop")
-    add_parallel_options(b)
+    add_parallel_options(b, more)
 
     b = bench.add_parser(
         "open-loop", help="the paper's Tables 2 and 3 in simulation: every model on the same "
@@ -80,25 +84,27 @@ def add(sub: argparse._SubParsersAction) -> None:
     add_detector_options(b)
     b.add_argument("--seeds", type=positive_int, default=8, help="clips per scenario and "
                    "jitter level (default 8)")
-    b.add_argument("--first-seed", type=non_negative_int, default=0,
-                   help="the first episode seed (default 0)")
     b.add_argument("--dataset", metavar="DIR", default=None,
                    help="take the clips from a dataset (DIR, or DIR:N for its episode N) "
                    "instead of simulating them")
-    b.add_argument("--noise-levels", default="0.001,0.003,0.005,0.007,0.009",
-                   help="Gaussian variances and salt-and-pepper densities for the stationary "
-                   "clips (default 0.001,0.003,0.005,0.007,0.009; '' for none)")
-    b.add_argument("--resolution", type=resolution, default="paper",
-                   help="frame size of simulated clips: paper (270x480, default), rl, small "
-                   "or HxW")
-    b.add_argument("--horizon", type=float, default=1.0,
-                   help="a frame counts as dangerous when an obstacle is within this time to "
-                   "collision (s, default 1), for the ROC AUC")
-    b.add_argument("--window", type=float, default=1.0,
-                   help="a first alarm within this many seconds before the collision is a "
-                   "hit (s, default 1)")
     add_run_folder_options(b, "bench-open-loop")
-    add_parallel_options(b, "clips")
+    more = advanced(b, "the clips' first seed, noise levels and frame size, how a frame "
+                    "or an alarm is scored, and Ray")
+    more.add_argument("--first-seed", type=non_negative_int, default=0,
+                      help="the first episode seed (default 0)")
+    more.add_argument("--noise-levels", default="0.001,0.003,0.005,0.007,0.009",
+                      help="Gaussian variances and salt-and-pepper densities for the "
+                      "stationary clips (default 0.001,0.003,0.005,0.007,0.009; '' for none)")
+    more.add_argument("--resolution", type=resolution, default="paper",
+                      help="frame size of simulated clips: paper (270x480, default), rl, small "
+                      "or HxW")
+    more.add_argument("--horizon", type=float, default=1.0,
+                      help="a frame counts as dangerous when an obstacle is within this time "
+                      "to collision (s, default 1), for the ROC AUC")
+    more.add_argument("--window", type=float, default=1.0,
+                      help="a first alarm within this many seconds before the collision is a "
+                      "hit (s, default 1)")
+    add_parallel_options(b, more, "clips")
 
 
 def closed_loop_config(args: argparse.Namespace) -> Any:

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from lgmd_sim.cli.args import add_parallel_options
+from lgmd_sim.cli.args import add_parallel_options, advanced
 
 
 def add(sub: argparse._SubParsersAction) -> None:
@@ -39,15 +39,16 @@ lgmd-sim leaderboard OUT/*/result.json --out leaderboard.md""")
                    help="detectors, controllers or policy folders (see above)")
     p.add_argument("--out", default="benchmark-out", metavar="DIR",
                    help="output folder, one subfolder per entry (default ./benchmark-out)")
-    p.add_argument("--protocol", default="v1", metavar="NAME|FILE",
-                   help="a shipped protocol (v1, the default) or a protocol TOML file")
     p.add_argument("--calibrate", action="store_true",
                    help="first tune each detector by the protocol's calibration rule (the "
                    "robot task, budget 16, search seeds 0-5, held-out 100-105, as the shipped "
                    "robot presets), on its front end, so that a new model is compared "
                    "fairly: its row is MODEL/robot[-FRONT]; a few minutes more (the eta "
                    "example plug-in: 3 minutes here)")
-    add_parallel_options(p)
+    more = advanced(p, "another protocol than the shipped one, and Ray")
+    more.add_argument("--protocol", default="v1", metavar="NAME|FILE",
+                      help="a shipped protocol (v1, the default) or a protocol TOML file")
+    add_parallel_options(p, more)
 
 
 def run(args: argparse.Namespace) -> int:

@@ -9,6 +9,7 @@ from lgmd_sim import options
 from lgmd_sim.cli.args import (
     add_parallel_options,
     add_run_folder_options,
+    advanced,
     non_negative_int,
     positive_int,
     print_result,
@@ -63,31 +64,33 @@ def add(sub: argparse._SubParsersAction) -> None:
                    "(default 32, the same for every detector)")
     p.add_argument("--seeds", type=positive_int, default=8,
                    help="episode seeds per clip group in each set (default 8)")
-    p.add_argument("--first-seed", type=non_negative_int, default=0,
-                   help="first search seed (default 0)")
-    p.add_argument("--heldout-seed", type=non_negative_int, default=100,
-                   help="first held-out seed (default 100)")
-    p.add_argument("--seed", type=non_negative_int, default=0,
-                   help="seed of the random search (default 0)")
-    p.add_argument("--resolution", type=resolution, default="rl",
-                   help="frame size of the clips: rl (120x160, default: the size of the "
-                   "closed-loop task), paper, small or HxW")
     p.add_argument("--save-presets", action="store_true",
                    help="also merge the calibrated presets into your presets file, "
                    "calibrated.json in $LGMD_SIM_DATA_DIR (default: the user data folder, "
                    "~/.local/share/lgmd-sim on Linux); only the calibrated detectors' "
                    "presets change there, and the models read it on top of the shipped "
                    "presets")
-    p.add_argument("--presets-file", metavar="PATH", default=None,
-                   help="merge the calibrated presets into PATH instead of your presets "
-                   "file (implies --save-presets); the models read only your presets file "
-                   "(calibrated.json in $LGMD_SIM_DATA_DIR, else in the user data folder), "
-                   "so a PATH named calibrated.json serves them once LGMD_SIM_DATA_DIR "
-                   "names its folder. Either file is checked before the calibration starts: "
-                   "a presets file or none yet, writable, in a folder that can be written or "
-                   "made")
     add_run_folder_options(p, "calibration")
-    add_parallel_options(p, "clips and candidates")
+    more = advanced(p, "the search's and the held-out clips' seeds, the clips' frame size, "
+                    "another presets file, and Ray")
+    more.add_argument("--first-seed", type=non_negative_int, default=0,
+                      help="first search seed (default 0)")
+    more.add_argument("--heldout-seed", type=non_negative_int, default=100,
+                      help="first held-out seed (default 100)")
+    more.add_argument("--seed", type=non_negative_int, default=0,
+                      help="seed of the random search (default 0)")
+    more.add_argument("--resolution", type=resolution, default="rl",
+                      help="frame size of the clips: rl (120x160, default: the size of the "
+                      "closed-loop task), paper, small or HxW")
+    more.add_argument("--presets-file", metavar="PATH", default=None,
+                      help="merge the calibrated presets into PATH instead of your presets "
+                      "file (implies --save-presets); the models read only your presets "
+                      "file (calibrated.json in $LGMD_SIM_DATA_DIR, else in the user data "
+                      "folder), so a PATH named calibrated.json serves them once "
+                      "LGMD_SIM_DATA_DIR names its folder. Either file is checked before the "
+                      "calibration starts: a presets file or none yet, writable, in a folder "
+                      "that can be written or made")
+    add_parallel_options(p, more, "clips and candidates")
 
 
 def config_from_args(args: argparse.Namespace) -> Any:

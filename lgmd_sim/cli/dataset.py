@@ -8,7 +8,13 @@ import sys
 from typing import Any
 
 from lgmd_sim import options
-from lgmd_sim.cli.args import add_parallel_options, non_negative_int, positive_int, resolution
+from lgmd_sim.cli.args import (
+    add_parallel_options,
+    advanced,
+    non_negative_int,
+    positive_int,
+    resolution,
+)
 
 
 def add(sub: argparse._SubParsersAction) -> None:
@@ -34,25 +40,27 @@ def add(sub: argparse._SubParsersAction) -> None:
     g.add_argument("--out", required=True, metavar="DIR", help="the dataset folder")
     g.add_argument("--resolution", type=resolution, default="paper",
                    help="paper (270x480, default), rl (120x160), small (64x64) or HxW")
-    g.add_argument("--controller", default="straight",
-                   help="what drives the carrier: a name from lgmd_sim.controllers "
-                   "(default straight)")
-    g.add_argument("--models", default="none",
-                   help="LGMD models whose potential and alarm join the labels: none "
-                   "(default), all, or a comma-separated list")
-    g.add_argument("--noise", default="",
-                   help="noise variants, comma-separated, e.g. "
-                   "gaussian:0.005,saltpepper:0.005 (join noises of one variant with +); "
-                   "derived from the clean frames on loading, not stored")
-    g.add_argument("--video", choices=("huffyuv", "ffv1", "mpeg4"), default="huffyuv",
-                   help="frame storage: huffyuv (lossless, fast; default), ffv1 (lossless, "
-                   "about half the size, slower to write), mpeg4 (lossy, small)")
-    g.add_argument("--seed", type=non_negative_int, default=0,
-                   help="first episode seed (default 0)")
-    g.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
-                   help="an environment parameter for every scenario, e.g. time_limit=2 or "
-                   "miss_distance=0.5 (repeatable; see lgmd-sim envs NAME)")
-    add_parallel_options(g)
+    more = advanced(g, "what drives the carrier, LGMD labels, noise variants, the frames' "
+                    "storage, seeds, environment parameters, and Ray")
+    more.add_argument("--controller", default="straight",
+                      help="what drives the carrier: a name from lgmd_sim.controllers "
+                      "(default straight)")
+    more.add_argument("--models", default="none",
+                      help="LGMD models whose potential and alarm join the labels: none "
+                      "(default), all, or a comma-separated list")
+    more.add_argument("--noise", default="",
+                      help="noise variants, comma-separated, e.g. "
+                      "gaussian:0.005,saltpepper:0.005 (join noises of one variant with +); "
+                      "derived from the clean frames on loading, not stored")
+    more.add_argument("--video", choices=("huffyuv", "ffv1", "mpeg4"), default="huffyuv",
+                      help="frame storage: huffyuv (lossless, fast; default), ffv1 (lossless, "
+                      "about half the size, slower to write), mpeg4 (lossy, small)")
+    more.add_argument("--seed", type=non_negative_int, default=0,
+                      help="first episode seed (default 0)")
+    more.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
+                      help="an environment parameter for every scenario, e.g. time_limit=2 "
+                      "or miss_distance=0.5 (repeatable; see lgmd-sim envs NAME)")
+    add_parallel_options(g, more)
     v = what.add_parser(
         "verify", help="check a dataset: counts, checksums, label consistency",
         description="Check that the dataset in DIR is complete and consistent; print each "

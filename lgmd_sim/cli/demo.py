@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import argparse
 
-from lgmd_sim.cli.args import non_negative_float, non_negative_int, resolution
+from lgmd_sim.cli.args import advanced, non_negative_float, non_negative_int, resolution
 
 #: The feedback LGMD at its robot calibration, the rotation fitted from the frames: the
 #: preset made for this camera (docs/concepts.md, "Presets").
@@ -51,21 +51,24 @@ def add(sub: argparse._SubParsersAction) -> None:
                    help="comma-separated detectors, MODEL[/PRESET][+FRONT END] (default "
                    f"{','.join(DETECTORS)}: the robot preset, then the paper's model); "
                    "the first one's S layer is shown")
-    p.add_argument("--resolution", type=resolution, default="rl",
-                   help="camera resolution: rl (120x160, default: the robot presets' "
-                   "calibration's), paper (270x480), small (64x64) or HxW")
-    p.add_argument("--avoider", default=AVOIDER, metavar="DETECTOR[,SIDE]",
-                   help="the detector that drives the avoiding robot, and how it tells the "
-                   "threat's side: halves (of one LGMD's S layer) or eyes (two LGMDs over "
-                   f"the left and right of the view) (default {AVOIDER})")
-    p.add_argument("--avoid-seed", type=non_negative_int, default=AVOID_SEED,
-                   help=f"seed of the avoiding episode (default {AVOID_SEED})")
-    p.add_argument("--avoid-resolution", type=resolution, default=None,
-                   help="camera resolution of the avoiding episode (default: the closed-loop "
-                   "benchmark's, rl: its detectors' presets are calibrated there)")
     p.add_argument("--no-avoid", action="store_true",
                    help="skip the avoiding episode (avoid.mp4, avoid.png: an earlier "
                    "run's in DIR are removed, so that the folder holds one set)")
+    more = advanced(p, "the camera's resolution, and the avoiding episode's detector, seed "
+                    "and resolution")
+    more.add_argument("--resolution", type=resolution, default="rl",
+                      help="camera resolution: rl (120x160, default: the robot presets' "
+                      "calibration's), paper (270x480), small (64x64) or HxW")
+    more.add_argument("--avoider", default=AVOIDER, metavar="DETECTOR[,SIDE]",
+                      help="the detector that drives the avoiding robot, and how it tells "
+                      "the threat's side: halves (of one LGMD's S layer) or eyes (two LGMDs "
+                      f"over the left and right of the view) (default {AVOIDER})")
+    more.add_argument("--avoid-seed", type=non_negative_int, default=AVOID_SEED,
+                      help=f"seed of the avoiding episode (default {AVOID_SEED})")
+    more.add_argument("--avoid-resolution", type=resolution, default=None,
+                      help="camera resolution of the avoiding episode (default: the "
+                      "closed-loop benchmark's, rl: its detectors' presets are calibrated "
+                      "there)")
 
 
 def run(args: argparse.Namespace) -> int:

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from lgmd_sim.cli.args import non_negative_float, non_negative_int
+from lgmd_sim.cli.args import advanced, non_negative_float, non_negative_int
 
 
 def fov_degrees(text: str) -> float:
@@ -49,8 +49,6 @@ def add(sub: argparse._SubParsersAction) -> None:
         "otherwise a miss (early, late or none), as `bench open-loop` and the published "
         "evaluation count it",
     )
-    p.add_argument("--window", type=non_negative_float, default=1.0, metavar="S",
-                   help="the hit window, seconds before the collision frame (default: 1.0)")
     p.add_argument("--out", metavar="DIR",
                    help="write <name>.csv, <name>.json and <name>.png per video into DIR "
                    "(default: ./detect-out; with --json, files are written only when --out "
@@ -59,30 +57,34 @@ def add(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--json", action="store_true",
                    help="print one JSON object per video to stdout (with the membrane "
                    "potential of every frame)")
-    p.add_argument("--noise", metavar="SPEC",
-                   help="corrupt every frame before the models and the SSIM see it, as the "
-                   "paper's noisy streams: comma-separated kind:level of gaussian (variance "
-                   "on the [0, 1] scale, the paper's 0.001 to 0.009), saltpepper (density, "
-                   "0.001 to 0.009), shake (extra rotation, translation and brightness "
-                   "gain, level 1: about 1 degree and 2 pixels), and a real camera's: "
-                   "exposure (a smoothly drifting gain, level 1: about 10%%), sensor "
-                   "(signal-dependent noise), blur (motion blur, level 1: about 3 pixels) "
-                   "and jpeg (compression at quality 1 to 100), "
-                   "e.g. "
-                   "gaussian:0.005,saltpepper:0.005; recorded in the JSON summary")
-    p.add_argument("--noise-seed", type=non_negative_int, default=0, metavar="N",
-                   help="seed of --noise (default: 0); frame t's noise depends only on the "
-                   "seed, SPEC and t")
-    p.add_argument("--stabilize", default="none", metavar="FRONT",
-                   help="ego-motion compensation before every model: 'image' removes the "
-                   "camera's rotation between frames, fitted from the frames alone (it needs "
-                   "the camera's field of view, --fov); 'gain' removes brightness changes "
-                   "between frames; 'image+gain' both (default: none). Recorded per model in "
-                   "the JSON summary")
-    p.add_argument("--fov", type=fov_degrees, default=55.0, metavar="DEG",
-                   help="the camera's vertical field of view in degrees, for --stabilize "
-                   "image (default: 55, the simulator's camera)")
     p.add_argument("--no-progress", action="store_true", help="hide the progress bar")
+    more = advanced(p, "the hit window, noise on the frames, and ego-motion compensation "
+                    "(the camera's rotation, its brightness)")
+    more.add_argument("--window", type=non_negative_float, default=1.0, metavar="S",
+                      help="the hit window, seconds before the collision frame (default: "
+                      "1.0)")
+    more.add_argument("--noise", metavar="SPEC",
+                      help="corrupt every frame before the models and the SSIM see it, as "
+                      "the paper's noisy streams: comma-separated kind:level of gaussian "
+                      "(variance on the [0, 1] scale, the paper's 0.001 to 0.009), saltpepper "
+                      "(density, 0.001 to 0.009), shake (extra rotation, translation and "
+                      "brightness gain, level 1: about 1 degree and 2 pixels), and a real "
+                      "camera's: exposure (a smoothly drifting gain, level 1: about 10%%), "
+                      "sensor (signal-dependent noise), blur (motion blur, level 1: about 3 "
+                      "pixels) and jpeg (compression at quality 1 to 100), e.g. "
+                      "gaussian:0.005,saltpepper:0.005; recorded in the JSON summary")
+    more.add_argument("--noise-seed", type=non_negative_int, default=0, metavar="N",
+                      help="seed of --noise (default: 0); frame t's noise depends only on "
+                      "the seed, SPEC and t")
+    more.add_argument("--stabilize", default="none", metavar="FRONT",
+                      help="ego-motion compensation before every model: 'image' removes "
+                      "the camera's rotation between frames, fitted from the frames alone (it "
+                      "needs the camera's field of view, --fov); 'gain' removes brightness "
+                      "changes between frames; 'image+gain' both (default: none). Recorded "
+                      "per model in the JSON summary")
+    more.add_argument("--fov", type=fov_degrees, default=55.0, metavar="DEG",
+                      help="the camera's vertical field of view in degrees, for --stabilize "
+                      "image (default: 55, the simulator's camera)")
 
 
 def config_from_args(args: argparse.Namespace) -> Any:

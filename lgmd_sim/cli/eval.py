@@ -11,6 +11,7 @@ from lgmd_sim.cli.args import (
     add_detector_options,
     add_parallel_options,
     add_run_folder_options,
+    advanced,
     print_result,
     run_folder_kwargs,
 )
@@ -47,9 +48,11 @@ def add(sub: argparse._SubParsersAction) -> None:
     add_detector_options(p, default=None, means="the LGMD models the policies observe, "
                          "at their presets (all, each at its default preset, when none "
                          "observes one)")
-    add_closed_loop_options(p, jitter="1,2", seeds=EVAL_SEEDS, top_views=EVAL_TOP_VIEWS)
+    more = advanced(p, "the episodes' first seed, cruise speed and false-alarm horizon, the "
+                    "figures, and Ray")
+    add_closed_loop_options(p, more, jitter="1,2", seeds=EVAL_SEEDS, top_views=EVAL_TOP_VIEWS)
     add_run_folder_options(p, "eval-out")
-    add_parallel_options(p)
+    add_parallel_options(p, more)
 
 
 def config_from_args(args: argparse.Namespace) -> Any:

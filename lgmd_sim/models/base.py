@@ -6,15 +6,13 @@ same model runs N independent streams at once when built with ``n_streams=N``: t
 ``step`` takes frames of shape (N, H, W) or (N, H, W, 3) and returns arrays of N values,
 identical to N separate streaming models.
 
-A model is a subclass of `LGMDModel`; its docstring is the contract: what a model
-implements (parameters, presets, layers and the hooks `allocate`, `reset_streams`,
-`step_batch`, `state_maps` and `maps_moved`), and what this base gives it.
-
-Ego-motion compensation (`lgmd_sim.models.stabilize`): ``step(frame, motion=Motion(H))``
-first warps every stored map into the current camera frame by the homography H between
-the previous frame and this one (`lgmd_sim.models.warp`); a model built with
-``stabilize="image"`` (or "pose" / "imu", given ``step(frame, rotation=...)``) makes H
-itself, and with ``gain=True`` the brightness gain between frames.
+A model is a subclass of `LGMDModel`, whose docstring is the contract (the guide to
+writing one: docs/guides/own-detector.md). Ego-motion compensation: a model built with
+``stabilize="image"`` (or "pose" / "imu", given ``step(frame, rotation=...)``) or
+``gain=True`` has a front end (`lgmd_sim.models.stabilize`) that gives the camera's
+motion between frames, one without may be given it (``step(frame, motion=Motion(H))``);
+every stored map is then warped into the current frame first
+(`lgmd_sim.models.compensation`).
 """
 
 from __future__ import annotations
@@ -29,9 +27,10 @@ import numpy as np
 
 from lgmd_sim.frames import to_grey
 from lgmd_sim.metrics import AlarmRule
+from lgmd_sim.models.compensation import Compensation
 from lgmd_sim.models.guard import PluginError, is_plugin, potentials_fault, run_hook
 from lgmd_sim.models.search import SearchRange
-from lgmd_sim.models.warp import Motion, Plan, apply_plan, fill_pad_columns, homography_plan
+from lgmd_sim.models.warp import Motion
 from lgmd_sim.params import CheckedParams, in_range, int_in_range, one_of, param
 
 #: Values of the ``stabilize`` parameter: where each frame's camera rotation comes from.
@@ -173,76 +172,34 @@ class LGMDModel(ABC):
     batched models take the same with a leading stream axis. The frame size is set by the
     first frame after construction or a full `reset` and must then stay the same.
 
-    **The contract.** A model (a built-in, or yours: `lgmd_sim.models.register`) is a
-    subclass that declares, as class attributes:
+    **The contract** (in full, with what each part is for: docs/guides/own-detector.md).
+    A model (a built-in, or yours: `lgmd_sim.models.register`) declares as class attributes:
 
-    - ``name``: the model's name in messages (conventionally the name it is registered by);
-    - ``Params``: its parameters, a frozen dataclass subclassing `ModelParams` whose every
-      field is a `lgmd_sim.params.param` (a default, its source, a check, a doc); it
-      inherits ``threshold`` and the `RESERVED_PARAMETERS` (``stabilize``, ``fovy``,
-      ``gain``, ``alarm_frames``, ``alarm_rising``, ``working_height``), which the base
-      reads and which it must not declare again. ``threshold``'s check (0.5..1) fits a
-      sigmoid membrane potential, as the built-ins report; a model whose potentials span
-      another range redefines ``threshold`` with its own check;
-    - ``layer_names``: the names of the maps it can return (``step(..., layers=True)``),
-      () for none;
-    - ``presets``: named parameter sets, each the overrides of the defaults it makes
-      ({} for the defaults themselves); the first is the model's default preset;
-    - ``search_space`` (optional; for ``lgmd-sim calibrate``): the parameters the
-      calibration searches, each key a parameter ("rho") or one element of a tuple
-      parameter ("eta[0]": then every element is a key, and the tuple made of them), each
-      value a `SearchRange` (`check_search_space`).
-      A candidate is the default preset with every key drawn once, in the mapping's order
-      (a seed gives the same candidates while the order stays); the alarm ``threshold`` is
-      searched for every model besides, at no cost. A model without one (the default {})
-      is not calibrated: there would be nothing but the threshold to tune;
+    - ``name``; ``Params``, a frozen `ModelParams` subclass, every field a
+      `lgmd_sim.params.param`, that does not declare the `RESERVED_PARAMETERS` again
+      (``threshold``, for potentials in 0.5..1, it may redeclare with its own check);
+    - ``layer_names`` (() for none); ``presets``, named overrides of the defaults, the
+      first the default preset; ``search_space`` (optional, for ``lgmd-sim calibrate``):
+      a `SearchRange` per parameter, or per element of a tuple parameter ("eta[0]");
 
-    and implements the hooks, each on all N streams at once (N = 1 for a streaming model),
-    as arrays it keeps as attributes of its own:
+    and implements the hooks, each on all N streams at once, on arrays it keeps itself:
 
-    - ``allocate(n, height, width)``: make the state of n streams of height x width
-      frames. Called on the first frame after construction or a full `reset` (so the frame
-      size changes only there), then at once ``reset_streams`` of every stream: the values
-      need not be set here;
-    - ``reset_streams(idx)``: give the streams ``idx`` (an int array, possibly with
-      repeats) the state of a new stream, one that has seen no frame. Also called by
-      ``reset(streams)``, only once `allocate` has been;
-    - ``step_batch(grey, layers)``: take one frame per stream and return the N potentials,
-      a new float array of shape (N,) (the caller keeps it: return no array the model
-      writes into later), finite. ``grey`` is a C-contiguous (N, H, W) stack at the
-      allocated size: uint8 in 0..255 for uint8 frames, else float32 in 0..255 (float
-      frames in 0..1, times 255); colour frames arrive as BT.601 luma. It is read-only,
-      and may be a view of the caller's frames (contiguous uint8 frames are not copied),
-      which every model of a run reads: a model copies what it keeps or changes of it
-      (``self._prev = grey.copy()``, not ``= grey``). Its dtype may
-      change from one frame to the next (uint8, then float32 after a float frame), so a
-      stored previous frame follows it. ``layers`` is None, or a dict holding an
-      uninitialised float32 (N, H, W) array for every name of ``layer_names``, each to be
-      filled in full with that layer's map of this frame;
-    - ``state_maps()`` (for the front ends; a model without it runs only with
-      ``stabilize="none"``, ``gain=False`` and no ``motion``, and is refused with a
-      one-line ValueError otherwise): the `StateMap` of every
-      stored map that moves with the camera: an attribute of shape (N, ..., H, W) (or of
-      padded rows, see `StateMap`), warped in place. Before the warp, the base turns a
-      ``fill="frame"`` map (the previous frame) into float32 by assigning the attribute
-      anew, so the hooks read every map through ``self`` rather than through references
-      kept from before. Called on every frame after the first that has a motion;
-    - ``maps_moved()`` (optional): after a warp that moved some stream's maps, refresh
-      what the model derives from them (a running sum, a mean).
+    - ``allocate(n, height, width)``: the state of n streams (`reset_streams` of every
+      stream follows at once);
+    - ``reset_streams(idx)``: the streams ``idx`` as new ones, and no others;
+    - ``step_batch(grey, layers)``: a read-only C-contiguous (N, H, W) stack, uint8 in
+      0..255 or float32 in 0..255 (copy what you keep), to a new float array of the N
+      finite potentials, filling every float32 (N, H, W) array of ``layers`` when given;
+    - ``state_maps()`` (for the front ends; without it a model runs without them): a
+      `StateMap` for every stored map that moves with the camera, warped in place (the
+      hooks read the maps through ``self``: a previous frame is made float32 anew);
+    - ``maps_moved()`` (optional): after a warp, refresh what is derived from the maps.
 
-    **What the base gives.** `step` and `reset` for one stream and for N from the one
-    implementation (the single-stream output unpacks stream 0); the checks on every input
-    (shapes, dtypes, value ranges, stream counts, frame-size changes, stream indices),
-    with one-line messages naming the model; for a plug-in (a class outside lgmd_sim),
-    its potentials checked every step and its hooks' errors (sys.exit included) turned
-    into a one-line `PluginError` naming it; colour to grey; the front ends
-    (`lgmd_sim.models.stabilize`: ``stabilize`` "pose", "imu", "image", and ``gain``) and a
-    given ``motion=``, warping each declared state map and scaling the previous frame by
-    the brightness gain; the alarms (``potential > params.threshold`` by the
-    `lgmd_sim.metrics.AlarmRule` of ``alarm_frames`` and ``alarm_rising``); and, through
-    `lgmd_sim.models.make`, the presets (with calibrated ones from data files and the
-    front-end suffixes "+image"...), the parameter checks (unknown names, each value
-    checked on creation) and the parameters' sources listed by ``lgmd-sim models``.
+    The base gives `step` and `reset` for one stream or N, the checks on every input,
+    a plug-in's guards (`lgmd_sim.models.guard`), colour to grey, the front ends and
+    ``motion=`` (`lgmd_sim.models.compensation`), the alarms (``potential > threshold`` by
+    the `lgmd_sim.metrics.AlarmRule` of ``alarm_frames`` and ``alarm_rising``) and,
+    through `lgmd_sim.models.make`, the presets and the parameter checks.
     """
 
     name: ClassVar[str]
@@ -278,7 +235,7 @@ class LGMDModel(ABC):
             from lgmd_sim.models.stabilize import FrontEnd
 
             self.front_end = FrontEnd(self.params, self._n)
-        self._plan: Plan | None = None
+        self._compensation = Compensation()
         self.alarm_rule = AlarmRule(self.params.alarm_frames, self.params.alarm_rising)
         # a plug-in's potentials are checked every step, as check_model checks them once
         self._plugin = is_plugin(type(self))
@@ -359,7 +316,7 @@ class LGMDModel(ABC):
                 f"{self.frame_shape[0]}x{self.frame_shape[1]}; call reset() to start a new stream"
             )
         elif hs is not None or gains is not None:
-            self._compensate(grey, hs, gains, horizons, grounds)
+            self._compensation.warp(self, grey, hs, gains, horizons, grounds)
         maps = {n: np.empty((self._n, *shape), np.float32) for n in self.layer_names} if (
             layers
         ) else None
@@ -392,52 +349,6 @@ class LGMDModel(ABC):
         if isinstance(info, Mapping):
             return info[key]
         return np.stack([i[key] for i in info])
-
-    # -- ego-motion compensation ---------------------------------------------------------
-
-    def _compensate(self, grey: np.ndarray, hs: np.ndarray | None, gains: np.ndarray | None,
-                    horizons: np.ndarray | None, grounds: np.ndarray | None) -> None:
-        """Warp every stored map (`state_maps`) into the current frame by the streams'
-        homographies `hs` (N, 3, 3) (and below their `horizons`, by `grounds`: see
-        `Motion`) and scale the previous frame by their `gains` ((N, 1, 1) or (N, H, W))."""
-        n, height, width = grey.shape
-        if gains is not None and gains.shape[1:] not in ((1, 1), (height, width)):
-            raise ValueError(f"{self.name}: gain fields of {gains.shape[1]}x{gains.shape[2]} "
-                             f"for frames of {height}x{width}")
-        maps = run_hook(type(self), "state_maps", self.state_maps)
-        for m in maps:  # a previous frame holds interpolated grey levels from now on
-            if m.fill == "frame" and getattr(self, m.attr).dtype != np.float32:
-                setattr(self, m.attr, getattr(self, m.attr).astype(np.float32))
-        if self._plan is None or self._plan.uncovered.shape != (height, width):
-            self._plan = Plan(height, width)
-            self._scratch = np.zeros((height + 1, width + 1), np.float32)
-        plan, identity, moved = self._plan, np.eye(3), False
-        for i in range(n):
-            gain = None if gains is None or (gains[i] == 1).all() else np.broadcast_to(
-                gains[i], (height, width))  # a gain of 1 changes exactly nothing
-            if hs is not None and not (np.array_equal(hs[i], identity) and horizons is None):
-                moved = True
-                homography_plan(hs[i], plan, None if horizons is None else horizons[i],
-                                None if grounds is None else grounds[i])
-                fill = grey[i].astype(np.float32)  # uncovered: P = 0, whatever the gain
-                for m in maps:
-                    view = getattr(self, m.attr)[i]
-                    if m.padded is not None:
-                        view = view[..., :height, 1:width + 1]
-                    frame = m.fill == "frame"
-                    for k in np.ndindex(view.shape[:-2]):
-                        apply_plan(plan, view[k], fill if frame else None, self._scratch,
-                                   gain if frame else None)
-            elif gain is not None:
-                for m in maps:
-                    if m.fill == "frame":
-                        view = getattr(self, m.attr)[i]
-                        view *= gain
-        if moved:
-            for m in maps:
-                if m.padded is not None:
-                    fill_pad_columns(getattr(self, m.attr)[..., :height, :], width, m.padded)
-            run_hook(type(self), "maps_moved", self.maps_moved)
 
     # -- hooks -------------------------------------------------------------------------
 

@@ -1,6 +1,10 @@
 """What the calibration searches of a model (`LGMDModel.search_space`): a `SearchRange`
 per parameter (or per element of a tuple parameter), `check_search_space` to check a
 declared space against the model's parameters, and `draw_search` to draw a candidate.
+
+It lives with the models, below the calibration (`lgmd_sim.calibration.search`, which
+runs the search): a model's class declares its space, and `check_model` checks it and
+draws candidates to see that they build; the models do not import the jobs above them.
 """
 
 from __future__ import annotations

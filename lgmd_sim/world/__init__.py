@@ -3,8 +3,9 @@
 The parameters (`lgmd_sim.world.params`) import no MuJoCo; `JitterWorld` does (after
 choosing its GL backend, see `lgmd_sim.world.gl`) and is imported on first use. `scene`
 compiles a world's model once, `randomise` rewrites it in place for each episode, and
-`core` (`JitterWorld`) steps it and gives the frames (`render`) and the ground truth;
-`carriers` moves the camera and `terrain` makes the rough ground.
+`core` (`JitterWorld`) steps it and gives the frames (`render`) and the ground truth
+(`truth`: what the carrier may hit); `carriers` moves the camera and `terrain` makes the
+rough ground.
 
 >>> from lgmd_sim.world import JitterWorld, SceneParams
 >>> world = JitterWorld(SceneParams(carrier="handheld", jitter=1.0))

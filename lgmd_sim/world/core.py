@@ -23,7 +23,8 @@ for bit as with frames.
 Each episode is seeded: terrain, obstacles, the mover, scenery, light and shake all come
 from ``reset(seed)``; the same seed on the same machine gives bit-identical frames and
 ground truth. The model is compiled once per world (`lgmd_sim.world.scene`); episodes
-rewrite it in place (`lgmd_sim.world.randomise`).
+rewrite it in place (`lgmd_sim.world.randomise`). The truth of what the carrier may hit
+(contacts, the threat) is `lgmd_sim.world.truth`'s.
 """
 
 from __future__ import annotations
@@ -40,16 +41,12 @@ from lgmd_sim.world.carriers import HeldPath, wheel_speeds
 from lgmd_sim.world.gl import mujoco
 from lgmd_sim.world.params import SceneParams
 from lgmd_sim.world.render import OffscreenRenderer, SSIMStream
+from lgmd_sim.world.truth import Threats, bearing
 
 #: Physics time to let the robot settle on the terrain before the first frame (s).
 SETTLE_TIME = 0.5
 #: Terrain tiles are drawn coarse where a fine cell would span fewer pixels than this.
 LOD_PIXELS = 3.0
-#: A distance query returns this when nothing is nearer (m).
-FAR = 1000.0
-#: Above any closing speed of a carrier's geom and a threat's (m/s), beside twice the
-#: carrier's top speed and the mover's: the reach within which `_may_touch` looks.
-CLOSING_SPEED_MARGIN = 10.0
 #: IMU saturation, as a typical MEMS IMU: +-2000 deg/s, +-16 g.
 GYRO_RANGE = math.radians(2000.0)
 ACCEL_RANGE = 16 * 9.81
@@ -114,10 +111,7 @@ class JitterWorld:
         self.truth: dict[str, Any] = {}
         self._renderer: OffscreenRenderer | None = None  # made on first use: GL per process
         self._ssim = SSIMStream(self.height, self.width) if ssim else None
-        self._hit = self._collision_table()
-        self._owner_of = np.full(self.model.ngeom, -1)  # threat owner of each geom
-        self._owner_of[self.scene.threat_geoms] = self.scene.threat_owner
-        self._fromto = np.zeros(6)
+        self._threats = Threats(self.model, self.data, self.scene, params)
         self._vel = np.zeros(6)
         self._heights: np.ndarray | None = None
         self._held: HeldPath | None = None
@@ -132,22 +126,6 @@ class JitterWorld:
         focal = self.height / (2 * math.tan(fovy / 2))
         self._lod_distance = params.terrain_cell * focal / LOD_PIXELS
         self._tile_radius = terrain.TILE_CELLS * params.terrain_cell / math.sqrt(2)
-        # threat_geoms are grouped by owner: where each owner's run starts.
-        self._owner_start = np.flatnonzero(np.diff(self.scene.threat_owner, prepend=-1))
-        self._owner_geoms = [[int(g) for g in self.scene.threat_geoms[self.scene.threat_owner == i]]
-                             for i in range(self.scene.n_threats)]
-        self._threat_rbound = np.zeros(len(self.scene.threat_geoms))  # per episode
-        # Bounding spheres plus contact margins (per episode, as the obstacles' sizes), for
-        # `_may_touch`; a plane's rbound is 0 (unbounded): it may always touch.
-        self._carrier_reach = np.zeros(len(self.scene.carrier_geoms))
-        self._threat_reach = np.zeros(len(self.scene.threat_geoms))
-        self._frame_reach = (CLOSING_SPEED_MARGIN + 2 * (params.max_speed + params.mover_speed)
-                             ) * params.substeps * self.model.opt.timestep
-        self._has_mover = params.mover != "none"  # then the last threat owner
-        # Arena walls: their bounding spheres (half a wall long) rank nothing, so the exact
-        # distance of every wall is computed each frame.
-        self._walls = tuple(range(params.n_obstacles,
-                                  params.n_obstacles + len(self.scene.wall_geoms)))
         # The IMU: the camera's rotation over the last frame interval, from the poses and
         # integrated from the gyro (with its noise and bias, from their own generator).
         self._camera_quat = np.array([1.0, 0.0, 0.0, 0.0])
@@ -180,9 +158,7 @@ class JitterWorld:
         self._held = randomise.place_carrier(rng, m, d, sc, p, self.ground_height)
         self._settle()
         randomise.launch_mover(rng, m, d, sc, p, self._heights)
-        self._threat_rbound = m.geom_rbound[sc.threat_geoms]
-        self._carrier_reach = self._reach(sc.carrier_geoms)
-        self._threat_reach = self._reach(sc.threat_geoms)
+        self._threats.new_episode()
         d.time = 0.0
         self._apply_light(0.0)
         mujoco.mj_forward(m, d)
@@ -196,7 +172,7 @@ class JitterWorld:
         self._pose_rotation[:] = 0.0
         self._imu_rotation[:] = 0.0
         mujoco.mju_mat2Quat(self._camera_quat, d.cam_xmat[sc.camera])
-        self._observe(self._touching())
+        self._observe(self._threats.touching())
 
     def _settle(self) -> None:
         """Let the robot come to rest on the ground before the episode's first frame."""
@@ -240,7 +216,7 @@ class JitterWorld:
             mujoco.mj_step2(m, d)
             mujoco.mj_step1(m, d)
             if may_touch and d.ncon and not touched:
-                touched = self._touching()
+                touched = self._threats.touching()
             # The velocity that moved the camera in this physics step (the integrator's
             # new one), in the camera's frame: integrated, it gives the rotation exactly.
             mujoco.mj_objectVelocity(m, d, mujoco.mjtObj.mjOBJ_CAMERA, sc.camera, vel, 1)
@@ -424,109 +400,14 @@ class JitterWorld:
             "collision": bool(touched),
             "first_collision_frame": self.first_collision_frame,
         }
-        truth.update(self._threat(cam_pos, cam_mat @ velocity[3:], forward, left, touched))
+        truth.update(self._threats.threat(cam_pos, cam_mat @ velocity[3:], forward, left,
+                                          touched))
         if sc.goal_body >= 0:
             to_goal = d.xpos[sc.goal_body] - cam_pos
             truth["goal_distance"] = math.hypot(to_goal[0], to_goal[1])
-            truth["goal_bearing"] = _bearing(to_goal, forward, left)
+            truth["goal_bearing"] = bearing(to_goal, forward, left)
         return truth
 
-    def _threat(self, cam_pos: np.ndarray, cam_vel: np.ndarray, forward: np.ndarray,
-                left: np.ndarray, touched: frozenset[int]) -> dict[str, Any]:
-        """The most threatening obstacle or arena wall: one touched in this frame (in
-        `touched`), else the soonest to collide, else the nearest.
-
-        Bounding spheres rank the obstacles and the mover cheaply; the exact surface
-        distance (MuJoCo's geom distance from the carrier's main geom) is computed for the
-        candidates, the soonest and the nearest of them, every arena wall and those
-        touched, and decides between them.
-        """
-        m, d, sc = self.model, self.data, self.scene
-        n = sc.n_threats
-        if n == 0:
-            return {"threat_index": -1, "threat_distance": math.inf, "threat_bearing": 0.0,
-                    "threat_closing_speed": 0.0, "threat_ttc": math.inf}
-        mover_vel = None
-        if self._has_mover:
-            mujoco.mj_objectVelocity(m, d, mujoco.mjtObj.mjOBJ_BODY, sc.mover_body, self._vel, 0)
-            mover_vel = self._vel[3:].copy()
-        candidates = {0, *self._walls, *touched}
-        if n > 1:
-            rel_vel = np.empty((n, 3))
-            rel_vel[:] = -cam_vel
-            if mover_vel is not None:
-                rel_vel[-1] += mover_vel
-            towards = d.geom_xpos[sc.threat_geoms] - cam_pos
-            centre_dist = np.sqrt(np.einsum("ij,ij->i", towards, towards))
-            rough = np.minimum.reduceat(centre_dist - self._threat_rbound, self._owner_start)
-            rough[list(self._walls)] = np.inf
-            first = self._owner_start
-            closing = -np.einsum("ij,ij->i", rel_vel, towards[first]) / centre_dist[first]
-            ttc = np.maximum(rough, 0.0) / np.where(closing > 1e-6, closing, 1e-300)
-            candidates = {int(ttc.argmin()), int(rough.argmin()), *self._walls, *touched}
-        best: tuple[tuple[bool, float, float], int, np.ndarray, float] | None = None
-        for i in candidates:
-            dist = math.inf
-            for geom in self._owner_geoms[i]:
-                gap = mujoco.mj_geomDistance(m, d, sc.carrier_main_geom, geom, FAR,
-                                             self._fromto)
-                if gap < dist:
-                    dist, point = gap, self._fromto[3:] - cam_pos
-            unit = point / max(math.sqrt(point @ point), 1e-9)
-            rel = -cam_vel if (mover_vel is None or i < n - 1) else mover_vel - cam_vel
-            speed = -float(rel @ unit)
-            ttc = max(dist, 0.0) / speed if speed > 1e-6 else math.inf
-            # One touched comes first: pressed against it at an angle, the carrier may
-            # close on it no more (its nearest point beside the camera) while it still
-            # closes on something far, an arena wall always.
-            key = (i not in touched, ttc, dist)
-            if best is None or key < best[0]:
-                best = (key, i, unit, speed)
-        (_apart, ttc_i, dist_i), i, unit, speed = best
-        return {"threat_index": i, "threat_distance": float(dist_i),
-                "threat_bearing": _bearing(unit, forward, left),
-                "threat_closing_speed": speed, "threat_ttc": float(ttc_i)}
-
-    def _collision_table(self) -> np.ndarray:
-        n = self.model.ngeom
-        table = np.zeros((n, n), bool)
-        for c in self.scene.carrier_geoms:
-            table[c, self.scene.threat_geoms] = True
-            table[self.scene.threat_geoms, c] = True
-        return table
-
-    def _reach(self, geoms: np.ndarray) -> np.ndarray:
-        """How far from their centres `geoms` may make a contact: bounding sphere and
-        contact margin (infinite for a plane, whose rbound is 0)."""
-        m = self.model
-        reach = m.geom_rbound[geoms] + m.geom_margin[geoms]
-        return np.where(m.geom_type[geoms] == mujoco.mjtGeom.mjGEOM_PLANE, np.inf, reach)
-
     def _may_touch(self) -> bool:
-        """Whether a contact may join the carrier to a threat before the next frame: some
-        carrier geom's reach and some threat geom's are nearer to each other than the two
-        can close in a frame at `CLOSING_SPEED_MARGIN` above the carrier's and the mover's
-        top speeds. Where none are, no contact can be between them (`_touching` finds
-        none), and reading the contacts at each physics step is skipped."""
-        pos = self.data.geom_xpos
-        apart = pos[self.scene.carrier_geoms][:, None] - pos[self.scene.threat_geoms][None]
-        gap = (np.sqrt(np.einsum("ijk,ijk->ij", apart, apart))
-               - self._carrier_reach[:, None] - self._threat_reach[None])
-        return bool((gap < self._frame_reach).any())
-
-    def _touching(self) -> frozenset[int]:
-        """The threats (owner indices) that a contact joins to the carrier now."""
-        g = self.data.contact.geom
-        hit = self._hit[g[:, 0], g[:, 1]]
-        if not hit.any():
-            return frozenset()
-        # of each pair, the carrier's geom owns nothing (-1)
-        return frozenset(self._owner_of[g[hit]].max(axis=1).tolist())
-
-
-# --- helpers ------------------------------------------------------------------------------
-
-
-def _bearing(v: np.ndarray, forward: np.ndarray, left: np.ndarray) -> float:
-    """Angle (rad) of direction v from the camera's forward axis, positive to the left."""
-    return math.atan2(float(v @ left), float(v @ forward))
+        # the world's own, so that a test can count the frames whose contacts it skips
+        return self._threats.may_touch()
