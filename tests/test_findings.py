@@ -16,6 +16,7 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 PAGE = ROOT / "docs" / "findings.md"
+EXPERIMENTS = ROOT / "docs" / "experiments"
 LINK = re.compile(r"!?\[[^\]]*\]\(([^)\s]+)\)")
 # The numbers a paragraph quotes: 0.625, 97%, 4/12. Plain integers (jitter levels, counts,
 # equation numbers) are left out: too many of them match anything.
@@ -64,7 +65,8 @@ def _json_text(data: Any, measured: bool = False) -> str:
         return data
     if isinstance(data, bool) or data is None or not measured:
         return ""
-    return repr(data)
+    # a float to six decimals, so that 1.0 reads as a share (100%) as 0.96875 does (97%)
+    return f"{data:.6f}" if isinstance(data, float) else str(data)
 
 
 def _files(body: str) -> list[tuple[Path, str]]:
@@ -79,14 +81,24 @@ def _files(body: str) -> list[tuple[Path, str]]:
 
 def _sources(body: str) -> str:
     """The text of the sources a finding links: a Markdown page (an anchored link: its
-    section), a JSON file's strings and measurements."""
+    section), a JSON file's strings and measurements (a link with a JSON Pointer: the part
+    it points at). The research log is no source: its tables keep runs that are gone, as
+    history."""
     out = []
     for path, anchor in _files(body):
+        if EXPERIMENTS in path.parents:
+            continue
         if path.suffix == ".md":
             text = path.read_text()
             out.append(_section(text, anchor) if anchor else text)
         elif path.suffix == ".json":
-            out.append(_json_text(json.loads(path.read_text())))
+            # a fragment is a JSON Pointer (#/presets/lgmd1/robot-imu): that part only
+            keys = [k.replace("~1", "/").replace("~0", "~") for k in anchor.split("/")[1:]]
+            data = json.loads(path.read_text())
+            for key in keys:
+                assert isinstance(data, dict) and key in data, f"{path.name}#{anchor}: no {key}"
+                data = data[key]
+            out.append(_json_text(data, measured=bool(MEASURED & set(keys))))
     return "\n".join(out)
 
 
@@ -149,9 +161,13 @@ def test_every_number_of_a_finding_is_in_a_source_it_links(title, body):
 @pytest.mark.parametrize(("title", "body"), FINDINGS, ids=[t[:40] for t, _ in FINDINGS])
 def test_the_files_a_finding_links_are_kept_in_the_repository(title, body):
     """A finding's sources and figure are files of the repository, none of them a path
-    .gitignore leaves on the machine that ran it (a run folder under runs/, records)."""
+    .gitignore leaves on the machine that ran it (a run folder under runs/, records), and
+    a page's anchor is one of its headings."""
     files = [path for path, _ in _files(body)]
     assert all(path.is_file() for path in files), title
+    for path, anchor in _files(body):
+        if path.suffix == ".md" and anchor:
+            _section(path.read_text(), anchor)
     git = shutil.which("git")
     if git is None or not (ROOT / ".git").exists():
         pytest.skip("not a git checkout")
@@ -176,7 +192,20 @@ def test_a_number_typed_by_hand_is_caught():
 def test_a_json_source_gives_its_measurements_not_its_parameters():
     preset = {"params": {"threshold": 0.765},
               "calibration": {"objective": "a window of [0.6, 1.15] s"},
-              "heldout": {"objective": 0.96875, "near_miss": 0.9375, "episodes": 40}}
+              "heldout": {"objective": 0.96875, "near_miss": 0.9375, "stationary": 1.0}}
     text = _json_text(preset)
-    assert unsourced("held out 0.969, 97% late, 94% rejected, in [0.6, 1.15] s", text) == []
+    assert unsourced("held out 0.969, 97% late, 94% rejected, 100% before, in [0.6, 1.15] s",
+                     text) == []
     assert unsourced("threshold 0.765; 96% late", text) == ["0.765", "96%"]
+
+
+def test_a_json_pointer_narrows_a_source_and_the_research_log_is_none():
+    presets = "../lgmd_sim/models/calibrated.json#/presets/lgmd1/robot-imu"
+    held_out = _sources(f"[lgmd1/robot-imu]({presets}/heldout)")
+    assert unsourced("0.625", held_out) == []
+    # its search value and its threshold (a parameter) are not its held-out values
+    assert unsourced("0.573; 0.965", held_out) == ["0.573", "0.965"]
+    assert unsourced("0.573", _sources(f"[lgmd1/robot-imu]({presets})")) == []
+    with pytest.raises(AssertionError, match="no heldout"):
+        _sources("[x](../lgmd_sim/models/calibrated.json#/presets/heldout)")
+    assert _sources("[log](experiments/results-log.md#calibration)") == ""
