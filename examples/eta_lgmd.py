@@ -47,8 +47,8 @@ from typing import Any, ClassVar
 
 import numpy as np
 
+from lgmd_sim.core.params import in_range, int_in_range, param, positive
 from lgmd_sim.models import LGMDModel, ModelParams, SearchRange, StateMap
-from lgmd_sim.params import in_range, int_in_range, param, positive
 
 GABBIANI_1999 = "Gabbiani, Krapp & Laurent 1999, J Neurosci 19:1122"
 

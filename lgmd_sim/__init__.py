@@ -1,18 +1,20 @@
 """lgmd-sim: a Gymnasium jitter-robot testbed for bio-inspired (LGMD) collision detection.
 
 Packages, in floors (each imports only from the floors below it):
-    base     lgmd_sim.params (checked parameters), fileio (atomic outputs), machine,
-             runs (the one resumable run folder), parallel (jobs on a pool or on Ray)
+    core     lgmd_sim.core: params (checked parameters), fileio (atomic outputs), runs (the
+             one resumable run folder), parallel (jobs on a pool or on Ray), registry,
+             extras, machine, resources, frames, plots
     signals  lgmd_sim.models (the LGMD family: feedback LGMD, LGMD1, LGMD2, F(ONn),
-             F(OFFp)), metrics (ISI, MpSI, SI, events), noise, stimuli, video
+             F(OFFp), their front ends and presets), metrics (ISI, MpSI, SI, events),
+             noise, stimuli, video
     world    lgmd_sim.world (the MuJoCo jitter world), envs (Gymnasium environments, the
              scenario catalogue, wrappers)
     acting   lgmd_sim.policies (trained policies and what they observe), controllers
-             (what drives the carrier; the episode loop), options (the shared options,
-             parsed and checked), plots (figure conventions)
-    jobs     lgmd_sim.detect, record, demo, data (labelled datasets), bench (the model
-             benchmark), calibration, training, speed: each job a function taking a
-             typed, frozen configuration (docs/reference/api.md)
+             (what drives the carrier; the episode loop), options (the shared options)
+    jobs     lgmd_sim.benchmark (the protocol, one row, the leaderboard), bench, detect,
+             data (labelled datasets), calibration, training, speed: each job a function
+             taking a typed, frozen configuration (docs/reference/api.md)
+    apps     lgmd_sim.apps: demo, record
     command  lgmd_sim.cli (`lgmd-sim`: parses options into a job's configuration)
 
 Importing lgmd_sim registers every scenario of the catalogue as `lgmd_sim/<Name>-v0`.

@@ -21,7 +21,7 @@ from typing import Literal
 import cv2
 import numpy as np
 
-from lgmd_sim.frames import to_grey
+from lgmd_sim.core.frames import to_grey
 
 __all__ = [
     "DEFAULT_THRESHOLD",

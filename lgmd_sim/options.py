@@ -13,7 +13,7 @@ import math
 from collections.abc import Callable, Iterable, Sequence
 from typing import Any
 
-from lgmd_sim.params import comma_list
+from lgmd_sim.core.params import comma_list
 
 __all__ = [
     "check_detectors",

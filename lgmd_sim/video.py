@@ -27,7 +27,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from lgmd_sim.fileio import atomic_outputs
+from lgmd_sim.core.fileio import atomic_outputs
 
 __all__ = ["CODECS", "DEFAULT_FOLDER_FPS", "IMAGE_SUFFIXES", "VideoReader", "encoder",
            "natural_key", "video_writer"]
@@ -262,7 +262,7 @@ def video_writer(path: str | os.PathLike, fps: float, size: tuple[int, int]
                  ) -> Iterator[Callable[[np.ndarray], None]]:
     """Yield a function that appends an RGB uint8 frame of `size` (height, width) to the
     video `path`; the file appears only once the block completes and the file is checked
-    (see `encoder`, `lgmd_sim.fileio`). The codec follows the suffix (`CODECS`)."""
+    (see `encoder`, `lgmd_sim.core.fileio`). The codec follows the suffix (`CODECS`)."""
     path = Path(path)
     codec = CODECS.get(path.suffix.lower())
     if codec is None:

@@ -2,5 +2,5 @@
 # The test command: set up what is missing, then lint and run the test suite.
 set -euo pipefail
 source "$(dirname "${BASH_SOURCE[0]}")/setup.sh"
-ruff check lgmd_sim tests scripts examples
+ruff check lgmd_sim tests examples docs/experiments/tools
 python -m pytest "$@"

@@ -151,6 +151,7 @@ def test_a_user_scenario_cannot_shadow_a_packaged_one(tmp_path, isolated_catalog
 # --- 2. and 3. detect outputs -------------------------------------------------------------
 
 
+@pytest.mark.slow
 def test_detect_output_names_never_collide(tmp_path, capsys):
     # same stem, and an input really named like a numbered stem: three distinct result sets
     inputs = {"clip.avi": 6, "clip.mp4": 7, "clip-1": 8, "clip-2.mp4": 9}

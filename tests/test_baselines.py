@@ -81,6 +81,7 @@ SWITCHED = [
 ]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(("name", "preset", "params"), SWITCHED)
 def test_fast_model_matches_per_equation_reference(name: str, preset: str, params: dict) -> None:
     for clip in oracle_clips():
@@ -97,6 +98,7 @@ def test_fast_model_matches_per_equation_reference(name: str, preset: str, param
                 assert off.mean() <= 5e-3, f"{name} layer {k}: {off.sum()} cells differ"
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(("name", "preset"), PRESETS)
 def test_batch_equals_separate_streams_with_a_mid_stream_reset(name: str, preset: str) -> None:
     clips = [
@@ -124,6 +126,7 @@ def test_batch_equals_separate_streams_with_a_mid_stream_reset(name: str, preset
                     np.testing.assert_array_equal(out.layers[k][i], one.layers[k])
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(("name", "preset"), PRESETS)
 def test_a_static_scene_gives_exactly_the_resting_potential(name: str, preset: str) -> None:
     frames = stimuli.static(SMALL, n_frames=8).frames
@@ -137,6 +140,7 @@ def test_a_static_scene_gives_exactly_the_resting_potential(name: str, preset: s
     assert model.step(np.repeat(frames[0][..., None], 3, axis=2) / 255.0).potential == 0.5
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(("name", "preset"), PRESETS)
 def test_uint8_and_float_input_agree(name: str, preset: str) -> None:
     frames = stimuli.approaching(SMALL, look=stimuli.Look(contrast=0.5,

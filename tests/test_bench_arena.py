@@ -261,7 +261,7 @@ def test_a_controller_that_cannot_tell_reports_no_manoeuvring_share(monkeypatch)
 
     from lgmd_sim import controllers
     from lgmd_sim.bench import episode, summary
-    from lgmd_sim.params import CheckedParams
+    from lgmd_sim.core.params import CheckedParams
 
     class Blind(controllers.Controller):
         Params = CheckedParams
@@ -348,7 +348,7 @@ def test_older_records_without_the_arena_fields_still_summarise():
     """A run folder from before the arena task resumes: its goal records lack the new
     fields, and read as goal tasks."""
     from lgmd_sim.bench import episode, summary
-    from lgmd_sim.runs import _mismatch
+    from lgmd_sim.core.runs import _mismatch
 
     old = record("straight", 1000, scenario="RoughTerrainObstacles", goal=True)
     for name in ("side", "task", "collisions", "collisions_per_min", "encounters", "avoided",
@@ -368,7 +368,7 @@ def sided(monkeypatch):
     from dataclasses import dataclass
 
     from lgmd_sim.controllers import avoid
-    from lgmd_sim.params import one_of, param
+    from lgmd_sim.core.params import one_of, param
 
     if "side" not in avoid.ReactiveParams.names():
         @dataclass(frozen=True)
@@ -451,6 +451,7 @@ def test_each_example_is_drawn_under_its_own_cells_label(tmp_path, monkeypatch):
         ("oracle", "oracle"), ("straight", "straight")]
 
 
+@pytest.mark.slow
 def test_the_arena_run_counts_encounters_and_draws_where_they_happened(tmp_path):
     """ArenaRoam, oracle and straight, one seed: the records carry the arena's figures,
     the summary its table, and the figures are the roam task's (no success rate)."""
@@ -570,8 +571,8 @@ def test_the_world_drawing_helpers_are_public():
 
 
 def test_a_path_that_goes_on_after_a_collision_ends_at_its_end(tmp_path, monkeypatch):
-    """Without termination on collision the path goes on: its end marker stands at its
-    end, the cross at its first collision."""
+    """Without termination on collision the path goes on: it is drawn to its end, the
+    cross at its first collision."""
     from lgmd_sim.bench import figures, summary
 
     rows = summary.summarise([record("straight", 1000, found=1, collisions=1)])
@@ -583,5 +584,6 @@ def test_a_path_that_goes_on_after_a_collision_ends_at_its_end(tmp_path, monkeyp
     (ax,) = [a for a in made["trajectories.png"].axes if a.get_lines()]
     singles = {ln.get_marker(): (float(ln.get_xdata()[0]), float(ln.get_ydata()[0]))
                for ln in ax.get_lines() if len(ln.get_xdata()) == 1}
-    assert singles["x"] == (1.0, 0.0)  # the collision
-    assert singles[figures._CONTROLLER_STYLES["straight"]["marker"]] == (3.0, 1.0)  # the end
+    assert singles[figures._FAILED["marker"]] == (1.0, 0.0)  # the collision
+    (path,) = [ln for ln in ax.get_lines() if len(ln.get_xdata()) > 1]
+    assert (float(path.get_xdata()[-1]), float(path.get_ydata()[-1])) == (3.0, 1.0)  # the end

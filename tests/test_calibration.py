@@ -35,13 +35,14 @@ def test_each_kind_is_judged_as_declared():
     assert score.tolist() == pytest.approx([2 / 3])
 
 
+@pytest.mark.slow
 def test_a_tiny_calibration_writes_presets_that_models_take(tmp_path, monkeypatch):
     out = tmp_path / "cal"
     assert cli.main(["calibrate", "--detectors", "lgmd1,feedback-open-loop,lgmd1+image",
                      "--budget", "2", "--seeds", "1", "--resolution", "small",
                      "--workers", "1", "--no-progress", "--out", str(out)]) == 0
     data = json.loads((out / "calibrated.json").read_text())
-    assert data["command"].startswith("lgmd-sim calibrate") and data["budget"] == 2
+    assert "lgmd-sim calibrate" in data["command"] and data["budget"] == 2
     entry = data["presets"]["lgmd1"]["calibrated"]
     assert entry["from"] == "published" and 0.5 < entry["params"]["threshold"] < 1
     assert set(entry["heldout"]) == {"objective", "jitter", "stationary", "near_miss"}

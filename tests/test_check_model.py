@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 from lgmd_sim import cli, models
+from lgmd_sim.core.params import in_range, param, tuple_of
 from lgmd_sim.models import (
     LGMDModel,
     ModelCheckError,
@@ -20,7 +21,6 @@ from lgmd_sim.models import (
     check_model,
 )
 from lgmd_sim.models.check import CHECKS
-from lgmd_sim.params import in_range, param, tuple_of
 
 SMALL = {"frames": 20, "size": (24, 32)}
 
@@ -213,6 +213,7 @@ class OutOfRange(Tuned):
     search_space: ClassVar[dict[str, SearchRange]] = {"decay": SearchRange(1.5, 2.0)}
 
 
+@pytest.mark.slow
 def test_the_built_ins_pass():
     for name in models.available():
         assert check_model(name, **SMALL) == [(title, "passed") for title in CHECKS]
@@ -335,7 +336,7 @@ def test_models_check_of_a_broken_spec_exits_2_with_one_line(tmp_path, monkeypat
         sys.modules.pop("lgmdcheckplug", None)
     assert capsys.readouterr().err == (
         "lgmd-sim models: error: lgmdcheckplug:Broken: parameters: parameter scale has no "
-        "source (where its default comes from): declare it with lgmd_sim.params.param("
+        "source (where its default comes from): declare it with lgmd_sim.core.params.param("
         "default, source, check=...)\n")
 
 

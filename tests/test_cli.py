@@ -83,7 +83,7 @@ def test_every_model_is_listed():
 
 
 def test_a_missing_extra_is_a_one_line_error_naming_it(monkeypatch):
-    from lgmd_sim.extras import MissingExtra, require
+    from lgmd_sim.core.extras import MissingExtra, require
 
     monkeypatch.setitem(sys.modules, "stable_baselines3", None)  # as if not installed
     hint = (r"'rl' extra; install it from a checkout of lgmd-sim: "

@@ -1,5 +1,5 @@
-"""scripts/collision_views.py: a collision replayed from a benchmark run's records, the
-obstacle it hits found in the camera's frames before it."""
+"""docs/experiments/tools/collision_views.py: a collision replayed from a benchmark run's records,
+the obstacle it hits found in the camera's frames before it."""
 
 from __future__ import annotations
 
@@ -8,7 +8,13 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
+# The research log's tools (docs/experiments/tools/): the slow tier, out of the edit loop.
+pytestmark = pytest.mark.slow
+
 ROOT = Path(__file__).resolve().parents[1]
+TOOLS = ROOT / "docs" / "experiments" / "tools"  # the research log's scripts
 
 
 def test_a_wall_driven_into_is_seen_ahead_and_a_replay_that_differs_is_left_out(tmp_path):
@@ -29,7 +35,7 @@ def test_a_wall_driven_into_is_seen_ahead_and_a_replay_that_differs_is_left_out(
         writer.writerows(records)
 
     out = tmp_path / "views"
-    subprocess.run([sys.executable, str(ROOT / "scripts" / "collision_views.py"), str(bench),
+    subprocess.run([sys.executable, str(TOOLS / "collision_views.py"), str(bench),
                     str(out), "--workers", "1"], check=True, capture_output=True)
     with (out / "collisions.csv").open(newline="") as f:
         (row,) = csv.DictReader(f)  # the replay that ended elsewhere is left out
@@ -54,7 +60,7 @@ def test_a_scenario_that_goes_on_after_a_collision_is_refused_in_one_line(tmp_pa
     (tmp_path / "episodes.csv").write_text(
         "scenario,jitter,controller,model,preset,tag,side,seed,task,frames,collided\n"
         "ArenaRoam,1.0,straight,,,,,1000,roam,900,True\n")
-    done = subprocess.run([sys.executable, str(ROOT / "scripts" / "collision_views.py"),
+    done = subprocess.run([sys.executable, str(TOOLS / "collision_views.py"),
                            str(tmp_path), str(tmp_path / "views")], capture_output=True,
                           text=True)
     assert done.returncode == 1

@@ -13,7 +13,7 @@ from lgmd_sim.bench.closed_loop import ClosedLoopConfig
 from lgmd_sim.bench.open_loop import OpenLoopConfig
 from lgmd_sim.calibration.run import CalibrateConfig
 from lgmd_sim.cli import bench as cli_bench
-from lgmd_sim.runs import RunFolder
+from lgmd_sim.core.runs import RunFolder
 
 
 def _parsed(*argv: str):

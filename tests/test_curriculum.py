@@ -12,7 +12,8 @@ import pytest
 pytest.importorskip("stable_baselines3")
 
 import lgmd_sim  # noqa: F401  (registers the scenarios)
-from lgmd_sim import cli, fileio
+from lgmd_sim import cli
+from lgmd_sim.core import fileio
 from lgmd_sim.training import curriculum, curve
 from lgmd_sim.training import envs as training_envs
 
@@ -45,6 +46,7 @@ def built(monkeypatch):
     return calls
 
 
+@pytest.mark.slow
 def test_the_curriculum_advances_and_each_stage_is_recorded(tmp_path, built):
     stages = _stages(tmp_path, AT_THE_GOAL + "jitter = 0.5\nadvance_at = 1.0",
                      AT_THE_GOAL + "advance_at = 0.5")
@@ -75,6 +77,7 @@ def test_the_curriculum_advances_and_each_stage_is_recorded(tmp_path, built):
     assert f"Curriculum {stages}" in summary and "| 0 | task | the task's |" in summary
 
 
+@pytest.mark.slow
 def test_resume_keeps_the_curriculum_stage(tmp_path, built):
     # stage 2 is never passed: its goal is the task's, 8 m away
     stages = _stages(tmp_path, AT_THE_GOAL + "advance_at = 1.0", "advance_at = 1.0")

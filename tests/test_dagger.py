@@ -59,6 +59,7 @@ def _replay(seed, actions):
     return seen, np.array(labels, np.float32)
 
 
+@pytest.mark.slow
 def test_dagger_relabels_with_the_teachers_actions_on_the_students_states():
     obs, labels, executed = _collect(beta=0.0)
     assert np.array_equal(executed, np.tile(CRUISE, (90, 1)))  # the student drove
@@ -109,6 +110,7 @@ TINY = ["train", "--obs", "privileged", "--env", ENV, "--envs", "1", "--hp", "n_
         "--dagger-rounds", "4", "--no-progress"]
 
 
+@pytest.mark.slow
 def test_a_run_with_a_teacher_records_each_round_and_resumes_inside_them(tmp_path):
     out = tmp_path / "student"
     assert cli.main([*TINY, "--steps", "256", "--out", str(out)]) == 0
@@ -178,6 +180,7 @@ def test_the_reactive_teacher_needs_the_students_features():
         dagger.AlarmAvoid((1, 3)).act(two_models, {"time": 0.0, "goal_bearing": 0.0})
 
 
+@pytest.mark.slow
 def test_a_run_stopped_inside_the_rounds_resumes_at_the_next(tmp_path, monkeypatch):
     fit, fitted = dagger.fit, []
 
@@ -265,6 +268,7 @@ def test_the_value_warmup_trains_the_critic_alone():
         envs.close()
 
 
+@pytest.mark.slow
 def test_a_student_resumed_past_its_rounds_warms_its_value_function_up_once(tmp_path, capsys):
     """A run that had no warm-up, resumed with --value-warmup and a new hyperparameter:
     the warm-up starts where it resumes, is recorded, and a later resume does not redo it;

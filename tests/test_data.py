@@ -42,6 +42,7 @@ def dataset(tmp_path_factory) -> Path:
     return out
 
 
+@pytest.mark.slow
 def test_generated_dataset_verifies_and_holds_both_outcomes(dataset):
     problems, counts = verify(dataset)
     assert problems == []
@@ -67,7 +68,7 @@ def test_frames_are_exact_and_noise_views_reproduce_their_labels(dataset):
 
     from lgmd_sim import models
     from lgmd_sim.controllers import make, rollout
-    from lgmd_sim.frames import to_grey
+    from lgmd_sim.core.frames import to_grey
 
     ep = data.open(dataset).filter(scenario="HandheldApproach", jitter=1)[1]
     frames = ep.frames()
@@ -95,11 +96,13 @@ def test_clip_sampler_gives_every_window_once(dataset):
         assert c.labels["frame_index"].to_pylist() == list(range(c.start, c.start + 8))
 
 
+@pytest.mark.slow
 def test_same_bytes_from_two_workers(dataset, tmp_path):
     generate(CONFIG, tmp_path / "two", workers=2, progress=False)
     assert tree(tmp_path / "two") == tree(dataset)
 
 
+@pytest.mark.slow
 def test_same_bytes_on_ray(dataset, tmp_path):
     ray = pytest.importorskip("ray")
     ray.init(num_cpus=2, include_dashboard=False, log_to_driver=False,
@@ -132,6 +135,7 @@ def test_labels_load_without_lgmd_sim(dataset, tool, tmp_path):
     assert int(result.stdout.split()[-1]) == data.open(dataset).info["total_frames"]
 
 
+@pytest.mark.slow
 def test_detect_runs_on_a_dataset_and_on_one_episode(dataset, tmp_path, capsys):
     from lgmd_sim.cli import main
 
@@ -182,6 +186,7 @@ def test_docs_describe_every_label_column():
     assert [c.name for c in layout.COLUMNS if f"| `{c.name}` |" not in text] == []
 
 
+@pytest.mark.slow
 def test_speed_dataset_prints_its_table(capsys):
     from lgmd_sim.cli import main
 

@@ -80,6 +80,7 @@ def _wait_for(path: Path, proc: subprocess.Popen, timeout: float = 120) -> None:
         time.sleep(0.02)
 
 
+@pytest.mark.slow
 def test_killed_run_resumes_to_the_same_bytes(tmp_path):
     out = tmp_path / "ds"
     proc = subprocess.Popen([*LGMD_SIM, *ARGS, "--out", str(out), "--workers", "1"],
@@ -115,6 +116,7 @@ def _workers(pid: int) -> list[int]:
             if b"spawn_main" in Path(f"/proc/{c}/cmdline").read_bytes()]
 
 
+@pytest.mark.slow
 def test_killed_worker_ends_the_run_in_one_line_and_keeps_finished_episodes(tmp_path):
     out = tmp_path / "ds"
     args = [*ARGS, "--out", str(out), "--workers", "2"]
@@ -145,6 +147,7 @@ def small_disk(tmp_path):
     subprocess.run(["umount", str(mount)], check=False)
 
 
+@pytest.mark.slow
 def test_full_disk_is_one_line_naming_the_folder_and_leaves_no_corrupt_episode(small_disk):
     out = small_disk / "ds"
     result = subprocess.run([*LGMD_SIM, "--scenarios", "HandheldApproach", "--jitter", "0,1",

@@ -7,7 +7,8 @@ import cv2
 import numpy as np
 import pytest
 
-from lgmd_sim import cli, demo, models
+from lgmd_sim import cli, models
+from lgmd_sim.apps import demo
 
 
 @pytest.fixture(scope="module")
@@ -51,7 +52,7 @@ def test_an_unknown_detector_is_refused_before_the_episode(tmp_path, capsys):
 
 
 def test_the_demo_s_two_variants_of_one_model_are_told_apart_by_colour():
-    from lgmd_sim.plots import model_style
+    from lgmd_sim.core.plots import model_style
 
     calibrated, paper = (model_style(d)["color"] for d in demo.run.__kwdefaults__["detectors"])
     assert calibrated != paper

@@ -8,8 +8,10 @@ import cv2
 import numpy as np
 import pytest
 
-from lgmd_sim import cli, demo, demo_avoid
-from lgmd_sim.cli.demo import AVOIDER
+from lgmd_sim import cli
+from lgmd_sim.apps import avoid as demo_avoid
+from lgmd_sim.apps import demo
+from lgmd_sim.apps.defaults import AVOIDER
 
 #: At 64 x 64 this detector alarms (it is calibrated at 120 x 160) and the episode is short.
 SMALL = {"seed": 3, "jitter": 1.0, "detector": "lgmd1/calibrated-image", "resolution": "small"}
@@ -72,6 +74,7 @@ def test_the_video_shows_every_frame_beside_the_map(episode, tmp_path):
     assert cv2.imread(str(tmp_path / "avoid.png")) is not None
 
 
+@pytest.mark.slow
 def test_the_demo_writes_the_avoiding_episode_with_its_other_files(tmp_path, capsys):
     out = tmp_path / "d"
     assert cli.main(["demo", "--out", str(out), *DEMO]) == 0
@@ -105,6 +108,7 @@ def test_an_unknown_avoider_is_one_line_before_any_episode(tmp_path, capsys, avo
     assert not (tmp_path / "d").exists()
 
 
+@pytest.mark.slow
 def test_a_failure_writing_the_avoiding_episode_leaves_no_file(tmp_path, monkeypatch):
     out = tmp_path / "d"
     written = demo_avoid.write

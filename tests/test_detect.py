@@ -270,6 +270,7 @@ def test_preset_applies_to_every_model_that_has_it(tmp_path, clip, capsys):
     assert "has a preset 'nope'" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_preset_video_alone_runs_every_model_with_the_front_end_footage_needs(
         tmp_path, clip, capsys):
     """`lgmd-sim detect VIDEO --preset video` with no other option: every model at its

@@ -13,8 +13,8 @@ import numpy as np
 import pytest
 
 import lgmd_sim  # noqa: F401 - registers the scenarios
-from lgmd_sim import fileio
 from lgmd_sim.cli import envs as cli_envs
+from lgmd_sim.core import fileio
 from lgmd_sim.envs import catalogue
 
 SCENARIOS = ["StationaryApproach", "HandheldApproach", "MutualApproach",
@@ -259,6 +259,7 @@ def _threads() -> int:
     return len(os.listdir("/proc/self/task"))
 
 
+@pytest.mark.slow
 def test_making_and_closing_200_envs_leaks_nothing():
     def cycle():
         env = make(name="PassBy", scenery=2)
@@ -293,6 +294,7 @@ def test_async_vector_env_each_worker_with_its_own_context():
     first.close()
 
 
+@pytest.mark.slow
 def test_sb3_subproc_vec_env():
     from stable_baselines3.common.vec_env import SubprocVecEnv
 

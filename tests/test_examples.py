@@ -57,6 +57,7 @@ def test_the_plug_in_example_passes_the_checker():
     assert done.stdout.splitlines()[0] == "eta_lgmd:EtaLGMD: passes 10 checks, skips 0"
 
 
+@pytest.mark.slow
 def test_the_dataset_loop_reads_the_same_frames_three_ways(tmp_path):
     for module in ("pyarrow", "datasets", "av"):
         pytest.importorskip(module)

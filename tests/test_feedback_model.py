@@ -144,6 +144,7 @@ def clips() -> dict[str, np.ndarray]:
     }
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("case", CASES)
 def test_fast_kernel_equals_reference(case, clips):
     kwargs = dict(CASES[case])
@@ -164,6 +165,7 @@ def test_fast_kernel_equals_reference(case, clips):
         assert phi_seen > 0.1  # the loop really was exercised
 
 
+@pytest.mark.slow
 def test_tiny_frames_with_wide_filters_equal_reference():
     # a filter radius larger than the frame: borders replicate through the whole ring
     rng = np.random.default_rng(0)

@@ -13,8 +13,8 @@ from matplotlib.colors import to_rgb
 
 from lgmd_sim import metrics
 from lgmd_sim.bench import figures
+from lgmd_sim.core.plots import figure, model_style
 from lgmd_sim.detect.figure import draw_thresholds
-from lgmd_sim.plots import figure, model_style
 
 #: (controller, model, preset): a run's cells, two of the same model, the straight
 #: controller and two detectors that never alarm (their paths and results those of
@@ -190,7 +190,7 @@ def test_the_scatter_colours_an_entry_as_its_model_and_alike_everywhere(many):
 
 
 def test_models_of_other_packages_get_colours_of_their_own(tmp_path, monkeypatch):
-    """Two plug-in models (no colour in lgmd_sim.plots) apart from each other and from
+    """Two plug-in models (no colour in lgmd_sim.core.plots) apart from each other and from
     every built-in model's colour."""
     cells = [*CELLS, ("reactive", "pkg:A", "default"), ("reactive", "pkg:B", "default")]
     fig = draw(tmp_path, summary_rows(cells), [], monkeypatch)["false_alarms_vs_collisions.png"]
@@ -263,6 +263,7 @@ def test_trajectories_draw_a_column_per_seed_and_jitter_level(tmp_path, monkeypa
                       for j in JITTERS]
 
 
+@pytest.mark.slow
 def test_nineteen_encounter_maps_fit_a_compact_grid(tmp_path, monkeypatch):
     """A roam run of 19 entries: a panel per entry, at most five across, each path in one
     colour; the figure a page's width and not four of its heights."""

@@ -8,7 +8,7 @@ import pytest
 
 import lgmd_sim  # noqa: F401 - registers the scenarios
 from lgmd_sim import controllers
-from lgmd_sim.record import record
+from lgmd_sim.apps.record import record
 
 MESSAGE = r"has no 'frame' key \(frame='none'"
 

@@ -20,7 +20,7 @@ import numpy as np
 import pytest
 from matplotlib.colors import to_rgb
 
-from lgmd_sim import demo
+from lgmd_sim.apps import demo
 from lgmd_sim.data import layout
 from lgmd_sim.video import VideoReader, encoder, video_writer
 
@@ -96,6 +96,7 @@ def _no_temporaries(files: set[str]) -> None:
 # --- record, demo, detect -----------------------------------------------------------------
 
 
+@pytest.mark.slow
 def test_record_on_a_full_disk_fails_in_one_line_and_leaves_no_video(full_disk, tmp_path):
     disk = tmp_path / "disk"
     (run,) = full_disk(disk, [*LGMD_SIM, "record", "PassBy", str(disk / "r.avi"),
@@ -109,6 +110,7 @@ SMALL_DEMO = ["demo", "--resolution", "small", "--models", "feedback/paper",
               "--avoid-resolution", "small", "--avoid-seed", "3"]
 
 
+@pytest.mark.slow
 def test_demo_on_a_full_disk_leaves_no_video_or_figure(full_disk, tmp_path):
     disk = tmp_path / "disk"
     (run,) = full_disk(disk, [*LGMD_SIM, *SMALL_DEMO, "--out", str(disk / "d")], free_kb=60)
@@ -116,12 +118,13 @@ def test_demo_on_a_full_disk_leaves_no_video_or_figure(full_disk, tmp_path):
     assert run.files == set()
 
 
+@pytest.mark.slow
 def test_demo_whose_avoiding_video_does_not_fit_leaves_none_of_its_files(full_disk, tmp_path):
-    """The open-loop files (about 650 kB at 64 x 64) fit, the avoiding video (about 750
-    kB more) does not: the set is written whole or not at all."""
+    """The open-loop files (about 1.8 MB at 64 x 64, shown three times larger) fit, the
+    avoiding video (about 3.5 MB more) does not: the set is written whole or not at all."""
     disk = tmp_path / "disk"
     (run,) = full_disk(disk, [*LGMD_SIM, *SMALL_DEMO, "--out", str(disk / "d")],
-                       size_kb=2048, free_kb=900)
+                       size_kb=8192, free_kb=2600)
     _one_line(run, str(disk / "d" / "avoid.mp4"), "no space left on device")
     assert run.files == set()
 
@@ -142,6 +145,7 @@ def test_detect_on_a_full_disk_writes_no_partial_set(full_disk, tmp_path):
 # --- dataset generate, bench closed-loop --------------------------------------------------
 
 
+@pytest.mark.slow
 def test_dataset_on_a_full_disk_keeps_complete_episodes_and_resumes(full_disk, tmp_path):
     disk = tmp_path / "disk"
     generate = [*LGMD_SIM, "dataset", "generate", "--out", str(disk / "ds"), *SMALL_DATASET]
@@ -181,6 +185,7 @@ def test_dataset_named_like_the_temporary_folder_blames_the_full_one(full_disk, 
     assert run.files == set()
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("free_kb", [8, 40])  # full among the records; at the figures
 def test_bench_on_a_full_disk_keeps_its_records_and_resumes(full_disk, tmp_path, free_kb):
     disk = tmp_path / "disk"
@@ -260,11 +265,11 @@ def test_frames_are_encoded_as_written_while_the_caller_reuses_its_buffer(tmp_pa
 
 
 def test_demo_summary_says_whose_threshold_each_line_is(tmp_path, monkeypatch):
-    import lgmd_sim.plots
+    import lgmd_sim.core.plots
 
     made = []
-    figure = lgmd_sim.plots.figure
-    monkeypatch.setattr(lgmd_sim.plots, "figure", lambda **kw: made.append(figure(**kw))
+    figure = lgmd_sim.core.plots.figure
+    monkeypatch.setattr(lgmd_sim.core.plots, "figure", lambda **kw: made.append(figure(**kw))
                         or made[-1])
     # a threshold of its own (0.895), and one that two detectors share (0.8)
     detectors = ["feedback/calibrated-image", "feedback/paper", "lgmd1/published"]
@@ -280,7 +285,7 @@ def test_demo_summary_says_whose_threshold_each_line_is(tmp_path, monkeypatch):
         assert line.get_label() in legend
         assert np.allclose(line.get_ydata(), ep.thresholds[name])
         assert np.allclose(to_rgb(line.get_color()),
-                           to_rgb(lgmd_sim.plots.model_style(name)["color"]))
+                           to_rgb(lgmd_sim.core.plots.model_style(name)["color"]))
     # the two lines on one threshold take turns: both colours show along it
     fig.canvas.draw()
     pixels = np.asarray(fig.canvas.buffer_rgba())[..., :3] / 255
@@ -288,7 +293,7 @@ def test_demo_summary_says_whose_threshold_each_line_is(tmp_path, monkeypatch):
     x1, _ = potentials.transData.transform((len(ep.frames) / ep.fps, 0.8))
     row = pixels[pixels.shape[0] - round(y), round(x0):round(x1)]
     for name in ("feedback/paper", "lgmd1/published"):
-        colour = to_rgb(lgmd_sim.plots.model_style(name)["color"])
+        colour = to_rgb(lgmd_sim.core.plots.model_style(name)["color"])
         assert (np.abs(row - colour).max(axis=1) < 0.1).mean() > 0.2, name
 
 
@@ -297,7 +302,7 @@ def test_a_scratch_folder_a_killed_process_left_goes_with_the_next_one(tmp_path,
     remove: the next run removes it (its process is gone), not a running one's."""
     import tempfile
 
-    from lgmd_sim.fileio import scratch_folder
+    from lgmd_sim.core.fileio import scratch_folder
 
     monkeypatch.setattr(tempfile, "tempdir", str(tmp_path))
     dead = subprocess.Popen(["true"])

@@ -1,6 +1,6 @@
-"""scripts/imitation_gap.py: on labels where the detector's alarm comes just before each of
-the Oracle's manoeuvres and the proprioception is noise, the detector's features predict
-the manoeuvre and the proprioception does not."""
+"""docs/experiments/tools/imitation_gap.py: on labels where the detector's alarm comes just before
+each of the Oracle's manoeuvres and the proprioception is noise, the detector's features predict the
+manoeuvre and the proprioception does not."""
 
 from __future__ import annotations
 
@@ -11,8 +11,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+# The research log's tools (docs/experiments/tools/): the slow tier, out of the edit loop.
+pytestmark = pytest.mark.slow
+
 pytest.importorskip("torch")
 ROOT = Path(__file__).resolve().parents[1]
+TOOLS = ROOT / "docs" / "experiments" / "tools"  # the research log's scripts
 
 
 def _run(folder: Path, envs: int = 2, rounds: int = 2, steps: int = 1200) -> Path:
@@ -44,7 +48,7 @@ def _run(folder: Path, envs: int = 2, rounds: int = 2, steps: int = 1200) -> Pat
 
 
 def test_the_detector_that_foretells_the_manoeuvre_is_measured_so(tmp_path, monkeypatch):
-    monkeypatch.syspath_prepend(str(ROOT / "scripts"))
+    monkeypatch.syspath_prepend(str(TOOLS))
     gap_script = importlib.import_module("imitation_gap")
     g = gap_script.gap(_run(tmp_path / "run"))
     assert g.onsets == 2 * 2 * 5  # 5 manoeuvres per stream and round
@@ -55,7 +59,7 @@ def test_the_detector_that_foretells_the_manoeuvre_is_measured_so(tmp_path, monk
 
 
 def test_a_run_without_the_oracle_as_teacher_is_refused(tmp_path, monkeypatch):
-    monkeypatch.syspath_prepend(str(ROOT / "scripts"))
+    monkeypatch.syspath_prepend(str(TOOLS))
     gap_script = importlib.import_module("imitation_gap")
     folder = _run(tmp_path / "run")
     record = json.loads((folder / "run.json").read_text())

@@ -166,6 +166,7 @@ class LGMD_P_ON_OFF:
 """
 
 
+@pytest.mark.slow
 def test_speed_models_prints_every_model(tmp_path):
     published = tmp_path / "Harmonizing motion and contrast vision.py"
     published.write_text(FAKE_PUBLISHED)

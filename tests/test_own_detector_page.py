@@ -1,7 +1,7 @@
-"""scripts/own_detector_page.py: the own-detector pages' measured sections (the checker in
-docs/guides/own-detector.md, the rows in docs/experiments/own-detector-rows.md) from run
-folders (here small hand-made ones: the few files the sections read), each run's command
-beside its rows, and runs that do not share their seeds or clips refused in one line."""
+"""docs/experiments/tools/own_detector_page.py: the own-detector pages' measured sections (the
+checker in docs/guides/own-detector.md, the rows in docs/experiments/own-detector-rows.md) from run
+folders (here small hand-made ones: the few files the sections read), each run's command beside its
+rows, and runs that do not share their seeds or clips refused in one line."""
 
 from __future__ import annotations
 
@@ -13,13 +13,17 @@ from pathlib import Path
 
 import pytest
 
+# The research log's tools (docs/experiments/tools/): the slow tier, out of the edit loop.
+pytestmark = pytest.mark.slow
+
 ROOT = Path(__file__).resolve().parents[1]
+TOOLS = ROOT / "docs" / "experiments" / "tools"  # the research log's scripts
 
 
 @pytest.fixture(scope="module")
 def page():
     with pytest.MonkeyPatch.context() as mp:
-        mp.syspath_prepend(str(ROOT / "scripts"))  # it imports its sibling scripts
+        mp.syspath_prepend(str(TOOLS))  # it imports its sibling scripts
         yield importlib.import_module("own_detector_page")
 
 

@@ -44,9 +44,10 @@ def test_wheel_carries_envs_assets_and_markers(wheel):
                for n in names)
 
 
+@pytest.mark.slow
 def test_installed_wheel_works_outside_the_checkout(installed, tmp_path):
     code = (
-        "import gymnasium as gym, lgmd_sim, lgmd_sim.resources as r;"
+        "import gymnasium as gym, lgmd_sim, lgmd_sim.core.resources as r;"
         "print(lgmd_sim.__file__); print(r.envs_dir()); print(r.assets_dir());"
         "env = gym.make('lgmd_sim/StationaryApproach-v0', resolution=[32, 48]);"
         "obs, info = env.reset(seed=0); env.close(); print(obs['frame'].shape)"
@@ -63,12 +64,14 @@ def test_installed_wheel_works_outside_the_checkout(installed, tmp_path):
 
 @pytest.mark.parametrize(("doc", "code"), BLOCKS,
                          ids=[f"{d.relative_to(ROOT)}-{i}" for i, (d, _c) in enumerate(BLOCKS)])
+@pytest.mark.slow
 def test_every_python_block_of_the_documents_runs(installed, tmp_path, doc, code):
     result = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, capture_output=True,
                             text=True, env=installed, timeout=120)
     assert result.returncode == 0, f"{doc.name}:\n{code}\n{result.stderr}"
 
 
+@pytest.mark.slow
 def test_the_video_guide_s_record_and_detect_walkthrough_runs(installed, tmp_path):
     """The video guide's `lgmd-sim record` then `lgmd-sim detect` block, verbatim, from the
     wheel: the printed collision frame is the one the detect line uses."""

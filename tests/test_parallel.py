@@ -1,4 +1,4 @@
-"""lgmd_sim.parallel: the same results in process and on a pool; a dead worker named; a
+"""lgmd_sim.core.parallel: the same results in process and on a pool; a dead worker named; a
 Pool's workers kept from run to run."""
 
 from __future__ import annotations
@@ -8,7 +8,7 @@ import signal
 
 import pytest
 
-from lgmd_sim.parallel import Job, Pool, WorkerDied, run_jobs
+from lgmd_sim.core.parallel import Job, Pool, WorkerDied, run_jobs
 
 
 def square(x: int) -> dict[str, int]:  # importable by spawned workers (tests/ is on sys.path)

@@ -220,6 +220,7 @@ def test_closed_loop_bench_runs_a_spec_model_and_a_spec_controller(tmp_path):
     assert not [p.name for p in (out / "records").iterdir() if ":" in p.name]
 
 
+@pytest.mark.slow
 def test_calibrate_tunes_a_spec(tmp_path):
     out = tmp_path / "cal"
     assert cli.main(["calibrate", "--detectors", f"{SPEC},{SPEC}+image", "--budget", "2",

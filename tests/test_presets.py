@@ -20,10 +20,11 @@ import numpy as np
 import pytest
 
 from lgmd_sim import cli, models
-from lgmd_sim.fileio import error_text
+from lgmd_sim.core.fileio import error_text
 from lgmd_sim.models import presets
 
 ROOT = Path(__file__).resolve().parents[1]
+TOOLS = ROOT / "docs" / "experiments" / "tools"  # the research log's scripts
 TINY = ["--budget", "1", "--seeds", "1", "--resolution", "small", "--workers", "1",
         "--no-progress"]
 
@@ -57,6 +58,7 @@ def _entry(base: str, **params) -> dict:
     return {"from": base, "params": params, "search": score, "heldout": score}
 
 
+@pytest.mark.slow
 def test_a_subset_calibration_merges_into_the_user_file_and_leaves_the_package(
         user_dir, tmp_path):
     shipped = presets.CALIBRATED
@@ -136,6 +138,7 @@ def test_a_corrupt_target_is_refused_before_the_calibration_starts(user_dir, tmp
     assert not out.exists() and path.read_text() == "{"
 
 
+@pytest.mark.slow
 def test_presets_file_writes_there_and_never_into_the_package(user_dir, tmp_path, capsys):
     package_file = Path(models.__file__).with_name("calibrated.json")
     assert cli.main(["calibrate", "--detectors", "lgmd1", *TINY, "--out",
@@ -281,7 +284,7 @@ def test_the_user_data_folder(monkeypatch, tmp_path):
 
 def test_the_release_step_merges_a_calibration_into_the_shipped_file(tmp_path):
     spec = importlib.util.spec_from_file_location("ship_presets",
-                                                  ROOT / "scripts" / "ship_presets.py")
+                                                  TOOLS / "ship_presets.py")
     ship = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(ship)
     shipped = tmp_path / "shipped.json"

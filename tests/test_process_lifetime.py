@@ -19,7 +19,7 @@ from pathlib import Path
 import pytest
 
 from lgmd_sim.cli import main
-from lgmd_sim.parallel import Job, WorkerDied, run_jobs
+from lgmd_sim.core.parallel import Job, WorkerDied, run_jobs
 
 pytest.importorskip("pyarrow")
 if not sys.platform.startswith("linux"):
@@ -118,6 +118,7 @@ def test_sigkill_of_the_parent_ends_its_workers_and_leaves_nothing(tmp_path, com
     assert list((tmp_path / "tmp").iterdir()) == []
 
 
+@pytest.mark.slow
 def test_a_killed_worker_of_a_bench_is_one_line_and_the_bench_resumes(tmp_path):
     out = tmp_path / "out"
     args = [*BENCH, "--workers", "2", "--out", str(out)]
@@ -228,7 +229,7 @@ def big_result_then_die(size: int) -> bytes:
 
 def test_a_worker_killed_while_sending_its_result_ends_the_run_in_one_line(tmp_path):
     script = ("import sys\n"
-              "from lgmd_sim.parallel import Job, WorkerDied, run_jobs\n"
+              "from lgmd_sim.core.parallel import Job, WorkerDied, run_jobs\n"
               "from test_process_lifetime import big_result_then_die\n"
               "jobs = [Job(f'j{i}', big_result_then_die, {'size': 64 << 20})\n"
               "        for i in range(2)]\n"
@@ -310,7 +311,7 @@ def test_a_stop_that_ctypes_swallowed_stops_the_run_all_the_same():
     import ctypes
 
     from lgmd_sim.cli import Terminated, _terminate
-    from lgmd_sim.parallel import stop_again_if_swallowed, stop_again_when_swallowed
+    from lgmd_sim.core.parallel import stop_again_if_swallowed, stop_again_when_swallowed
 
     stops = {signal.SIGINT, signal.SIGTERM}
     handlers = {signal.SIGINT: signal.signal(signal.SIGINT, signal.default_int_handler),
@@ -340,7 +341,7 @@ def test_a_stop_while_a_temporary_folder_is_removed_still_removes_it(monkeypatch
     import shutil
     import tempfile
 
-    from lgmd_sim import fileio
+    from lgmd_sim.core import fileio
 
     monkeypatch.setattr(tempfile, "tempdir", str(tmp_path))  # no other run's leftovers
     real, calls = shutil.rmtree, []
@@ -359,6 +360,7 @@ def test_a_stop_while_a_temporary_folder_is_removed_still_removes_it(monkeypatch
     assert list(tmp_path.iterdir()) == []
 
 
+@pytest.mark.slow
 def test_a_stop_in_a_renderers_gl_call_at_its_collection_stops_the_run(monkeypatch):
     """The lost SIGTERM of a CI run: a renderer collected while ctypes converts its GL
     call's arguments gets the stop as a ctypes.ArgumentError, which its ``__del__`` (and
@@ -367,7 +369,7 @@ def test_a_stop_in_a_renderers_gl_call_at_its_collection_stops_the_run(monkeypat
     import gc
 
     from lgmd_sim.cli import Terminated, _terminate
-    from lgmd_sim.parallel import stop_again_when_swallowed
+    from lgmd_sim.core.parallel import stop_again_when_swallowed
     from lgmd_sim.world.render import OffscreenRenderer
 
     def gl_call_stopped(self):

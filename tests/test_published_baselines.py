@@ -10,7 +10,7 @@ import pytest
 
 import lgmd_sim  # noqa: F401  (registers the environments)
 from lgmd_sim import models, stimuli
-from lgmd_sim.frames import to_grey
+from lgmd_sim.core.frames import to_grey
 from lgmd_sim.models.reference.published import ORACLES, olgmd
 
 SHAPE = (60, 80)

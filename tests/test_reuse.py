@@ -1,4 +1,4 @@
-"""Objects kept across a run's jobs (`lgmd_sim.parallel.kept`) and the environments kept
+"""Objects kept across a run's jobs (`lgmd_sim.core.parallel.kept`) and the environments kept
 for episodes (`lgmd_sim.envs.reuse`): an episode in a kept environment is bit-identical
 to one in a fresh environment, for the benchmark's, the dataset's and the calibration's
 episodes, whatever ran in that environment before."""
@@ -10,10 +10,10 @@ from typing import ClassVar
 import numpy as np
 import pytest
 
-from lgmd_sim import parallel
 from lgmd_sim.bench.episode import Cell, episode
 from lgmd_sim.calibration import clips
-from lgmd_sim.parallel import Job, kept, run_jobs
+from lgmd_sim.core import parallel
+from lgmd_sim.core.parallel import Job, kept, run_jobs
 
 
 class Thing:
@@ -57,6 +57,7 @@ def test_a_run_keeps_one_object_per_key_and_closes_them_when_it_ends(monkeypatch
     assert len(Thing.made) == 2 and all(t.closed for t in Thing.made)
 
 
+@pytest.mark.slow
 def test_benchmark_episodes_in_a_kept_environment_are_those_of_a_fresh_one():
     # two controllers take turns in one environment; the rough ground (heightfields sent to
     # a live renderer) between them
@@ -70,6 +71,7 @@ def test_benchmark_episodes_in_a_kept_environment_are_those_of_a_fresh_one():
     assert len({r["frames"] for r in fresh}) > 1  # different episodes, not one repeated
 
 
+@pytest.mark.slow
 def test_dataset_episodes_and_calibration_clips_in_a_kept_environment(tmp_path):
     pytest.importorskip("pyarrow")
     from lgmd_sim.data.generate import GenerateConfig, make_episode

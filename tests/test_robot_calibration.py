@@ -181,7 +181,8 @@ def test_a_robot_run_is_identified_by_its_clips_cruise_and_window():
 
 
 def test_the_window_is_the_one_the_oracle_measured():
-    # scripts/oracle_window.py: the horizons at which the Oracle meets the closed-loop target
+    # docs/experiments/tools/oracle_window.py: the horizons at which the Oracle meets the
+    # closed-loop target
     assert (robot.TTC_LO, robot.TTC_HI) == (0.6, 1.15)
 
 
@@ -203,6 +204,7 @@ def test_a_part_the_set_lacks_is_left_out_of_the_objective_and_a_dash_in_the_sum
     run.calibration_figure([chosen], robot.ROBOT).canvas.draw()  # the clear panel empty
 
 
+@pytest.mark.slow
 def test_a_tiny_robot_calibration_end_to_end(tmp_path, monkeypatch):
     # one approach and one clear scenario at one jitter level keep it quick
     small = {"approach": [("RobotApproach", (1.0,))], "clear": [("RobotOpenGround", (1.0,))]}

@@ -13,8 +13,9 @@ import sys
 
 import pytest
 
-from lgmd_sim import cli, fileio
-from lgmd_sim.runs import RunFolder
+from lgmd_sim import cli
+from lgmd_sim.core import fileio
+from lgmd_sim.core.runs import RunFolder
 
 # One episode, one clip: the machinery of a full run, in seconds.
 CLOSED = ["bench", "closed-loop", "--scenarios", "StationaryApproach", "--jitter", "0",
@@ -113,6 +114,7 @@ def test_an_open_loop_record_that_is_not_one_is_refused_naming_it(opened, tmp_pa
     ("lgmd1-000.json", ("sets",)),
     ("lgmd1-000.json", None),
 ])
+@pytest.mark.slow
 def test_a_calibration_record_that_is_not_one_is_refused_naming_it(calibrated, tmp_path,
                                                                     capsys, record, path):
     text = _truncated(calibrated, record) if path is None else _without(calibrated, record,
@@ -301,7 +303,7 @@ def test_train_help_says_it_needs_the_rl_extra_and_how_to_install_it():
 
 
 def test_the_missing_extra_hint_is_a_command_that_works_from_a_checkout(monkeypatch):
-    from lgmd_sim.extras import MissingExtra, require
+    from lgmd_sim.core.extras import MissingExtra, require
 
     monkeypatch.setitem(sys.modules, "stable_baselines3", None)  # as if not installed
     with pytest.raises(MissingExtra) as exc:

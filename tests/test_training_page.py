@@ -1,5 +1,5 @@
-"""scripts/training_page.py: what it computes from evaluations, on small made-up ones, and
-where it writes (docs/experiments/training-runs.md, the research log)."""
+"""docs/experiments/tools/training_page.py: what it computes from evaluations, on small made-up
+ones, and where it writes (docs/experiments/training-runs.md, the research log)."""
 
 from __future__ import annotations
 
@@ -9,7 +9,13 @@ import json
 import re
 from pathlib import Path
 
+import pytest
+
+# The research log's tools (docs/experiments/tools/): the slow tier, out of the edit loop.
+pytestmark = pytest.mark.slow
+
 ROOT = Path(__file__).resolve().parents[1]
+TOOLS = ROOT / "docs" / "experiments" / "tools"  # the research log's scripts
 FIELDS = ["jitter", "seed", "controller", "model", "preset", "tag", "collided",
           "goal_reached", "distance_m", "frames", "progress"]
 
@@ -30,7 +36,7 @@ def _evaluation(folder: Path, cpu: str, ends: dict[int, str]) -> Path:
 
 
 def test_agreement_counts_the_episodes_two_evaluations_played_otherwise(tmp_path, monkeypatch):
-    monkeypatch.syspath_prepend(str(ROOT / "scripts"))
+    monkeypatch.syspath_prepend(str(TOOLS))
     page = importlib.import_module("training_page")
     first = _evaluation(tmp_path / "a", "Intel", {1000: "8.1", 1001: "8.2"})
     again = _evaluation(tmp_path / "b", "Intel", {1000: "8.1", 1001: "8.2", 1002: "8.0"})
@@ -67,7 +73,7 @@ def _choice(folder: Path, first_seed: int, ends: dict[str, list[tuple[str, str]]
 def test_choice_ships_the_best_score_on_validation_seeds_only(tmp_path, monkeypatch):
     import pytest
 
-    monkeypatch.syspath_prepend(str(ROOT / "scripts"))
+    monkeypatch.syspath_prepend(str(TOOLS))
     page = importlib.import_module("training_page")
     ends = {"a": [("False", "True"), ("True", "False")],  # 50% / 50%: score 0
             "b": [("False", "True"), ("False", "False")]}  # 50% / 0%: score 0.5
@@ -93,7 +99,7 @@ def _cell(reached: int, collided: int, n: int = 30) -> dict[str, float]:
 
 
 def test_targets_state_issue_17_s_once_and_give_each_policy_one_verdict(monkeypatch):
-    monkeypatch.syspath_prepend(str(ROOT / "scripts"))
+    monkeypatch.syspath_prepend(str(TOOLS))
     page = importlib.import_module("training_page")
     best = {1.0: "reactive: lgmd1/robot-image", 2.0: "reactive: lgmd1/robot-image"}
     cells = {(1.0, best[1.0]): _cell(13, 16), (2.0, best[2.0]): _cell(10, 20),
@@ -127,7 +133,7 @@ def test_targets_state_issue_17_s_once_and_give_each_policy_one_verdict(monkeypa
 
 
 def test_reading_gives_the_numbers_and_leaves_the_verdict_to_targets(monkeypatch):
-    monkeypatch.syspath_prepend(str(ROOT / "scripts"))
+    monkeypatch.syspath_prepend(str(TOOLS))
     page = importlib.import_module("training_page")
     best = {1.0: "reactive: lgmd1/robot-image"}
     cells = {(1.0, best[1.0]): _cell(13, 16), (1.0, "policy: a"): _cell(20, 3)}
@@ -138,7 +144,7 @@ def test_reading_gives_the_numbers_and_leaves_the_verdict_to_targets(monkeypatch
 
 def test_the_page_is_the_research_log_s_and_its_figures_resolve_from_it(tmp_path,
                                                                        monkeypatch):
-    monkeypatch.syspath_prepend(str(ROOT / "scripts"))
+    monkeypatch.syspath_prepend(str(TOOLS))
     page = importlib.import_module("training_page")
     assert page.PAGE == ROOT / "docs" / "experiments" / "training-runs.md"
     figure = tmp_path / "learning_curve.png"
@@ -153,7 +159,7 @@ def test_the_page_is_the_research_log_s_and_its_figures_resolve_from_it(tmp_path
 def test_each_shipped_policy_s_policy_md_names_the_page_of_all_its_rows(monkeypatch):
     """ship_policy.py writes the page's path into POLICY.md (from training_page.PAGE):
     a shipped one names the page that holds its evaluation's rows today."""
-    monkeypatch.syspath_prepend(str(ROOT / "scripts"))
+    monkeypatch.syspath_prepend(str(TOOLS))
     page = importlib.import_module("training_page")
     from lgmd_sim import policies
 
@@ -165,7 +171,7 @@ def test_each_shipped_policy_s_policy_md_names_the_page_of_all_its_rows(monkeypa
 def test_the_log_says_met_only_in_its_targets_table_once_per_policy(monkeypatch):
     """The issue found a policy "met" on one line and "not met" on another: the page
     states its targets once, and gives each policy one verdict, in one table."""
-    monkeypatch.syspath_prepend(str(ROOT / "scripts"))
+    monkeypatch.syspath_prepend(str(TOOLS))
     page = importlib.import_module("training_page")
     text = page.PAGE.read_text()
     targets = text[text.index("### Targets\n"):]

@@ -19,6 +19,7 @@ from lgmd_sim.calibration.run import TASKS, CalibrateConfig
 from lgmd_sim.metrics import AlarmRule
 
 ROOT = Path(__file__).resolve().parents[1]
+TOOLS = ROOT / "docs" / "experiments" / "tools"  # the research log's scripts
 
 
 @pytest.fixture(scope="module")
@@ -30,6 +31,7 @@ def tiny_run(tmp_path_factory) -> Path:
     return out
 
 
+@pytest.mark.slow
 def test_a_tiny_video_calibration_writes_video_presets_that_score_as_calibrated(
         tiny_run, monkeypatch):
     out = tiny_run
@@ -156,10 +158,10 @@ def test_the_video_objective_takes_an_alarm_of_four_rising_frames():
 
 
 def test_the_video_page_reads_the_run_as_the_calibration_chose(tiny_run):
-    """scripts/video_page.py's tables: the run's choice (its clips in the order they were
-    scored), and a model's video preset scored as the run scored it."""
+    """docs/experiments/tools/video_page.py's tables: the run's choice (its clips in the order
+    they were scored), and a model's video preset scored as the run scored it."""
     with pytest.MonkeyPatch.context() as mp:
-        mp.syspath_prepend(str(ROOT / "scripts"))
+        mp.syspath_prepend(str(TOOLS))
         page = importlib.import_module("video_page")
     chosen, clip_sets, _ = page._chosen(tiny_run)
     entry = json.loads((tiny_run / "calibrated.json").read_text())["presets"]["lgmd1"]["video"]
@@ -175,11 +177,11 @@ def test_the_video_page_reads_the_run_as_the_calibration_chose(tiny_run):
 
 
 def test_the_footage_check_counts_and_judges_as_the_outside_check():
-    """scripts/footage_check.py: fired counts per kind (a crash only at or before its
+    """docs/experiments/tools/footage_check.py: fired counts per kind (a crash only at or before its
     collision), the mean SI of the shaken crashes (a silent clip 1.0), and the targets
     missed."""
     with pytest.MonkeyPatch.context() as mp:
-        mp.syspath_prepend(str(ROOT / "scripts"))
+        mp.syspath_prepend(str(TOOLS))
         check = importlib.import_module("footage_check")
 
     def row(kind, first, si=1.0, collision=None):

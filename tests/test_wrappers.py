@@ -334,6 +334,7 @@ def test_vector_wrapper_refuses_partial_resets():
     envs.close()
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("vec_env", ["DummyVecEnv", "SubprocVecEnv"])
 def test_sb3_wrapper_equals_dummy_vec_env_of_wrapped_envs(vec_env):
     from stable_baselines3.common import vec_env as sb3

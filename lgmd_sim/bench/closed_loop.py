@@ -24,9 +24,9 @@ from typing import Any
 from lgmd_sim import options
 from lgmd_sim.bench.episode import DEFAULT_SIDE, RECORD_FIELDS, Cell, episode, plan
 from lgmd_sim.bench.summary import cell_of, summarise, write_tables
-from lgmd_sim.fileio import atomic_folder_outputs
-from lgmd_sim.parallel import Job, run_jobs
-from lgmd_sim.runs import RunFolder, RunResult
+from lgmd_sim.core.fileio import atomic_folder_outputs
+from lgmd_sim.core.parallel import Job, run_jobs
+from lgmd_sim.core.runs import RunFolder, RunResult
 
 __all__ = ["ClosedLoopConfig", "run"]
 

@@ -28,7 +28,7 @@ import numpy as np
 from lgmd_sim import options
 from lgmd_sim.bench import encounters
 from lgmd_sim.controllers.avoid import ReactiveParams
-from lgmd_sim.runs import NULL, NUMBER, Maybe
+from lgmd_sim.core.runs import NULL, NUMBER, Maybe
 
 if TYPE_CHECKING:
     import gymnasium as gym

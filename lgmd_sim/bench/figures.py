@@ -1,4 +1,4 @@
-"""Figures of the model benchmark (the styles are lgmd_sim.plots').
+"""Figures of the model benchmark (the styles are lgmd_sim.core.plots').
 
 A closed-loop run may hold many entries (cells: a controller with its detector; the robot's
 presets make 19), too many for overlaid series told apart by colour. So the rates against
@@ -20,8 +20,8 @@ from typing import Any
 import numpy as np
 
 from lgmd_sim import metrics, models
-from lgmd_sim.fileio import write_files
-from lgmd_sim.plots import figure, model_style
+from lgmd_sim.core.fileio import write_files
+from lgmd_sim.core.plots import figure, model_style
 
 __all__ = ["ARENA_VS_JITTER", "CLOSED_LOOP", "closed_loop", "closed_loop_figures",
            "draw_world", "encounters_figure", "map_bounds", "open_loop"]
@@ -76,7 +76,7 @@ _START = {"marker": "o", "ms": 4, "color": "#0072B2", "mec": "black", "mew": 0.5
           "ls": "none", "zorder": 4}
 _GOAL = {"marker": "*", "ms": 11, "color": "gold", "mec": "black", "mew": 0.6, "ls": "none",
          "zorder": 4}
-#: The baselines' colours in the scatter (a detector's is its model's, lgmd_sim.plots'),
+#: The baselines' colours in the scatter (a detector's is its model's, lgmd_sim.core.plots'),
 #: and those of other models and policies: none an Okabe-Ito colour of a model's.
 _BASELINE_COLOURS = {"oracle": "black", "straight": "0.6"}
 _EXTRA = ["#17BECF", "#F0E442", "#8C564B", "#9467BD", "#BCBD22", "#56B4E9"]
@@ -98,7 +98,7 @@ def _is_baseline(row: dict[str, Any]) -> bool:
 
 
 def _colours(rows: Sequence[dict[str, Any]]) -> dict[str, Any]:
-    """Each entry's colour in the scatter: its model's (lgmd_sim.plots'; variants of a
+    """Each entry's colour in the scatter: its model's (lgmd_sim.core.plots'; variants of a
     model share its hue, the number tells them apart), the baseline's, or for a model of
     another package or a policy one of `_EXTRA`, in turn, one per model or policy."""
     known = set(models.available())  # the built-in models: each has its own colour

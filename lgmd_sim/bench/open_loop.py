@@ -25,9 +25,9 @@ from typing import Any
 import numpy as np
 
 from lgmd_sim import metrics, options
-from lgmd_sim.fileio import csv_text, write_files, write_text_atomic
-from lgmd_sim.parallel import Job, run_jobs
-from lgmd_sim.runs import NULL, NUMBER, RunFolder, RunResult
+from lgmd_sim.core.fileio import csv_text, write_files, write_text_atomic
+from lgmd_sim.core.parallel import Job, run_jobs
+from lgmd_sim.core.runs import NULL, NUMBER, RunFolder, RunResult
 
 __all__ = ["Clip", "OpenLoopConfig", "clip_job", "run", "summarise",
            "summary_markdown"]
@@ -132,9 +132,9 @@ def _clip_figure(clip: Clip, frames: Sequence[np.ndarray], d: Any) -> bytes:
     the distribution of SSIM between consecutive frames."""
     import io
 
+    from lgmd_sim.core.frames import to_grey
+    from lgmd_sim.core.plots import figure
     from lgmd_sim.detect.figure import draw_potentials
-    from lgmd_sim.frames import to_grey
-    from lgmd_sim.plots import figure
 
     t = min(len(frames) - 1, max(1, round(0.8 * (d.collision_frame or len(frames) - 1))))
     p = np.abs(to_grey(frames[t]).astype(np.int16) - to_grey(frames[t - 1]).astype(np.int16))

@@ -15,7 +15,7 @@ import numpy as np
 from lgmd_sim import metrics
 from lgmd_sim.bench import encounters
 from lgmd_sim.bench.episode import Cell
-from lgmd_sim.fileio import csv_text, write_text_atomic
+from lgmd_sim.core.fileio import csv_text, write_text_atomic
 
 __all__ = ["cell_of", "summarise", "summary_markdown", "write_tables"]
 

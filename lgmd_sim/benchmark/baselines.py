@@ -23,8 +23,8 @@ from typing import Any, ClassVar
 
 import numpy as np
 
+from lgmd_sim.core.params import in_range, int_at_least, param
 from lgmd_sim.models import LGMDModel, ModelParams, SearchRange, StateMap
-from lgmd_sim.params import in_range, int_at_least, param
 
 __all__ = ["FrameDifference", "FrameDifferenceParams", "RandomAlarm", "RandomAlarmParams"]
 

@@ -16,8 +16,8 @@ import numpy as np
 
 from lgmd_sim.benchmark import scores
 from lgmd_sim.benchmark.protocol import Protocol
-from lgmd_sim.fileio import atomic_outputs
-from lgmd_sim.runs import NUMBER, Maybe, read_record
+from lgmd_sim.core.fileio import atomic_outputs
+from lgmd_sim.core.runs import NUMBER, Maybe, read_record
 
 __all__ = ["RESULT_FIELDS", "leaderboard", "load_result", "markdown"]
 
@@ -129,7 +129,7 @@ def markdown(results: Sequence[Mapping[str, Any]], names: Sequence[str],
 def _figure(results: Sequence[Mapping[str, Any]], file: Path) -> None:
     """Score by entry: overall, each closed-loop track's by jitter level, detection, as a
     heatmap, best entry on top."""
-    from lgmd_sim.plots import figure
+    from lgmd_sim.core.plots import figure
 
     order = [results[i] for i in _order(results)]
     levels = {t: sorted(next(r["metrics"][t] for r in order if r["metrics"].get(t)), key=float)

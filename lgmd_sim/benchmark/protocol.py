@@ -13,8 +13,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from lgmd_sim.fileio import read_text
-from lgmd_sim.params import finite
+from lgmd_sim.core.fileio import read_text
+from lgmd_sim.core.params import finite
 
 __all__ = ["CURRENT", "PROTOCOLS", "ArenaTrack", "Calibration", "ClosedLoopTrack",
            "DetectionTrack", "Protocol", "load"]

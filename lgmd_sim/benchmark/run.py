@@ -21,9 +21,9 @@ from lgmd_sim import __version__
 from lgmd_sim.benchmark import detection, scores
 from lgmd_sim.benchmark.entries import Entry
 from lgmd_sim.benchmark.protocol import ClosedLoopTrack, Protocol
-from lgmd_sim.fileio import canonical_json, write_text_atomic
-from lgmd_sim.machine import machine
-from lgmd_sim.runs import RunFolder
+from lgmd_sim.core.fileio import canonical_json, write_text_atomic
+from lgmd_sim.core.machine import machine
+from lgmd_sim.core.runs import RunFolder
 
 __all__ = ["RESULT", "benchmark", "calibrated", "track_config", "user_presets"]
 
@@ -67,7 +67,7 @@ def _detection(entry: Entry, protocol: Protocol, out: Path, run_options: Mapping
                ) -> list[dict[str, Any]]:
     """Run the detection track's clips through the entry's detector (a run folder in
     `out`); one record per clip."""
-    from lgmd_sim.parallel import Job, run_jobs
+    from lgmd_sim.core.parallel import Job, run_jobs
 
     track = protocol.detection
     config = {"detection": protocol.identity(), "model": entry.model, "preset": entry.preset,
@@ -154,7 +154,7 @@ def user_presets(folder: Path | None) -> Iterator[None]:
 def _wall_time(folder: Path) -> float:
     """The seconds every session of the entry's runs took (its calibration's included):
     the same when a finished benchmark is run again to rewrite its result."""
-    from lgmd_sim.fileio import read_json
+    from lgmd_sim.core.fileio import read_json
 
     return round(sum(float(s.get("wall_time_s") or 0.0)
                      for run in sorted(folder.glob("*/run.json"))

@@ -25,7 +25,7 @@ from lgmd_sim import noise as noise_mod
 from lgmd_sim import stimuli
 from lgmd_sim.calibration.objective import WALKER, ClipLabel
 from lgmd_sim.controllers import Straight
-from lgmd_sim.fileio import atomic_output
+from lgmd_sim.core.fileio import atomic_output
 
 __all__ = ["DEFAULT_GROUPS", "FRONT_ENDS", "LOOKAHEAD", "ROBOT_GROUPS", "STIMULI",
            "VIDEO_FOVY", "VIDEO_FOVY_RANGE", "VIDEO_GROUPS", "VIDEO_LOOKS", "ClipSpec",

@@ -25,8 +25,8 @@ from typing import Any
 
 import numpy as np
 
+from lgmd_sim.core.runs import Fields
 from lgmd_sim.metrics import PAPER_ALARM, AlarmRule
-from lgmd_sim.runs import Fields
 
 __all__ = ["KINDS", "LATE", "THRESHOLDS", "VIDEO", "WALKER", "ClipLabel", "Objective",
            "first_crossings", "hits", "kind_rates", "objective", "pack_hits", "unpack_hits"]
@@ -112,7 +112,7 @@ class Objective(ABC):
         text: the objective as declared (saved with the presets it chose).
         parts: what the objective averages, each with its summary column's heading.
         titles: the figure's panel title of the objective and of each part.
-        fields: what a set's scores hold (`lgmd_sim.runs.Fields`), checked on resuming.
+        fields: what a set's scores hold (`lgmd_sim.core.runs.Fields`), checked on resuming.
         truth: the per-frame ground truth (``info`` names) its labels read.
     """
 

@@ -15,8 +15,8 @@ else the nearest: ``threat_ttc``, ``threat_bearing``):
   triggered by the ground truth, meets the closed-loop target at jitter 1 (the goal in
   60% of the episodes or more, collisions in 15% or fewer) when it is triggered at a time
   to collision from 0.6 to 1.15 s, and at no other horizon tried (0.3 to 2.2 s, 40 seeds:
-  ``scripts/oracle_window.py``). Later, the turn cannot clear the obstacle; earlier, the
-  robot turns away from what it has not reached, again and again, and runs out of time;
+  ``docs/experiments/tools/oracle_window.py``). Later, the turn cannot clear the obstacle;
+  earlier, the robot turns away from what it has not reached, again and again, and runs out of time;
 - a **clear** frame when no threat is within ``HORIZON`` = 2 s, the horizon beyond which
   the closed-loop benchmark counts an alarm as false;
 - neither otherwise (between the window and the horizon, or past the window).

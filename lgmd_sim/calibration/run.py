@@ -45,11 +45,11 @@ from lgmd_sim.calibration.search import (
     evaluate,
     space,
 )
-from lgmd_sim.fileio import write_files, write_text_atomic
+from lgmd_sim.core.fileio import write_files, write_text_atomic
+from lgmd_sim.core.parallel import Job, run_jobs
+from lgmd_sim.core.runs import NULL, Fields, RunFolder, RunResult
 from lgmd_sim.metrics import PAPER_ALARM
 from lgmd_sim.models import presets
-from lgmd_sim.parallel import Job, run_jobs
-from lgmd_sim.runs import NULL, Fields, RunFolder, RunResult
 from lgmd_sim.world.params import frame_size
 
 if TYPE_CHECKING:
@@ -195,8 +195,8 @@ class CalibrateConfig:
         if target is not None:
             if target.resolve().is_relative_to(presets.PACKAGE):
                 raise ValueError(f"presets file {target}: inside the installed package; the "
-                                 "shipped presets change only by scripts/ship_presets.py in "
-                                 "a checkout")
+                                 "shipped presets change only by "
+                                 "docs/experiments/tools/ship_presets.py in a checkout")
             # a file it cannot merge into fails now, not after the whole calibration
             presets.check_target(target)
 
@@ -310,7 +310,7 @@ def calibration_figure(chosen: Sequence[dict[str, Any]], objective: Objective = 
     one)."""
     from matplotlib.patches import Patch
 
-    from lgmd_sim.plots import figure, model_style
+    from lgmd_sim.core.plots import figure, model_style
 
     names = [c["detector"] for c in chosen]
     panels = ("objective", *objective.parts)

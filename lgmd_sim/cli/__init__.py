@@ -20,9 +20,9 @@ from collections.abc import Sequence
 from importlib import import_module
 
 from lgmd_sim import __version__
-from lgmd_sim.extras import MissingExtra
-from lgmd_sim.fileio import error_text
-from lgmd_sim.parallel import WorkerDied, stop_again_when_swallowed
+from lgmd_sim.core.extras import MissingExtra
+from lgmd_sim.core.fileio import error_text
+from lgmd_sim.core.parallel import WorkerDied, stop_again_when_swallowed
 
 #: The subcommands, in the order `--help` lists them.
 COMMANDS = ("demo", "detect", "record", "models", "envs", "bench", "calibrate", "speed", "dataset",

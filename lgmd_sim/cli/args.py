@@ -89,7 +89,7 @@ def run_folder_kwargs(args: argparse.Namespace) -> dict[str, Any]:
 
 
 def print_result(table: str, result: Any) -> int:
-    """A job's summary table, then the files it wrote (a `lgmd_sim.runs.RunResult`)."""
+    """A job's summary table, then the files it wrote (a `lgmd_sim.core.runs.RunResult`)."""
     print(table, end="")
     print(f"wrote {result.path}/: {', '.join(result.files)}")
     return 0

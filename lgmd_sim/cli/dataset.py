@@ -131,8 +131,8 @@ def run(args: argparse.Namespace) -> int:
               f"({s.codec} MP4) in {s.seconds:.1f} s; open it with "
               f"LeRobotDataset('local/{s.path.name}', root='{s.path}')")
         return 0
+    from lgmd_sim.core.parallel import WorkerDied
     from lgmd_sim.data.generate import generate
-    from lgmd_sim.parallel import WorkerDied
 
     try:
         s = generate(config_from_args(args), args.out, workers=args.workers,

@@ -15,7 +15,7 @@ from lgmd_sim.cli.args import (
     print_result,
     run_folder_kwargs,
 )
-from lgmd_sim.extras import install_command
+from lgmd_sim.core.extras import install_command
 from lgmd_sim.policies import EVAL_SEEDS, EVAL_TOP_VIEWS
 
 

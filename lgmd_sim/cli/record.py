@@ -1,4 +1,4 @@
-"""`lgmd-sim record`: its arguments, then `lgmd_sim.record.record`."""
+"""`lgmd-sim record`: its arguments, then `lgmd_sim.apps.record.record`."""
 
 from __future__ import annotations
 
@@ -31,7 +31,7 @@ def add(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from lgmd_sim.record import record
+    from lgmd_sim.apps.record import record
 
     overrides: dict[str, Any] = {"resolution": args.resolution}
     if args.jitter is not None:

@@ -33,8 +33,8 @@ def run(args: argparse.Namespace) -> int:
     """`lgmd-sim reference`: the pages (and pictures) into --out, as one set."""
     import cv2
 
+    from lgmd_sim.core.fileio import write_files
     from lgmd_sim.envs import reference
-    from lgmd_sim.fileio import write_files
 
     out = Path(args.out)
     if out.exists() and not out.is_dir():

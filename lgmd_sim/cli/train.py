@@ -14,7 +14,7 @@ from pathlib import Path
 from typing import Any
 
 from lgmd_sim.cli.args import advanced, grid, print_result, resolution
-from lgmd_sim.extras import install_command
+from lgmd_sim.core.extras import install_command
 
 
 def add(sub: argparse._SubParsersAction) -> None:

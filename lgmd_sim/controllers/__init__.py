@@ -19,7 +19,7 @@ from typing import Any
 
 from lgmd_sim.controllers.base import Controller, Step, rollout
 from lgmd_sim.controllers.straight import Straight, StraightParams
-from lgmd_sim.registry import Registry
+from lgmd_sim.core.registry import Registry
 
 __all__ = ["Controller", "Step", "Straight", "StraightParams", "available", "controller_class",
            "make", "register", "rollout"]

@@ -16,10 +16,10 @@ import numpy as np
 from lgmd_sim import models
 from lgmd_sim.controllers.base import Controller
 from lgmd_sim.controllers.straight import DESIGN, StraightParams
+from lgmd_sim.core.params import in_range, one_of, param
 from lgmd_sim.envs.wrappers.frames import check_frame_space
 from lgmd_sim.envs.zone import ORACLE_TUNED, TriggerZone, in_trigger_zone
 from lgmd_sim.models.sectors import Sectors, below_one
-from lgmd_sim.params import in_range, one_of, param
 
 __all__ = [
     "AvoidParams",

@@ -11,7 +11,7 @@ from typing import Any, ClassVar
 import gymnasium as gym
 import numpy as np
 
-from lgmd_sim.params import CheckedParams
+from lgmd_sim.core.params import CheckedParams
 
 
 class Controller(ABC):

@@ -11,7 +11,7 @@ import numpy as np
 
 from lgmd_sim.controllers.base import Controller
 from lgmd_sim.controllers.straight import DESIGN
-from lgmd_sim.params import CheckedParams, comma_list, param
+from lgmd_sim.core.params import CheckedParams, comma_list, param
 
 __all__ = ["Policy", "PolicyParams"]
 

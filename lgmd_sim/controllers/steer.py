@@ -19,16 +19,16 @@ import numpy as np
 
 from lgmd_sim.controllers.base import Controller
 from lgmd_sim.controllers.straight import StraightParams
+from lgmd_sim.core.params import in_range, non_negative, param, positive
 from lgmd_sim.envs.zone import ORACLE_TUNED
-from lgmd_sim.params import in_range, non_negative, param, positive
 
 __all__ = ["Steer", "SteerParams"]
 
 #: Where its constants come from: a first setting by design, `ahead` then chosen among 8
 #: settings on search seeds 2000-2029 (RoughTerrainObstacles, jitter 1, no frames), by
-#: scripts/steer_search.py.
+#: docs/experiments/tools/steer_search.py.
 SEARCHED = ("design, then chosen among 8 settings on search seeds 2000-2029 of "
-            "RoughTerrainObstacles at jitter 1 (scripts/steer_search.py)")
+            "RoughTerrainObstacles at jitter 1 (docs/experiments/tools/steer_search.py)")
 
 
 @dataclass(frozen=True)

@@ -9,7 +9,7 @@ from typing import Any
 import numpy as np
 
 from lgmd_sim.controllers.base import Controller
-from lgmd_sim.params import CheckedParams, in_range, non_negative, param
+from lgmd_sim.core.params import CheckedParams, in_range, non_negative, param
 
 DESIGN = "design choice"
 

@@ -26,9 +26,9 @@ from typing import Any
 
 import numpy as np
 
+from lgmd_sim.core.fileio import atomic_folder, canonical_json
 from lgmd_sim.data import card, layout
 from lgmd_sim.data.stats import feature_stats, image_stats
-from lgmd_sim.fileio import atomic_folder, canonical_json
 
 __all__ = ["CODECS", "FORMATS", "Codec", "ExportConfig", "ExportSummary", "export"]
 
@@ -111,8 +111,8 @@ def export(config: ExportConfig) -> ExportSummary:
         OSError: a write error (a full disk), naming DEST; nothing is left under DEST.
         MissingExtra: PyAV or pyarrow is missing (the 'lerobot' extra).
     """
+    from lgmd_sim.core.extras import require
     from lgmd_sim.data.load import open_dataset
-    from lgmd_sim.extras import require
 
     require("av", "lerobot")
     require("pyarrow", "lerobot")

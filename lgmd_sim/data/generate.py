@@ -1,6 +1,6 @@
 """`lgmd-sim dataset generate`: labelled jitter datasets, resumable and reproducible.
 
-Every episode is one job (`make_episode`, run by `lgmd_sim.parallel.run_jobs` in this
+Every episode is one job (`make_episode`, run by `lgmd_sim.core.parallel.run_jobs` in this
 process, on a local pool or as Ray tasks): it drives a scenario with a controller, encodes
 the camera frames and builds the per-frame labels, and hands both back as bytes. Only
 this process writes into the dataset folder, so the folder's state never depends on who
@@ -10,7 +10,7 @@ ran a job (a Ray cluster needs no shared file system), and:
   carrying the episode's metadata) last: an episode is complete when its data file
   exists, names its video's SHA-256, and the video matches;
 - ``meta/config.json`` is written before any episode (the folder is a
-  `lgmd_sim.runs.RunFolder` whose identity is that file); re-running the same command
+  `lgmd_sim.core.runs.RunFolder` whose identity is that file); re-running the same command
   resumes (complete episodes kept, partial ones removed and redone); another
   configuration into the same folder is refused, naming the difference;
 - the manifest (``meta/info.json`` last, with the episode table, the task table, the
@@ -40,17 +40,17 @@ from typing import Any
 import numpy as np
 
 from lgmd_sim import options
-from lgmd_sim.data import layout
-from lgmd_sim.data.manifest import write_manifest
-from lgmd_sim.fileio import (
+from lgmd_sim.core.fileio import (
     canonical_json,
     remove_stale_partials,
     scratch_folder,
     write_files,
     write_text_atomic,
 )
-from lgmd_sim.parallel import Job, Pool, default_workers, run_jobs
-from lgmd_sim.runs import RunFolder
+from lgmd_sim.core.parallel import Job, Pool, default_workers, run_jobs
+from lgmd_sim.core.runs import RunFolder
+from lgmd_sim.data import layout
+from lgmd_sim.data.manifest import write_manifest
 
 __all__ = ["EpisodeResult", "EpisodeSpec", "GenerateConfig", "Summary", "generate",
            "make_episode"]
@@ -239,8 +239,8 @@ def make_episode(spec: EpisodeSpec) -> EpisodeResult:
     metadata. Depends on `spec` only (the same bytes wherever it runs)."""
     from lgmd_sim import __version__, controllers, models, noise
     from lgmd_sim.controllers import rollout
+    from lgmd_sim.core.frames import to_grey
     from lgmd_sim.envs.reuse import episode_env
-    from lgmd_sim.frames import to_grey
     from lgmd_sim.video import encoder
 
     fmt = layout.VIDEO_FORMATS[spec.video]
@@ -434,7 +434,7 @@ def generate(config: GenerateConfig, out: str | Path, *, workers: int | None = N
         out: the dataset folder: new, empty, or holding this configuration's dataset.
         workers: local worker processes (default: every core; 1: in this process).
         ray_address: run the episodes as Ray tasks ("local", "auto" or "HOST:PORT").
-        pool: run the episodes on this started `lgmd_sim.parallel.Pool` instead (not with
+        pool: run the episodes on this started `lgmd_sim.core.parallel.Pool` instead (not with
             `workers` or `ray_address`): its workers keep their environments.
         progress: show a progress bar (None: only on a terminal).
         command: the command line, for the run's record (``meta/run.json``).
@@ -445,7 +445,7 @@ def generate(config: GenerateConfig, out: str | Path, *, workers: int | None = N
             episodes are kept (the same call resumes).
         WorkerDied: a worker died; the episodes it ran are redone by the same call.
     """
-    from lgmd_sim.extras import require
+    from lgmd_sim.core.extras import require
 
     require("pyarrow", "data")
     if ray_address is not None:

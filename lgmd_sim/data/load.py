@@ -23,8 +23,8 @@ from typing import Any
 
 import numpy as np
 
+from lgmd_sim.core.fileio import json_kind, read_json
 from lgmd_sim.data import layout
-from lgmd_sim.fileio import json_kind, read_json
 
 __all__ = ["Clip", "Dataset", "Episode", "detect_inputs", "episodes", "open_dataset",
            "read_meta_table"]
@@ -33,7 +33,7 @@ _EPISODE_SPEC = re.compile(r"(?P<path>.+):(?P<index>\d+)")
 
 
 def _pa():
-    from lgmd_sim.extras import require
+    from lgmd_sim.core.extras import require
 
     return require("pyarrow", "data"), require("pyarrow.parquet", "data")
 

@@ -10,8 +10,8 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
+from lgmd_sim.core.fileio import canonical_json, write_files
 from lgmd_sim.data import layout
-from lgmd_sim.fileio import canonical_json, write_files
 
 __all__ = ["episode_table", "info", "write_manifest"]
 

@@ -14,8 +14,8 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from lgmd_sim.core.extras import require
 from lgmd_sim.data.load import Dataset
-from lgmd_sim.extras import require
 
 torch = require("torch", "rl")
 

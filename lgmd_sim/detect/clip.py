@@ -14,8 +14,8 @@ import numpy as np
 
 from lgmd_sim import metrics, models
 from lgmd_sim import noise as noise_lib
+from lgmd_sim.core.frames import to_grey
 from lgmd_sim.detect.results import Detection, ModelTrace
-from lgmd_sim.frames import to_grey
 from lgmd_sim.models.base import LGMDModel
 from lgmd_sim.options import model_names
 from lgmd_sim.video import VideoReader

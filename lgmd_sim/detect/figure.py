@@ -1,6 +1,6 @@
 """A detection drawn: every model's membrane potential over a clip with its first alarm,
 the threshold and the labelled collision (`draw_potentials`), and a model's legend entry
-(`alarm_label`), in the figure conventions of `lgmd_sim.plots`."""
+(`alarm_label`), in the figure conventions of `lgmd_sim.core.plots`."""
 
 from __future__ import annotations
 
@@ -10,8 +10,8 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from lgmd_sim import metrics
+from lgmd_sim.core.plots import COLLISION, THRESHOLD, model_style
 from lgmd_sim.detect.results import Detection
-from lgmd_sim.plots import COLLISION, THRESHOLD, model_style
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes

@@ -10,10 +10,10 @@ from pathlib import Path
 
 from lgmd_sim import noise as noise_lib
 from lgmd_sim import options
+from lgmd_sim.core.fileio import error_text
 from lgmd_sim.detect.clip import check_collision_frame, detect
 from lgmd_sim.detect.outputs import check_out_folder, output_names, write_outputs
 from lgmd_sim.detect.specs import front_end_params, with_preset
-from lgmd_sim.fileio import error_text
 from lgmd_sim.video import VideoReader
 
 __all__ = ["DetectConfig", "Video", "run"]

@@ -12,8 +12,8 @@ from typing import Any
 
 import numpy as np
 
+from lgmd_sim.core.fileio import write_files
 from lgmd_sim.detect.results import Detection
-from lgmd_sim.fileio import write_files
 
 __all__ = ["check_out_folder", "output_names", "write_outputs"]
 
@@ -35,8 +35,8 @@ def _write_csv(path: Path, d: Detection) -> None:
 def _write_figure(path: Path, d: Detection) -> None:
     """The paper's layout: every model's potential with the threshold, each first alarm
     and the collision marked; the SSIM of consecutive frames below."""
+    from lgmd_sim.core.plots import COLLISION, figure
     from lgmd_sim.detect.figure import draw_potentials
-    from lgmd_sim.plots import COLLISION, figure
 
     fig = figure(figsize=(10, 5.8))
     top, bottom = fig.subplots(2, 1, sharex=True, height_ratios=[2.2, 1])

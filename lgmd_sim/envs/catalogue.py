@@ -6,7 +6,7 @@ stem); ``gym.make(id, **overrides)`` overrides again. The packaged scenarios (en
 when lgmd_sim is imported, then the folders listed in the ``LGMD_SIM_ENVS`` environment
 variable (separated by ``os.pathsep``); `register_catalogue` adds a folder later.
 
-A file that cannot be used (unreadable, larger than `lgmd_sim.fileio.TEXT_LIMIT`, not
+A file that cannot be used (unreadable, larger than `lgmd_sim.core.fileio.TEXT_LIMIT`, not
 UTF-8, invalid TOML, unknown keys, a name that is no valid environment id, a name already
 taken) breaks only itself: ``lgmd-sim envs`` reports it in one line, ``gym.make`` of its id
 raises that line as a ValueError, and every other scenario works. This module imports
@@ -24,8 +24,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from lgmd_sim.fileio import read_text
-from lgmd_sim.resources import envs_dir
+from lgmd_sim.core.fileio import read_text
+from lgmd_sim.core.resources import envs_dir
 
 NAMESPACE = "lgmd_sim"
 ENTRY_POINT = "lgmd_sim.envs.jitter_env:JitterEnv"

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from lgmd_sim.params import in_range, non_negative, one_of, param
+from lgmd_sim.core.params import in_range, non_negative, one_of, param
 from lgmd_sim.world.params import DESIGN, SceneParams
 
 

@@ -22,9 +22,9 @@ import cv2
 import numpy as np
 from gymnasium import spaces
 
+from lgmd_sim.core.resources import envs_dir
 from lgmd_sim.envs.catalogue import Scenario, params_for, scenarios
 from lgmd_sim.envs.params import EnvParams
-from lgmd_sim.resources import envs_dir
 
 #: The picture of a scenario: its size (pixels), and the view (degrees): from behind the
 #: start and to its right, looking down at an angle.

@@ -13,7 +13,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
-from lgmd_sim.params import CheckedParams, in_range, param, positive
+from lgmd_sim.core.params import CheckedParams, in_range, param, positive
 
 __all__ = ["ORACLE_TUNED", "TriggerZone", "in_trigger_zone"]
 

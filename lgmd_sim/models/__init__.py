@@ -30,6 +30,7 @@ from __future__ import annotations
 
 from typing import Any
 
+from lgmd_sim.core.registry import Registry
 from lgmd_sim.models.base import (
     RESERVED_PARAMETERS,
     LGMDModel,
@@ -40,7 +41,6 @@ from lgmd_sim.models.base import (
 from lgmd_sim.models.check import ModelCheckError, check_model
 from lgmd_sim.models.guard import PluginError, run_hook
 from lgmd_sim.models.search import SearchRange
-from lgmd_sim.registry import Registry
 
 __all__ = ["ENTRY_POINTS", "FRONT_END_SUFFIXES", "RESERVED_PARAMETERS", "LGMDModel", "LGMDOutput",
            "ModelCheckError", "ModelParams", "PluginError", "SearchRange", "StateMap",

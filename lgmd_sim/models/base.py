@@ -25,13 +25,13 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from lgmd_sim.frames import to_grey
+from lgmd_sim.core.frames import to_grey
+from lgmd_sim.core.params import CheckedParams, in_range, int_in_range, one_of, param
 from lgmd_sim.metrics import AlarmRule
 from lgmd_sim.models.compensation import Compensation
 from lgmd_sim.models.guard import PluginError, is_plugin, potentials_fault, run_hook
 from lgmd_sim.models.search import SearchRange
 from lgmd_sim.models.warp import Motion
-from lgmd_sim.params import CheckedParams, in_range, int_in_range, one_of, param
 
 #: Values of the ``stabilize`` parameter: where each frame's camera rotation comes from.
 FRONT_ENDS = ("none", "pose", "imu", "image")
@@ -176,7 +176,7 @@ class LGMDModel(ABC):
     A model (a built-in, or yours: `lgmd_sim.models.register`) declares as class attributes:
 
     - ``name``; ``Params``, a frozen `ModelParams` subclass, every field a
-      `lgmd_sim.params.param`, that does not declare the `RESERVED_PARAMETERS` again
+      `lgmd_sim.core.params.param`, that does not declare the `RESERVED_PARAMETERS` again
       (``threshold``, for potentials in 0.5..1, it may redeclare with its own check);
     - ``layer_names`` (() for none); ``presets``, named overrides of the defaults, the
       first the default preset; ``search_space`` (optional, for ``lgmd-sim calibrate``):

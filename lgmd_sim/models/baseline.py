@@ -16,11 +16,11 @@ from typing import Any
 import numpy as np
 from numba import njit
 
+from lgmd_sim.core.params import non_negative, one_of, param, positive, tuple_of
 from lgmd_sim.models.base import ModelParams
 from lgmd_sim.models.kernels import BORDERS, JIT_NO_FMA, REFLECT, TAP_FLOOR, fill_borders_as
 from lgmd_sim.models.search import SearchRange
 from lgmd_sim.models.sources import SOURCES
-from lgmd_sim.params import non_negative, one_of, param, positive, tuple_of
 
 __all__ = [
     "BORDER_DOC",

@@ -184,7 +184,7 @@ def _parameters(s: _Subject) -> None:
     reserved = reserved_fault(s.cls.Params)
     if reserved:
         _fail(reserved)
-    declare = "declare it with lgmd_sim.params.param(default, source, check=...)"
+    declare = "declare it with lgmd_sim.core.params.param(default, source, check=...)"
     for f in dataclasses.fields(s.cls.Params):
         if f.default is dataclasses.MISSING and f.default_factory is dataclasses.MISSING:
             _fail(f"parameter {f.name} has no default: {declare}")

@@ -27,6 +27,17 @@ from typing import Any, ClassVar
 import numpy as np
 from numba import njit
 
+from lgmd_sim.core.params import (
+    finite,
+    in_range,
+    int_at_least,
+    int_in_range,
+    non_negative,
+    one_of,
+    param,
+    positive,
+    tuple_of,
+)
 from lgmd_sim.models.base import LGMDModel, ModelParams, StateMap
 from lgmd_sim.models.kernels import (
     JIT,
@@ -38,17 +49,6 @@ from lgmd_sim.models.kernels import (
     vconv,
 )
 from lgmd_sim.models.search import SearchRange
-from lgmd_sim.params import (
-    finite,
-    in_range,
-    int_at_least,
-    int_in_range,
-    non_negative,
-    one_of,
-    param,
-    positive,
-    tuple_of,
-)
 
 __all__ = [
     "TABLE_1",

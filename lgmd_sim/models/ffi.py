@@ -20,10 +20,10 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any, ClassVar
 
+from lgmd_sim.core.params import param
 from lgmd_sim.models.base import ModelParams
 from lgmd_sim.models.lgmd2 import LGMD2, LGMD2Params
 from lgmd_sim.models.sources import SOURCES
-from lgmd_sim.params import param
 
 __all__ = ["FFIParams", "FOffLGMD", "FOnLGMD"]
 

@@ -33,6 +33,7 @@ from typing import Any, ClassVar
 import numpy as np
 from numba import njit
 
+from lgmd_sim.core.params import because, non_negative, one_of, optional, param, positive
 from lgmd_sim.models.base import LGMDModel, ModelParams, StateMap
 from lgmd_sim.models.baseline import (
     BORDER_DOC,
@@ -54,7 +55,6 @@ from lgmd_sim.models.baseline import (
 from lgmd_sim.models.kernels import JIT_NO_FMA, fill_borders_as, row_index, staggered_arrays
 from lgmd_sim.models.search import SearchRange
 from lgmd_sim.models.sources import SOURCES
-from lgmd_sim.params import because, non_negative, one_of, optional, param, positive
 
 __all__ = ["LGMD1", "LGMD1Params"]
 

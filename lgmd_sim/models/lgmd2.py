@@ -33,6 +33,17 @@ from typing import Any, ClassVar
 import numpy as np
 from numba import njit
 
+from lgmd_sim.core.params import (
+    because,
+    finite,
+    in_range,
+    non_negative,
+    one_of,
+    optional,
+    param,
+    positive,
+    tuple_of,
+)
 from lgmd_sim.models.base import LGMDModel, ModelParams, StateMap
 from lgmd_sim.models.baseline import (
     NO_MAP,
@@ -52,17 +63,6 @@ from lgmd_sim.models.baseline import (
 from lgmd_sim.models.kernels import JIT_NO_FMA, fill_borders_as, row_index, staggered_arrays
 from lgmd_sim.models.search import SearchRange
 from lgmd_sim.models.sources import SOURCES
-from lgmd_sim.params import (
-    because,
-    finite,
-    in_range,
-    non_negative,
-    one_of,
-    optional,
-    param,
-    positive,
-    tuple_of,
-)
 
 __all__ = ["LGMD2", "LGMD2Params", "frame_interval", "low_pass_coefficient",
            "spike_frequency_adaptation"]

@@ -3,7 +3,7 @@
 Two files give them, the second on top of the first:
 
 - the shipped presets, ``lgmd_sim/models/calibrated.json`` (`CALIBRATED`), which change
-  only by the release step in a checkout (``scripts/ship_presets.py DIR``);
+  only by the release step in a checkout (``docs/experiments/tools/ship_presets.py DIR``);
 - the user's presets, ``calibrated.json`` in the user data folder (`user_data_dir`:
   ``$LGMD_SIM_DATA_DIR``, else the platform's, e.g. ``~/.local/share/lgmd-sim``), which
   ``lgmd-sim calibrate --save-presets`` writes (or any file, ``--presets-file``).
@@ -27,7 +27,7 @@ from collections.abc import Iterator, Mapping
 from pathlib import Path
 from typing import Any
 
-from lgmd_sim.fileio import read_json, write_text_atomic
+from lgmd_sim.core.fileio import read_json, write_text_atomic
 
 if sys.platform == "win32":
     import msvcrt

@@ -26,9 +26,9 @@ from typing import Any
 import numpy as np
 
 from lgmd_sim import models
+from lgmd_sim.core.params import CheckedParams, in_range, int_at_least, param
 from lgmd_sim.models.base import LGMDOutput
 from lgmd_sim.models.warp import Motion
-from lgmd_sim.params import CheckedParams, in_range, int_at_least, param
 
 __all__ = ["MIN_SECTOR", "SectorParams", "Sectors", "below_one", "sector_boxes", "sector_motion"]
 

@@ -37,8 +37,8 @@ import cv2
 import numpy as np
 from numba import njit
 
+from lgmd_sim.core.params import CheckedParams, in_range, int_in_range, one_of, param
 from lgmd_sim.models.warp import Motion
-from lgmd_sim.params import CheckedParams, in_range, int_in_range, one_of, param
 
 __all__ = ["FrontEnd", "ImageRotation", "ImageRotationParams", "brightness_gain",
            "gain_field", "gain_grid", "ground_motion", "intrinsics", "rotation_homography",

@@ -13,7 +13,7 @@ import argparse
 from collections.abc import Sequence
 from pathlib import Path
 
-from lgmd_sim.extras import MissingExtra
+from lgmd_sim.core.extras import MissingExtra
 from lgmd_sim.policies.folder import convert
 
 __all__ = ["main"]

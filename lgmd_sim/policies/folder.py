@@ -42,8 +42,8 @@ from typing import Any
 import numpy as np
 from numpy.lib import format as npy
 
-from lgmd_sim.extras import require
-from lgmd_sim.fileio import read_json, write_files
+from lgmd_sim.core.extras import require
+from lgmd_sim.core.fileio import read_json, write_files
 from lgmd_sim.policies.config import Normalizer, PolicyConfig
 
 __all__ = ["ALGOS", "MODEL_FILE", "OBS", "SB3_FILE", "LoadedPolicy", "convert", "load",

@@ -19,10 +19,10 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
+from lgmd_sim.core.frames import to_grey
+from lgmd_sim.core.params import int_in_range, tuple_of
 from lgmd_sim.envs.wrappers import LGMDObservation, PrivilegedObservation
 from lgmd_sim.envs.wrappers.frames import check_frame_space
-from lgmd_sim.frames import to_grey
-from lgmd_sim.params import int_in_range, tuple_of
 from lgmd_sim.policies.config import PolicyConfig
 from lgmd_sim.world.params import MAX_SIDE
 

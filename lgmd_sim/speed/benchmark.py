@@ -17,8 +17,8 @@ import dataclasses
 import time
 from pathlib import Path
 
-from lgmd_sim.fileio import read_json, scratch_folder
-from lgmd_sim.machine import cpu_name
+from lgmd_sim.core.fileio import read_json, scratch_folder
+from lgmd_sim.core.machine import cpu_name
 from lgmd_sim.speed import format_table, met
 
 #: The targets: the benchmark's episodes per second over the bench's, and one row's

@@ -4,7 +4,7 @@ per frame.
 For each scenario, in one run, with the same workers, episodes, seeds and frame size:
 
 - the environment alone: the episodes driven by the same controller as jobs of
-  `lgmd_sim.parallel.run_jobs`, frames thrown away;
+  `lgmd_sim.core.parallel.run_jobs`, frames thrown away;
 - ``dataset generate`` of the same episodes into a temporary folder (everything: frames
   encoded, labels, files written, the manifest and contact sheet);
 - frames per second of both and their ratio (`TARGET`: 0.9 or more with 2 workers), the
@@ -32,9 +32,9 @@ from typing import Any
 
 import cv2
 
+from lgmd_sim.core.machine import cpu_name
+from lgmd_sim.core.parallel import Job, Pool, run_jobs
 from lgmd_sim.data.generate import GenerateConfig, generate
-from lgmd_sim.machine import cpu_name
-from lgmd_sim.parallel import Job, Pool, run_jobs
 from lgmd_sim.speed import format_table, met, on_warm_pool
 
 #: The target: dataset generation at this share of the environment's frames per second.

@@ -23,7 +23,7 @@ import time
 
 import numpy as np
 
-from lgmd_sim.machine import cpu_name
+from lgmd_sim.core.machine import cpu_name
 from lgmd_sim.speed import format_table, met
 
 RESOLUTIONS = ((120, 160), (270, 480))

@@ -26,7 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
-from lgmd_sim.machine import cpu_name
+from lgmd_sim.core.machine import cpu_name
 from lgmd_sim.speed import format_table, met, pin_to_one_core
 
 __all__ = ["Row", "measure", "moving_texture", "run"]

@@ -19,7 +19,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-from lgmd_sim.machine import cpu_name
+from lgmd_sim.core.machine import cpu_name
 from lgmd_sim.speed import format_table, met, pin_to_one_core
 
 __all__ = ["rotating_scene", "run"]

@@ -24,7 +24,7 @@ import os
 import time
 from typing import Any
 
-from lgmd_sim.machine import cpu_name
+from lgmd_sim.core.machine import cpu_name
 from lgmd_sim.speed import format_table, met
 
 #: (algo, obs, hyperparameter overrides) of each row.
@@ -83,7 +83,7 @@ def measure_row(algo: str, obs: str, overrides: dict[str, Any], *, env: str,
 def run(*, steps: int = 8192, envs: int = 2, env: str = "lgmd_sim/RoughTerrainObstacles-v0",
         resolution: str | tuple[int, int] = "rl", markdown: bool = False) -> int:
     """Measure and print the training speed table (Markdown with `markdown`)."""
-    from lgmd_sim.extras import require
+    from lgmd_sim.core.extras import require
 
     require("stable_baselines3", "rl")
     rows = [measure_row(algo, obs, overrides, env=env, resolution=resolution, steps=steps,

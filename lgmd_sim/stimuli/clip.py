@@ -13,7 +13,7 @@ import cv2
 import numpy as np
 
 from lgmd_sim import noise
-from lgmd_sim.params import Check, int_at_least, positive
+from lgmd_sim.core.params import Check, int_at_least, positive
 
 #: Texture amplitude around the background level (fraction of full scale).
 TEXTURE_AMPLITUDE = 0.1
@@ -53,7 +53,7 @@ def require(name: str, value: Any, check: Check) -> Any:
 
 
 def fraction(value: Any) -> str | None:
-    """A `lgmd_sim.params` check: a number in (0, 1] (a contrast, a modulation depth)."""
+    """A `lgmd_sim.core.params` check: a number in (0, 1] (a contrast, a modulation depth)."""
     return None if positive(value) is None and value <= 1 else "must be a number in (0, 1]"
 
 

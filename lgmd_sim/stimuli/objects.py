@@ -17,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from lgmd_sim.params import CheckedParams, int_at_least, one_of, param, positive
+from lgmd_sim.core.params import CheckedParams, int_at_least, one_of, param, positive
 from lgmd_sim.stimuli.clip import (
     BACKGROUNDS,
     Stimulus,

@@ -20,7 +20,7 @@ import typing
 from collections.abc import Callable, Iterable, Mapping
 from typing import Any
 
-from lgmd_sim.extras import require
+from lgmd_sim.core.extras import require
 
 __all__ = ["HYPERPARAMETERS", "hyperparameters", "make_model", "parse_overrides"]
 

@@ -15,7 +15,7 @@ import numpy as np
 from stable_baselines3.common.callbacks import BaseCallback
 from tqdm import tqdm
 
-from lgmd_sim.fileio import write_files, write_text_atomic
+from lgmd_sim.core.fileio import write_files, write_text_atomic
 from lgmd_sim.training.curriculum import Curriculum
 from lgmd_sim.training.envs import VecEnvs
 

@@ -36,8 +36,8 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
-from lgmd_sim.fileio import read_text
-from lgmd_sim.params import finite, int_at_least
+from lgmd_sim.core.fileio import read_text
+from lgmd_sim.core.params import finite, int_at_least
 
 __all__ = ["CURRICULA", "Curriculum", "Stage", "load"]
 
@@ -88,7 +88,7 @@ def load(spec: str, env_id: str) -> Curriculum:
 
     Raises:
         ValueError: not a string; an unknown name; a file that cannot be read, is larger than
-            `lgmd_sim.fileio.TEXT_LIMIT` or is not TOML; a stage that is not a table, or
+            `lgmd_sim.core.fileio.TEXT_LIMIT` or is not TOML; a stage that is not a table, or
             whose parameters the environment refuses (one line naming the file and the
             stage).
     """

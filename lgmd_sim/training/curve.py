@@ -9,8 +9,8 @@ from pathlib import Path
 
 import numpy as np
 
-from lgmd_sim.fileio import write_files
-from lgmd_sim.plots import figure
+from lgmd_sim.core.fileio import write_files
+from lgmd_sim.core.plots import figure
 
 __all__ = ["PANELS", "learning_curve", "phase_changes", "read_logs"]
 

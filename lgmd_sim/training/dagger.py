@@ -16,7 +16,7 @@ proprioception and goal and the threat's ground truth in ``info``; ``reactive``
 (`AlarmAvoid`) is ReactiveAvoid's manoeuvre triggered by the student's own LGMD alarm. The
 first two know what the student's observation may not show (the truth), so a student
 can only clone what its features foretell of their decisions
-(``scripts/imitation_gap.py`` measures how much); the third decides on nothing the
+(``docs/experiments/tools/imitation_gap.py`` measures how much); the third decides on nothing the
 student does not see, which makes it learnable whole, and bounded by its detector.
 
 Why our own loop and not HumanCompatibleAI's ``imitation``: its last release (1.0.1)
@@ -37,7 +37,7 @@ from typing import Any
 import numpy as np
 
 from lgmd_sim.controllers.avoid import Avoider, AvoidParams
-from lgmd_sim.fileio import write_files
+from lgmd_sim.core.fileio import write_files
 from lgmd_sim.policies.config import PolicyConfig
 
 __all__ = ["ENT_WEIGHT", "FIT_BATCH", "FIT_EPOCHS", "FIT_LEARNING_RATE", "STUDENT_ACTIONS",

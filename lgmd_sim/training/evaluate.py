@@ -18,9 +18,9 @@ from typing import Any
 
 from lgmd_sim.bench.closed_loop import ClosedLoopConfig
 from lgmd_sim.bench.episode import Cell
-from lgmd_sim.fileio import write_text_atomic
+from lgmd_sim.core.fileio import write_text_atomic
+from lgmd_sim.core.runs import RunResult
 from lgmd_sim.policies import EVAL_SEEDS, EVAL_TOP_VIEWS
-from lgmd_sim.runs import RunResult
 
 __all__ = ["EvalConfig", "eval_markdown", "evaluate"]
 
@@ -96,8 +96,8 @@ class EvalConfig:
         """The closed-loop benchmark that evaluates the policies: their cells beside the
         hand-made controllers', in the environment they were trained in."""
         from lgmd_sim import options
+        from lgmd_sim.core.extras import require
         from lgmd_sim.envs.catalogue import scenarios
-        from lgmd_sim.extras import require
         from lgmd_sim.policies import load_config, name_of
 
         require("stable_baselines3", "rl")

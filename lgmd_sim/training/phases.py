@@ -13,8 +13,8 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from lgmd_sim.core.runs import RunFolder
 from lgmd_sim.policies.config import PolicyConfig
-from lgmd_sim.runs import RunFolder
 from lgmd_sim.training.config import TrainConfig
 
 if TYPE_CHECKING:

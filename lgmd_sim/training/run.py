@@ -10,7 +10,7 @@ summary (`lgmd_sim.training.summary`).
 
 Layout of ``DIR``:
 
-- ``run.json`` (`lgmd_sim.runs.RunFolder`): the configuration, the machine, and per
+- ``run.json`` (`lgmd_sim.core.runs.RunFolder`): the configuration, the machine, and per
   session (the first run and each resume) the exact command, wall time, versions,
   environment seeds, steps and throughput;
 - ``policy.npz``, ``policy.json``: the final policy (a policy folder, see
@@ -38,11 +38,11 @@ from pathlib import Path
 from typing import Any
 
 from lgmd_sim import __version__
-from lgmd_sim.extras import require
-from lgmd_sim.fileio import read_json, write_text_atomic
+from lgmd_sim.core.extras import require
+from lgmd_sim.core.fileio import read_json, write_text_atomic
+from lgmd_sim.core.runs import RECORD, Maybe, RunFolder, RunResult, read_record
 from lgmd_sim.policies.config import PolicyConfig
 from lgmd_sim.policies.folder import ALGOS
-from lgmd_sim.runs import RECORD, Maybe, RunFolder, RunResult, read_record
 from lgmd_sim.training.config import VALIDATION_SEED, TrainConfig
 from lgmd_sim.training.summary import run_record, summary_markdown, trained, validation_rows
 

@@ -9,8 +9,8 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
+from lgmd_sim.core.runs import NULL, NUMBER, RECORD, Fields, Maybe, read_record
 from lgmd_sim.policies.config import PolicyConfig
-from lgmd_sim.runs import NULL, NUMBER, RECORD, Fields, Maybe, read_record
 from lgmd_sim.training.dagger import FIT_EPOCHS
 
 __all__ = ["RECORD_FIELDS", "grid_text", "run_record", "summary_markdown", "trained",
@@ -48,7 +48,7 @@ def run_record(folder: str | Path) -> dict[str, Any]:
     """The record (run.json) of the training run in `folder`.
 
     Raises:
-        ValueError: one that cannot be read, is larger than `lgmd_sim.fileio.TEXT_LIMIT`
+        ValueError: one that cannot be read, is larger than `lgmd_sim.core.fileio.TEXT_LIMIT`
             or does not hold `RECORD_FIELDS` (one line naming the file).
     """
     return read_record(Path(folder) / RECORD, RECORD_FIELDS, _REMEDY)

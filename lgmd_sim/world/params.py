@@ -24,7 +24,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
-from lgmd_sim.params import (
+from lgmd_sim.core.params import (
     CheckedParams,
     in_range,
     int_in_range,

@@ -28,7 +28,7 @@ import cv2
 import numba
 import numpy as np
 
-from lgmd_sim.parallel import stop_again_if_swallowed
+from lgmd_sim.core.parallel import stop_again_if_swallowed
 from lgmd_sim.world.gl import BACKEND, mujoco
 
 # SSIM as lgmd_sim.metrics.ssim (Wang et al. 2004): 11 x 11 Gaussian window, sigma 1.5,

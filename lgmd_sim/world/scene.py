@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from lgmd_sim.resources import assets_dir
+from lgmd_sim.core.resources import assets_dir
 from lgmd_sim.world import terrain
 from lgmd_sim.world.gl import mujoco
 from lgmd_sim.world.params import ARENA_BACK, SceneParams

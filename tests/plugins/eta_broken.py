@@ -1,7 +1,7 @@
-"""The worked example (examples/eta_lgmd.py, which must be on the path too) broken on
-purpose, for the checker's output on a broken model in docs/guides/own-detector.md
-(scripts/own_detector_page.py): its reset_streams resets every stream, not only those it
-is given, as if one episode's end restarted all of a batch."""
+"""The worked example (examples/eta_lgmd.py, which must be on the path too) broken on purpose,
+for the checker's output on a broken model in docs/guides/own-detector.md
+(docs/experiments/tools/own_detector_page.py): its reset_streams resets every stream, not only
+those it is given, as if one episode's end restarted all of a batch."""
 
 from __future__ import annotations
 

@@ -11,8 +11,8 @@ from typing import ClassVar
 import numpy as np
 from lgmd_plug import Blink
 
+from lgmd_sim.core.params import in_range, param
 from lgmd_sim.models import ModelParams
-from lgmd_sim.params import in_range, param
 
 
 class Mutating(Blink):

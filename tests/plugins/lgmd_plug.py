@@ -10,8 +10,8 @@ from typing import Any, ClassVar
 import numpy as np
 
 from lgmd_sim.controllers import Controller
+from lgmd_sim.core.params import CheckedParams, in_range, param
 from lgmd_sim.models import LGMDModel, ModelParams, SearchRange, StateMap
-from lgmd_sim.params import CheckedParams, in_range, param
 
 
 @dataclass(frozen=True)

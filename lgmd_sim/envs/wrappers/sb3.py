@@ -11,9 +11,9 @@ from typing import Any
 
 import numpy as np
 
+from lgmd_sim.core.extras import require
 from lgmd_sim.envs.wrappers.frames import frame_size_of
 from lgmd_sim.envs.wrappers.lgmd import LGMDFeatures
-from lgmd_sim.extras import require
 
 __all__ = ["VecLGMDObservation"]
 

@@ -15,8 +15,8 @@ from __future__ import annotations
 from typing import Any
 
 from lgmd_sim import models
+from lgmd_sim.core.registry import Registry
 from lgmd_sim.models.base import LGMDModel
-from lgmd_sim.registry import Registry
 
 __all__ = ["available_references", "make_reference"]
 

@@ -20,7 +20,7 @@ The world's IMU has a MEMS gyro's noise and bias here (`GYRO`), so "imu" differs
 "pose". A clip's record is stored in OUT as it finishes; a second run resumes. Prints the
 tables (Markdown) and writes them to OUT/tables.md; ``--figure`` draws the main one.
 
-    python scripts/compensation_table.py --out runs/compensation \
+    python docs/experiments/tools/compensation_table.py --out runs/compensation \
         --figure docs/stabilize/table.png --layers-figure docs/stabilize/p_layers.png
 """
 
@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import shlex
 import sys
 import time
 from collections import defaultdict
@@ -308,7 +309,7 @@ def rotation_table(records: list[dict]) -> str:
 def figure(records: list[dict], names: list[str], path: Path) -> None:
     """Bars: per model and front end, the share of jitter clips alarming late and of
     stationary clips alarming before the collision."""
-    from lgmd_sim.plots import figure as new_figure
+    from lgmd_sim.core.plots import figure as new_figure
 
     fig = new_figure(figsize=(11, 4.2))
     axes = fig.subplots(1, 2, sharey=True)
@@ -342,7 +343,7 @@ def layers_figure(path: Path, resolution: Any, fovy: float = 55.0) -> None:
     robot clip without a front end, with the camera's rotation removed (pose) and with
     the ground plane's flow removed too (pose+ground)."""
     from lgmd_sim import models
-    from lgmd_sim.plots import figure as new_figure
+    from lgmd_sim.core.plots import figure as new_figure
 
     fronts = ["none", "pose", "pose+ground"]
     fig = new_figure(figsize=(13, 2.2 * len(LAYER_CLIPS) + 0.4))
@@ -371,7 +372,7 @@ def layers_figure(path: Path, resolution: Any, fovy: float = 55.0) -> None:
 
 def main(argv: list[str] | None = None) -> int:
     from lgmd_sim import models
-    from lgmd_sim.fileio import write_text_atomic
+    from lgmd_sim.core.fileio import write_text_atomic
 
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--out", required=True, help="run folder (resumed when it exists)")
@@ -404,7 +405,8 @@ def main(argv: list[str] | None = None) -> int:
             print(f"{key}: {rec['frames']} frames, {time.perf_counter() - start:.0f} s",
                   file=sys.stderr, flush=True)
         records.append(json.loads(path.read_text()))
-    command = "python scripts/compensation_table.py " + " ".join(argv or sys.argv[1:])
+    command = shlex.join(["python", "docs/experiments/tools/compensation_table.py",
+                          *(argv or sys.argv[1:])])
     text = (f"<!-- {command} -->\n\n" + main_table(records, names) + "\n"
             + robot_table(records, names) + "\n" + brightness_table(records, names) + "\n"
             + rotation_table(records))

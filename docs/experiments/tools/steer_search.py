@@ -4,7 +4,7 @@ no frames rendered (the controller reads the ground truth only); the one with th
 successes less collisions (then the most successes; the first among equals) is the
 default. Held-out seeds are `lgmd-sim eval`'s, never these.
 
-    .venv/bin/python scripts/steer_search.py            # about 3 minutes on one core
+    .venv/bin/python docs/experiments/tools/steer_search.py            # about 3 minutes on one core
 """
 
 from __future__ import annotations

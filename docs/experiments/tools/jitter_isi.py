@@ -3,7 +3,7 @@
 Drives straight ahead for up to --steps frames per episode, over --seeds seeds, and prints
 a Markdown table: the mean ISI, and the RMS camera angular speed (the jitter itself).
 
-    .venv/bin/python scripts/jitter_isi.py --resolution paper
+    .venv/bin/python docs/experiments/tools/jitter_isi.py --resolution paper
 """
 
 from __future__ import annotations

@@ -21,7 +21,7 @@ fired on at or before the collision, and the mean SI (Eq. 23; 1.0 for a silent c
 the shaken crashes, with how many of them fired at all; and the targets (`TARGETS`) each
 detector misses.
 
-    .venv/bin/python scripts/footage_check.py runs/footage-check --first-seed 7100
+    .venv/bin/python docs/experiments/tools/footage_check.py runs/footage-check --first-seed 7100
 
 Writes OUT/clips/ (the clips, reused by a rerun), OUT/footage_check.json (every clip's
 first alarm and SI per detector) and OUT/footage_check.md (the table).
@@ -38,8 +38,8 @@ from pathlib import Path
 import numpy as np
 
 from lgmd_sim.calibration import clips as clip_mod
+from lgmd_sim.core.fileio import write_text_atomic
 from lgmd_sim.detect import detect, with_preset
-from lgmd_sim.fileio import write_text_atomic
 from lgmd_sim.options import model_names
 
 #: The first of the clips' seeds, outside every calibration's sets (search 0+,
@@ -172,7 +172,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     for label, preset in SETS.items():
         rows += [{**r, "set": label} for r in run_set(preset, names, clips, args.out / "clips")]
     md = table(rows)
-    command = "scripts/footage_check.py " + " ".join(sys.argv[1:] if argv is None else argv)
+    command = " ".join(["docs/experiments/tools/footage_check.py",
+                        *(sys.argv[1:] if argv is None else argv)])
     write_text_atomic(args.out / "footage_check.json", json.dumps(
         {"command": command, "seeds": seeds, "looks": str(LOOKS), "shake": SHAKE,
          "resolution": [h, w], "rows": rows}, indent=1))

@@ -3,7 +3,7 @@
 One episode of RoughTerrainObstacles at 120 x 160 (the robot presets' calibration's
 size): a proportional heading controller keeps the robot on the line to the goal, with an
 obstacle standing in the way, while LGMD detectors watch the camera: by default the
-feedback LGMD at its robot preset beside the paper's (`lgmd_sim.cli.demo.DETECTORS`).
+feedback LGMD at its robot preset beside the paper's (`lgmd_sim.apps.defaults`).
 Writes
 
 - ``demo.mp4``: the camera view beside the first detector's S layer, and below them every
@@ -12,7 +12,7 @@ Writes
   distance and time to collision of the obstacle, and the camera's shake;
 
 and, closing the loop, an episode in which the robot avoids the obstacles by itself
-(`lgmd_sim.demo_avoid`: ``avoid.mp4``, ``avoid.png``). The files are written as a set: all
+(`lgmd_sim.apps.avoid`: ``avoid.mp4``, ``avoid.png``). The files are written as a set: all
 of them, or none; without the closed loop, an earlier run's two are removed.
 """
 
@@ -28,9 +28,10 @@ import numpy as np
 from matplotlib.colors import to_rgb
 
 from lgmd_sim import metrics, models
+from lgmd_sim.apps.defaults import AVOID_SEED, DETECTORS, SEED
 from lgmd_sim.controllers import Straight, rollout
-from lgmd_sim.fileio import atomic_folder_outputs, atomic_output, write_files
-from lgmd_sim.plots import model_style
+from lgmd_sim.core.fileio import atomic_folder_outputs, atomic_output, write_files
+from lgmd_sim.core.plots import model_style
 from lgmd_sim.video import video_writer
 
 SCENARIO = "lgmd_sim/RoughTerrainObstacles-v0"
@@ -43,7 +44,7 @@ TRACE_HEIGHT = 210
 SHOWN_HEIGHT = 240
 #: Dash length (points) of the thresholds in the summary.
 DASH = 4.0
-#: The closed-loop episode's files (`lgmd_sim.demo_avoid`): the video, the figure.
+#: The closed-loop episode's files (`lgmd_sim.apps.avoid`): the video, the figure.
 AVOID_FILES = ("avoid.mp4", "avoid.png")
 
 
@@ -224,8 +225,8 @@ def _imwrite(path: Path, bgr: np.ndarray) -> None:
 def write_summary(ep: Episode, path: Path, title: str) -> None:
     """Key frames in time order, the potentials against distance and time to collision of
     the obstacle, and the camera's shake."""
+    from lgmd_sim.core.plots import COLLISION, THRESHOLD, figure
     from lgmd_sim.detect.figure import alarm_label
-    from lgmd_sim.plots import COLLISION, THRESHOLD, figure
 
     n = len(ep.frames)
     first = next(iter(ep.potentials))
@@ -295,18 +296,18 @@ def write_summary(ep: Episode, path: Path, title: str) -> None:
         fig.savefig(tmp, format="png", dpi=100)
 
 
-def run(*, out: str | Path = "demo-out", seed: int = 2, jitter: float = 1.0,
-        detectors: Sequence[str] = ("feedback/robot-image", "feedback/paper"),
+def run(*, out: str | Path = "demo-out", seed: int = SEED, jitter: float = 1.0,
+        detectors: Sequence[str] = DETECTORS,
         resolution: str | Sequence[int] = "rl", avoider: str | None = None,
-        avoid_seed: int = 0, avoid_resolution: str | Sequence[int] | None = None) -> int:
+        avoid_seed: int = AVOID_SEED, avoid_resolution: str | Sequence[int] | None = None) -> int:
     """Drive one episode with `detectors` watching (the first one's S layer shown) at the
     camera `resolution`, and with `avoider` ("DETECTOR[,SIDE]", `demo_avoid.parse_avoider`;
-    None: not) one in which `ReactiveAvoid` avoids the obstacles (`lgmd_sim.demo_avoid`),
+    None: not) one in which `ReactiveAvoid` avoids the obstacles (`lgmd_sim.apps.avoid`),
     seeded `avoid_seed`, at `avoid_resolution` (None: the closed-loop benchmark's); write
     the videos, the summaries and the still into `out`, all of them or (on an error) none
     (without `avoider`, an earlier run's avoiding episode there is removed); print where
     they are."""
-    from lgmd_sim import demo_avoid
+    from lgmd_sim.apps import avoid as demo_avoid
 
     detectors = list(detectors)
     if not detectors:

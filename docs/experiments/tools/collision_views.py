@@ -12,7 +12,7 @@ while the Oracle and the privileged policy read the truth wherever the obstacle 
 replay must end in the recorded collision frame (the same processor plays the same
 episode); one that does not is counted apart and left out.
 
-    python scripts/collision_views.py EVAL OUT [--workers N]
+    python docs/experiments/tools/collision_views.py EVAL OUT [--workers N]
 
 Writes OUT/collisions.csv (one row per collision: the cell, the seed, the obstacle hit,
 its pixels and bearing at each lag), OUT/collision_views.md (per cell: its collisions
@@ -40,9 +40,9 @@ from lgmd_sim import controllers
 from lgmd_sim.bench.closed_loop import ClosedLoopConfig
 from lgmd_sim.bench.episode import Cell, driven
 from lgmd_sim.bench.summary import cell_of
+from lgmd_sim.core.fileio import write_text_atomic
+from lgmd_sim.core.parallel import Job, run_jobs
 from lgmd_sim.envs.catalogue import params_for
-from lgmd_sim.fileio import write_text_atomic
-from lgmd_sim.parallel import Job, run_jobs
 from lgmd_sim.world.gl import mujoco  # mujoco with the GL backend chosen
 
 #: Seconds before the collision at which the obstacle hit is looked for in the frame.

@@ -1,6 +1,6 @@
 """Release a calibration's presets as shipped presets: lgmd_sim/models/calibrated.json.
 
-    .venv/bin/python scripts/ship_presets.py runs/calibration-v3
+    .venv/bin/python docs/experiments/tools/ship_presets.py runs/calibration-v3
 
 Merges the calibration's DIR/calibrated.json (written by `lgmd-sim calibrate --out DIR`)
 into the package's presets file in this checkout: the presets it holds replace those of
@@ -9,7 +9,7 @@ that made it (its command, objective, seeds, resolution, budget and figure). Thi
 only way the shipped presets change; `lgmd-sim calibrate --save-presets` writes the user's
 presets file (lgmd_sim.models.presets). The file moves into place complete or not at all. Afterwards
 run the tests (tests/test_presets.py, tests/test_calibration.py) and remake
-docs/experiments/results-log.md from the same run (scripts/results_page.py).
+docs/experiments/results-log.md from the same run (docs/experiments/tools/results_page.py).
 """
 
 from __future__ import annotations
@@ -17,10 +17,10 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from lgmd_sim.fileio import read_json
+from lgmd_sim.core.fileio import read_json
 from lgmd_sim.models import presets
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[3]
 # This checkout's file, not presets.CALIBRATED: that is the imported package's, which may
 # be an installed copy.
 SHIPPED = ROOT / "lgmd_sim" / "models" / "calibrated.json"

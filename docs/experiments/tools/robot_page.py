@@ -3,9 +3,9 @@ manoeuvre must start, the robot calibration, and the closed-loop benchmark of bo
 with the targets and which part does the work. Every table, figure and sentence's figures
 come from the runs' files, each run's command beside its results; the section replaces
 the one between the markers (or is appended), the rest of the page stays as
-`scripts/results_page.py` made it.
+`docs/experiments/tools/results_page.py` made it.
 
-    .venv/bin/python scripts/robot_page.py --oracle-window runs/oracle-window \
+    .venv/bin/python docs/experiments/tools/robot_page.py --oracle-window runs/oracle-window \
         --calibration runs/calibration-robot \
         --closed-loop runs/closed-loop-robot runs/closed-loop-robot-j1 \
         runs/closed-loop-robot-j1-parts
@@ -27,9 +27,9 @@ from lgmd_sim.calibration import robot
 from lgmd_sim.calibration.clips import specs
 from lgmd_sim.calibration.objective import THRESHOLDS, unpack_hits
 from lgmd_sim.calibration.run import preset_name
-from lgmd_sim.fileio import write_files
+from lgmd_sim.core.fileio import write_files
 
-BEGIN = "<!-- robot: made by scripts/robot_page.py from the runs named below -->"
+BEGIN = "<!-- robot: made by docs/experiments/tools/robot_page.py from the runs named below -->"
 END = "<!-- robot: end -->"
 #: The robot issue's targets on held-out seeds: goal task (jitter: success at least,
 #: collisions at most), arena (jitter: avoidance rate at least), and the arena's least
@@ -99,7 +99,7 @@ def calibration_section(run: Path, figures: Figures) -> list[str]:
     data = json.loads((run / "calibrated.json").read_text())
     lines = ["### Calibrated on the robot's own camera", "", "```bash", _command(run), "```",
              "", f"Wall time {_wall(run)}. The shipped `robot*` presets are this run's "
-             f"(`scripts/ship_presets.py {run}`).", "", data["objective"], "",
+             f"(`docs/experiments/tools/ship_presets.py {run}`).", "", data["objective"], "",
              f"Each detector's best setting on the search seeds (the same budget of "
              f"{data['budget']} settings each), and the same setting on the held-out seeds "
              "(search / held-out):", "", (run / "summary.md").read_text().strip(), ""]

@@ -1,17 +1,18 @@
 """Release a training run's final (or best) policy as a shipped policy:
 lgmd_sim/policies/NAME/.
 
-    .venv/bin/python scripts/ship_policy.py runs/train/RUN --eval runs/eval --name NAME
+    .venv/bin/python docs/experiments/tools/ship_policy.py runs/train/RUN --eval runs/eval \
+        --name NAME
 
 Copies the run's policy.npz and policy.json (with --best, those of RUN/best, its best
 validation; a policy folder: arrays and JSON, no pickle) into the package and writes
 POLICY.md beside them: the command that started the training, the run's summary (its
 sessions and validation), and that policy's rows of the evaluation's table (the rows of
-docs/experiments/training-runs.md, which scripts/training_page.py writes from the same
-runs). NAME
+docs/experiments/training-runs.md, which docs/experiments/tools/training_page.py writes from the
+same runs). NAME
 (--name) defaults to the policy `lgmd-sim eval` and the "policy" controller use
 (lgmd_sim.policies.DEFAULT), so releasing a run without --name replaces it. The three
-files move into place together (lgmd_sim.fileio.write_files): a failed release leaves
+files move into place together (lgmd_sim.core.fileio.write_files): a failed release leaves
 the shipped policy as it was.
 Run the tests afterwards (tests/test_training.py checks the shipped policy acts in its
 environment; tests/test_packaging.py that it travels in the wheel).
@@ -27,7 +28,7 @@ from pathlib import Path
 
 from training_page import PAGE, ROOT, run_summary, table
 
-from lgmd_sim.fileio import write_files
+from lgmd_sim.core.fileio import write_files
 from lgmd_sim.policies import DEFAULT
 from lgmd_sim.policies.folder import CONFIG_FILE, MODEL_FILE, name_of
 

@@ -14,7 +14,7 @@ The detector's features add to the proprioception and goal what their difference
 says; 0.5 is chance. Also: the share of the Oracle's manoeuvre onsets at which the
 detector's alarm was on, against its share of the other cruise steps.
 
-    .venv/bin/python scripts/imitation_gap.py runs/train/student-lgmd1 [RUN ...]
+    .venv/bin/python docs/experiments/tools/imitation_gap.py runs/train/student-lgmd1 [RUN ...]
 """
 
 from __future__ import annotations

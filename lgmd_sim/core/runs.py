@@ -31,8 +31,8 @@ from pathlib import Path
 from typing import Any, TypeAlias
 
 from lgmd_sim import __version__
-from lgmd_sim.fileio import canonical_json, read_json, write_text_atomic
-from lgmd_sim.machine import machine
+from lgmd_sim.core.fileio import canonical_json, read_json, write_text_atomic
+from lgmd_sim.core.machine import machine
 
 __all__ = ["NULL", "NUMBER", "RECORD", "Fields", "Maybe", "RunFolder", "RunResult", "difference",
            "read_record"]

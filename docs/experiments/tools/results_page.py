@@ -2,7 +2,7 @@
 the runs' files, every sentence's figures computed from them, each run's command printed
 beside its results. The figures go to docs/results/ (the page links them from beside it).
 
-    .venv/bin/python scripts/results_page.py --open-loop runs/open-loop \
+    .venv/bin/python docs/experiments/tools/results_page.py --open-loop runs/open-loop \
         --calibration runs/calibration-v3 --open-loop-front-ends runs/open-loop-compensated
 
 Only these are typed by hand: the paper's numbers (its Tables 2 and 3, quoted with
@@ -10,7 +10,7 @@ their source), the targets, the descriptions of the measures, and commentary
 (`Commentary`): a reading that no figure computes, printed as a quoted block that names
 the runs it was written for, and only while the conditions it rests on hold on the runs
 given; otherwise the page says that it was withdrawn, and why. The page and its figures
-are written as one set (`lgmd_sim.fileio.write_files`): an interrupted run leaves the
+are written as one set (`lgmd_sim.core.fileio.write_files`): an interrupted run leaves the
 previous page and figures whole.
 """
 
@@ -27,10 +27,10 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-from lgmd_sim.fileio import write_files
+from lgmd_sim.core.fileio import write_files
 from lgmd_sim.world.params import RESOLUTIONS
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[3]
 OUT = ROOT / "docs" / "experiments" / "results-log.md"
 FIGURES = ROOT / "docs" / "results"
 #: The figures' folder as the page links it (relative to the page).
@@ -475,7 +475,7 @@ def calibration_section(run: Path, figures: Figures) -> list[str]:
     data = json.loads((run / "calibrated.json").read_text())
     lines = ["## Calibration", "", "```bash", _command(run), "```", "",
              "`--save-presets` writes the user's presets file; the shipped presets are this "
-             f"run's through the release step, `scripts/ship_presets.py {run}`.", "",
+             f"run's through the release step, `docs/experiments/tools/ship_presets.py {run}`.", "",
              data["objective"], "",
              f"Each detector's best setting on the search seeds (the same budget of "
              f"{data['budget']} settings each), and the same setting on the held-out seeds "
@@ -540,12 +540,12 @@ def main() -> None:
     lines = ["# Results log", "",
              "The research log of the open-loop benchmark and the calibrations, whole; the "
              "findings in short: [findings](../findings.md). "
-             "Made by `scripts/results_page.py` from the runs whose commands stand beside "
-             "their results. Typed by hand: the paper's quoted numbers, the targets, the "
-             "descriptions of the measures, and commentary, set apart as a quoted block that "
-             "names the runs it was written for and is printed only while the conditions it "
-             "states hold on the runs; every other sentence is computed from the runs. "
-             "Regenerate it whenever a model or preset changes.", ""]
+             "Made by `docs/experiments/tools/results_page.py` from the runs whose commands "
+             "stand beside their results. Typed by hand: the paper's quoted numbers, the "
+             "targets, the descriptions of the measures, and commentary, set apart as a "
+             "quoted block that names the runs it was written for and is printed only while "
+             "the conditions it states hold on the runs; every other sentence is computed from "
+             "the runs. Regenerate it whenever a model or preset changes.", ""]
     if args.closed_loop:
         lines += closed_loop_section(args.closed_loop, "Closed loop: avoiding obstacles on "
                                      "rough ground", "closed-loop", figures)

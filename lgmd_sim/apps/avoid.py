@@ -162,8 +162,8 @@ def figure(ep: AvoidEpisode) -> Figure:
     from matplotlib import patheffects
 
     from lgmd_sim.bench.figures import draw_world
+    from lgmd_sim.core.plots import COLLISION, figure, model_style
     from lgmd_sim.detect.figure import draw_thresholds
-    from lgmd_sim.plots import COLLISION, figure, model_style
 
     (x0, y0), (x1, y1) = _top_view_bounds(ep)
     width = 6.0  # inches of the map; its height follows the extent (equal axes)
@@ -246,7 +246,7 @@ class _Compositor:
 
     def __init__(self, ep: AvoidEpisode) -> None:
         from lgmd_sim.bench.figures import draw_world
-        from lgmd_sim.plots import figure
+        from lgmd_sim.core.plots import figure
 
         self.ep = ep
         h, w = ep.frames[0].shape[:2]
@@ -316,7 +316,7 @@ def _even(n: float) -> int:
 
 def write(ep: AvoidEpisode, video: Path, summary: Path) -> None:
     """The episode's video and figure (`figure`)."""
-    from lgmd_sim.fileio import atomic_output
+    from lgmd_sim.core.fileio import atomic_output
     from lgmd_sim.video import video_writer
 
     compose = _Compositor(ep)

@@ -1,6 +1,6 @@
 """Optional dependencies ("extras"): a clear error naming the extra when one is missing.
 
->>> from lgmd_sim.extras import require
+>>> from lgmd_sim.core.extras import require
 >>> sb3 = require("stable_baselines3", "rl")   # the module, or MissingExtra
 """
 

@@ -5,7 +5,7 @@ straight ahead. Two more rows: six consecutive frames of the robot on flat groun
 (jitter 0) and on rough ground (jitter 1), with a fixed yellow reference line across each
 frame, so the horizon visibly jumps against it only on rough ground.
 
-    .venv/bin/python scripts/contact_sheet.py --out docs/contact_sheet.png
+    .venv/bin/python docs/experiments/tools/contact_sheet.py --out docs/contact_sheet.png
 """
 
 from __future__ import annotations
@@ -18,8 +18,8 @@ import numpy as np
 
 import lgmd_sim  # noqa: F401  (registers the scenarios)
 from lgmd_sim.controllers import Straight, rollout
+from lgmd_sim.core.fileio import atomic_output
 from lgmd_sim.envs.catalogue import scenarios
-from lgmd_sim.fileio import atomic_output
 
 CELL = (240, 135)  # width, height of one frame on the sheet
 

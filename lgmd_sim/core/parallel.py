@@ -18,7 +18,7 @@ SIGTERM or Ctrl-C here stop them within seconds (SIGTERM, which lets a job remov
 temporaries, then SIGKILL), and they stop by themselves when this process ends, even
 killed outright (on Linux at once, elsewhere after their job).
 
->>> from lgmd_sim.parallel import Job, run_jobs
+>>> from lgmd_sim.core.parallel import Job, run_jobs
 >>> jobs = [Job(f"seed{s}", my_episode, {"seed": s}) for s in range(50)]
 >>> run_jobs(jobs, lambda job, result: store(job.key, result), workers=2)
 """
@@ -503,7 +503,7 @@ def _stop(pool: Sequence[_Worker]) -> None:
 
 def _run_on_ray(jobs: Sequence[Job], on_result: Callable[[Job, Any], None], address: str
                 ) -> None:
-    from lgmd_sim.extras import require
+    from lgmd_sim.core.extras import require
 
     ray = require("ray", "ray")
     started = not ray.is_initialized()

@@ -3,7 +3,7 @@ cell, the episodes both hold whose frames, distance, alarms or clearance differ,
 many of those ended otherwise (collided, reached the goal). For the same command on two
 machines: zero means the machines agree bit for bit.
 
-    python scripts/compare_episodes.py RUN_A/episodes.csv RUN_B/episodes.csv
+    python docs/experiments/tools/compare_episodes.py RUN_A/episodes.csv RUN_B/episodes.csv
 """
 
 from __future__ import annotations

@@ -3,7 +3,7 @@ detection figure, from a video calibration run (`lgmd-sim calibrate --task video
 table and figure comes from the run's files or from the shipped presets; the section
 replaces the one between the markers (or is appended), the rest of the page stays.
 
-    .venv/bin/python scripts/video_page.py runs/calibration-video runs/footage-check
+    .venv/bin/python docs/experiments/tools/video_page.py runs/calibration-video runs/footage-check
 
 Writes, besides the section: docs/video/calibration.png (the run's), potentials.png (a
 shaken synthetic approach in a look the calibration never saw, each video preset with and
@@ -28,15 +28,15 @@ from lgmd_sim.calibration import clips as clip_mod
 from lgmd_sim.calibration.objective import THRESHOLDS, VIDEO, unpack_hits
 from lgmd_sim.calibration.run import TASKS, choose, preset_name, summary_markdown
 from lgmd_sim.calibration.search import CONTROLS, Candidate, evaluate, space
-from lgmd_sim.fileio import write_files
-from lgmd_sim.plots import model_style
+from lgmd_sim.core.fileio import write_files
+from lgmd_sim.core.plots import model_style
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[3]
 PAGE = ROOT / "docs" / "experiments" / "models-log.md"
 FIGURES = ROOT / "docs" / "video"
 #: The figures' folder as the page links it (relative to the page).
 FIGURES_LINK = Path(os.path.relpath(FIGURES, PAGE.parent)).as_posix()
-BEGIN = "<!-- video: made by scripts/video_page.py from the run named below -->"
+BEGIN = "<!-- video: made by docs/experiments/tools/video_page.py from the run named below -->"
 END = "<!-- video: end -->"
 #: The README's clip: a seed outside the run's sets, in the transfer looks (a worse
 #: camera than the calibration's own, a scene lit as none of its clips were).
@@ -74,7 +74,7 @@ def _chosen(run: Path) -> tuple[list[dict], dict[str, list[dict]], dict]:
              **{look: clip_mod.specs(task.groups, seeds, look) for look in task.looks if look}}
     first, n = config["search_seeds"]
     names = {"search": clip_mod.specs(task.groups, list(range(first, first + n))), **names}
-    # in the order the run scored them: its records' (lgmd_sim.runs.RunFolder.records)
+    # in the order the run scored them: its records' (lgmd_sim.core.runs.RunFolder.records)
     clip_sets = {s: [{**json.loads((run / "records" / f"clip-{c.key}.json").read_text()),
                       "scenario": c.scenario} for c in sorted(specs, key=lambda c: c.key)]
                  for s, specs in names.items()}
@@ -148,9 +148,9 @@ def _shaken_approach(shape: tuple[int, int]) -> stimuli.Stimulus:
 def potentials_figure(out: Path, names: Sequence[str]) -> None:
     """Each video preset on a shaken synthetic approach with a real camera's noise, with
     its whole front end, with the rotation alone and with none."""
+    from lgmd_sim.core.plots import figure
     from lgmd_sim.detect import detect
     from lgmd_sim.detect.figure import draw_potentials
-    from lgmd_sim.plots import figure
 
     clip = _shaken_approach((120, 160))
     parsed = noise.parse(STIMULUS_LOOKS.noise)
@@ -176,11 +176,11 @@ def detect_figure(out: Path) -> tuple[str, int]:
     import gymnasium as gym
 
     from lgmd_sim.controllers import Straight, rollout
+    from lgmd_sim.core.plots import figure
     from lgmd_sim.detect import detect
     from lgmd_sim.detect.figure import draw_potentials
     from lgmd_sim.detect.specs import with_preset
     from lgmd_sim.envs.catalogue import scenario
-    from lgmd_sim.plots import figure
 
     name, jitter, seed = CLIP
     fovy = float(np.random.default_rng(seed).uniform(*clip_mod.VIDEO_FOVY_RANGE))
@@ -212,15 +212,16 @@ def detect_figure(out: Path) -> tuple[str, int]:
 
 
 def footage_lines(folder: Path) -> list[str]:
-    """The outside check's protocol on clips of our own (scripts/footage_check.py's run
-    in `folder`): its command, what the clips are, the table with the targets missed."""
+    """The outside check's protocol on clips of our own (the run of
+    docs/experiments/tools/footage_check.py in `folder`): its command, what the clips are, the
+    table with the targets missed."""
     from footage_check import FIRST_SEED, HELDOUT_SEED, KINDS, LOOKS, SHAKE, TARGETS, table
 
     record = json.loads((folder / "footage_check.json").read_text())
     if record["seeds"][0] != HELDOUT_SEED:
         sys.exit(f"video_page.py: {folder} holds the footage check of seeds "
                  f"{record['seeds'][0]} and up; the page shows the held-out ones "
-                 f"(scripts/footage_check.py DIR --first-seed {HELDOUT_SEED})")
+                 f"(docs/experiments/tools/footage_check.py DIR --first-seed {HELDOUT_SEED})")
     h, w = record["resolution"]
     seeds = record["seeds"]
     kinds = {k: ", ".join(sorted({s for s, _ in v})) for k, v in KINDS.items()}
@@ -287,7 +288,7 @@ def section(run: Path, footage: Path) -> str:
         f"Wall time {_wall(record)}. Search seeds {config['search_seeds'][0]} and up, "
         f"held-out {config['heldout_seeds'][0]} and up, {config['search_seeds'][1]} per "
         "clip group; the shipped `video` presets are this run's "
-        f"(`scripts/ship_presets.py {_shown(run)}`).", "",
+        f"(`docs/experiments/tools/ship_presets.py {_shown(run)}`).", "",
         "```text", VIDEO.text, "```", "",
         "### Transfer", "",
         "Search, held-out, and transfer: the held-out seeds in looks the search never saw "
@@ -323,7 +324,8 @@ def main(argv: Sequence[str] | None = None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("run", type=Path, help="the video calibration's run folder")
     ap.add_argument("footage", type=Path,
-                    help="scripts/footage_check.py's output folder (its footage_check.json)")
+                    help="docs/experiments/tools/footage_check.py's output folder (its "
+                    "footage_check.json)")
     args = ap.parse_args(argv)
     run = args.run.resolve()
     if json.loads((run / "run.json").read_text()).get("status") != "complete":

@@ -2,17 +2,18 @@
 training and evaluation runs: every table and figure made from the runs' files, every
 sentence computed from them, each run's command beside its results.
 
-    .venv/bin/python scripts/training_page.py --train docs/training/runs/ppo-privileged \
-        docs/training/runs/privileged-steer --eval docs/training/runs/eval \
-        docs/training/runs/eval-steer --bench docs/training/runs/eval
+    .venv/bin/python docs/experiments/tools/training_page.py \
+        --train docs/training/runs/ppo-privileged docs/training/runs/privileged-steer \
+        --eval docs/training/runs/eval docs/training/runs/eval-steer \
+        --bench docs/training/runs/eval
 
 --bench: closed-loop benchmark runs on the same scenario and seeds (supersets of the
 evaluation's), whose ReactiveAvoid cell with the fewest collisions (then the most
 successes) stands beside the policies, on the evaluation's seeds only. The page above
 ``## Results`` is kept as it is. The machine is read from the runs' records. The page and
-its figures are written as one set (`lgmd_sim.fileio.write_files`). --collisions adds
-scripts/collision_views.py's table and figure. Releasing a run's
-policy as the shipped one is scripts/ship_policy.py.
+its figures are written as one set (`lgmd_sim.core.fileio.write_files`). --collisions adds
+docs/experiments/tools/collision_views.py's table and figure. Releasing a run's
+policy as the shipped one is docs/experiments/tools/ship_policy.py.
 """
 
 from __future__ import annotations
@@ -31,7 +32,7 @@ from pathlib import Path
 from results_page import seed_ranges
 
 from lgmd_sim import policies
-from lgmd_sim.fileio import write_files
+from lgmd_sim.core.fileio import write_files
 from lgmd_sim.metrics import wilson_interval
 from lgmd_sim.policies.folder import MODEL_FILE, name_of
 from lgmd_sim.training.curve import read_logs
@@ -39,7 +40,7 @@ from lgmd_sim.training.evaluate import EvalConfig
 from lgmd_sim.training.run import VALIDATION_SEED
 from lgmd_sim.training.summary import grid_text, summary_markdown, validation_rows
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[3]
 PAGE = ROOT / "docs" / "experiments" / "training-runs.md"
 FIGURES = ROOT / "docs" / "training"
 RESULTS = "## Results"
@@ -493,8 +494,8 @@ def main() -> None:
                         help="lgmd-sim eval runs of the candidate policies on the same "
                         "validation seeds: the rule that chose the shipped one")
     parser.add_argument("--collisions", type=Path,
-                        help="scripts/collision_views.py's output on the evaluation: what "
-                        "the collisions hit, and whether the camera saw it")
+                        help="docs/experiments/tools/collision_views.py's output on the "
+                        "evaluation: what the collisions hit, and whether the camera saw it")
     args = parser.parse_args()
     figures: dict[Path, Path] = {}
     records = {run.name: json.loads((run / "run.json").read_text()) for run in args.train}
@@ -509,14 +510,14 @@ def main() -> None:
     lines = [RESULTS, "", machines(records, evaluation, benches)]
     if speed := speeds(records):
         lines[-1] += " " + speed
-    command = shlex.join(["python", "scripts/training_page.py", *sys.argv[1:]])
+    command = shlex.join(["python", "docs/experiments/tools/training_page.py", *sys.argv[1:]])
     lines += ["", "Made from the runs by the command below: every figure and sentence below "
               "is computed from the runs' own files.", "", "```bash", command, "```", "",
               "### Training runs", ""]
     trained_at = None
     for run in args.train:
         record = records[run.name]
-        # run folders written before lgmd_sim.runs.RunFolder kept them under "options"
+        # run folders written before lgmd_sim.core.runs.RunFolder kept them under "options"
         trained_at = (record.get("config") or record["options"])["jitter"]
         curve = _copy(run / "learning_curve.png", f"learning_curve_{run.name}.png", figures)
         lines += ["```bash", *(s["command"] for s in record["sessions"]), "```", "",

@@ -8,7 +8,7 @@ difference of the membrane potentials, and the first frame above the threshold (
 each. Then the light/dark looming table of all five models at each of their presets (the
 first is the default), and their selectivity at their defaults.
 
-    .venv/bin/python scripts/compare_published.py
+    .venv/bin/python docs/experiments/tools/compare_published.py
 """
 
 from __future__ import annotations
@@ -20,7 +20,7 @@ import numpy as np
 
 import lgmd_sim  # noqa: F401  (registers the scenarios)
 from lgmd_sim import models, stimuli
-from lgmd_sim.frames import to_grey
+from lgmd_sim.core.frames import to_grey
 from lgmd_sim.models.reference.published import ORACLES
 
 THRESHOLD = 0.8

@@ -7,7 +7,7 @@ section replaces the text between its markers (`<!-- own-detector: SECTION made 
 closed-loop) on its page (PAGES); a section whose runs are not given keeps what is there,
 and the rest of the pages stays as written.
 
-    .venv/bin/python scripts/own_detector_page.py \
+    .venv/bin/python docs/experiments/tools/own_detector_page.py \
         --calibration runs/calibration-eta --beside runs/calibration-robot \
         --open-loop runs/open-loop-eta runs/open-loop \
         --closed-loop runs/closed-loop-eta runs/closed-loop-robot
@@ -43,7 +43,7 @@ from pathlib import Path
 from results_page import ROOT, _command, _record, _rows, seed_ranges
 from robot_page import _cell, _cell_id, _pct, _wall
 
-from lgmd_sim.fileio import write_files
+from lgmd_sim.core.fileio import write_files
 
 GUIDE = ROOT / "docs" / "guides" / "own-detector.md"
 ROWS = ROOT / "docs" / "experiments" / "own-detector-rows.md"
@@ -62,7 +62,7 @@ COVERED = {"closed-loop": "jitter", "open-loop": "clips"}
 
 
 def markers(section: str) -> tuple[str, str]:
-    return (f"<!-- own-detector: {section} made by scripts/own_detector_page.py -->",
+    return (f"<!-- own-detector: {section} made by docs/experiments/tools/own_detector_page.py -->",
             f"<!-- own-detector: {section} end -->")
 
 

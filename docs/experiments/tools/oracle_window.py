@@ -5,7 +5,7 @@ lies in a window (`lgmd_sim.calibration.robot`); this measures where that window
 Oracle (the manoeuvre triggered by ground truth) triggered at each time to collision in
 HORIZONS, on seeds that are neither the calibration's nor the benchmark's held-out ones.
 
-    python scripts/oracle_window.py runs/oracle-window [--seeds 20] [--jitter 1]
+    python docs/experiments/tools/oracle_window.py runs/oracle-window [--seeds 20] [--jitter 1]
 
 Writes the run folder (resumable: run again to finish it), prints its summary and the
 window: the trigger horizons at which the Oracle itself meets the issue's target at
