@@ -3,4 +3,5 @@
 set -euo pipefail
 source "$(dirname "${BASH_SOURCE[0]}")/setup.sh"
 ruff check lgmd_sim tests examples docs/experiments/tools
-python -m pytest "$@"
+# On every core (pytest-xdist); "-n 0" among the arguments runs in this process alone.
+python -m pytest -n auto "$@"

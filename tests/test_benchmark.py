@@ -151,9 +151,18 @@ def test_entries_are_detectors_controllers_or_policies():
     assert entries.parse("feedback").preset == "paper"
     assert entries.parse("oracle").kind == "controller"
     assert entries.parse("shipped").kind == "policy"
+    steered = entries.parse("lgmd2/robot-imu@loom-steer")
+    assert (steered.kind, steered.controller, steered.model, steered.preset) == (
+        "detector", "loom-steer", "lgmd2", "robot-imu")
+    assert (steered.label, steered.key) == ("lgmd2/robot-imu@loom-steer",
+                                            "lgmd2-robot-imu-loom-steer")
+    assert steered.bench_options("RoughTerrainObstacles", (1.0,))["controllers"] == (
+        "loom-steer",)
     for bad, message in (("lgmd9", "not a controller, a policy folder or a detector"),
-                         ("lgmd1@left", "the side after '@' is one of halves, eyes"),
-                         ("reactive", "name the detector it drives")):
+                         ("lgmd1@left", "after '@' comes a side (halves, eyes) or a controller"),
+                         ("lgmd1@oracle", "or a controller that a detector drives"),
+                         ("reactive", "name the detector it drives (e.g. lgmd1)"),
+                         ("loom-steer", "name the detector it drives (e.g. lgmd1@loom-steer)")):
         with pytest.raises(ValueError, match=re.escape(message)):
             entries.parse(bad)
 

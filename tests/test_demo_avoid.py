@@ -39,11 +39,24 @@ def test_the_onsets_are_where_the_controllers_alarm_turns_on(episode):
     assert episode.outcome == "collided" and episode.collision_frame == n - 1
 
 
+@pytest.mark.slow
+def test_a_detector_can_drive_loom_steer_instead(tmp_path):
+    assert demo_avoid.parse_avoider("lgmd1/robot-image,loom-steer") == (
+        "lgmd1/robot-image", "loom-steer")
+    ep = demo_avoid.drive(**{**SMALL, "detector": "lgmd1/robot-image"}, how="loom-steer")
+    assert ep.how == "loom-steer" and len(ep.onsets) > 0
+    # it avoids while excited: every avoidance starts on an alarm
+    starts = np.flatnonzero(ep.manoeuvring & ~np.r_[False, ep.manoeuvring[:-1]])
+    assert len(starts) and set(starts) <= set(ep.onsets)
+    assert demo_avoid.figure(ep).get_suptitle().startswith(
+        "loom-steer driven by lgmd1/robot-image: ")
+
+
 def test_the_side_defaults_to_the_controllers(episode):
     from lgmd_sim.controllers.avoid import ReactiveParams
 
     assert demo_avoid.parse_avoider(" lgmd1 ") == ("lgmd1", ReactiveParams.side)
-    assert episode.side == ReactiveParams.side  # drive() given none
+    assert episode.how == ReactiveParams.side  # drive() given none
 
 
 def test_the_figure_marks_the_controllers_onsets_on_the_path_and_in_time(episode):
@@ -99,7 +112,8 @@ def test_no_avoid_skips_it_and_removes_an_earlier_runs_avoiding_episode(tmp_path
 
 @pytest.mark.parametrize(("avoider", "named"), [
     ("lgmd2/nope", "unknown preset 'nope'"),
-    ("lgmd1,sideways", "side='sideways' must be one of 'halves', 'eyes'"),
+    ("lgmd1,sideways", "unknown controller 'sideways'"),
+    ("lgmd1,oracle", "a side (halves, eyes) or a controller that a detector drives"),
 ])
 def test_an_unknown_avoider_is_one_line_before_any_episode(tmp_path, capsys, avoider, named):
     assert cli.main(["demo", "--avoider", avoider, "--out", str(tmp_path / "d")]) == 2

@@ -22,6 +22,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from lgmd_sim import models
+from lgmd_sim.benchmark.entries import SIDES  # ReactiveAvoid's sides, its default first
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -51,7 +52,7 @@ class AvoidEpisode:
     controller does not act: its potential is NaN there, its alarm and manoeuvre off."""
 
     detector: str
-    side: str
+    how: str  # ReactiveAvoid's side ("halves", "eyes"), or the controller's name
     seed: int
     jitter: float
     frames: list[np.ndarray]
@@ -79,39 +80,48 @@ class AvoidEpisode:
 
 
 def parse_avoider(text: str) -> tuple[str, str]:
-    """"DETECTOR[,SIDE]" -> (detector, side): a detector ("model/preset+front",
-    `models.parse_spec`) and how `ReactiveAvoid` tells the threat's side ("halves" or
-    "eyes"; none: `ReactiveParams`' default). ValueError, one line naming `text`, where
-    either is unknown."""
-    from lgmd_sim.controllers.avoid import ReactiveParams
-
-    detector, _, side = (t.strip() for t in text.partition(","))
-    side = side or ReactiveParams.side
+    """"DETECTOR[,HOW]" -> (detector, how): a detector ("model/preset+front",
+    `models.parse_spec`) and how it drives: `ReactiveAvoid` telling the threat's side by
+    "halves" or "eyes" (none: `ReactiveParams`' default), or another controller that a
+    detector drives ("loom-steer"). ValueError, one line naming `text`, where either is
+    unknown."""
+    detector, _, how = (t.strip() for t in text.partition(","))
     try:
         name, preset = models.parse_spec(detector)
-        ReactiveParams(model=name, preset=preset, side=side)
+        _controller(name, preset, how or None, cruise=0.0)
     except ValueError as exc:
         raise ValueError(f"--avoider {text!r}: {exc}") from None
-    return detector, side
+    return detector, how or SIDES[0]
 
 
-def drive(seed: int, jitter: float, detector: str, side: str | None = None,
+def _controller(name: str, preset: str, how: str | None, cruise: float) -> Any:
+    """The controller of "DETECTOR,HOW" (`parse_avoider`), at `cruise`."""
+    from lgmd_sim import controllers
+
+    if how is None or how in SIDES:
+        return controllers.make("reactive", model=name, preset=preset, side=how or SIDES[0],
+                                cruise=cruise)
+    if not controllers.controller_class(how).uses_model:
+        raise ValueError(f"after ',' comes a side ({', '.join(SIDES)}) or a controller "
+                         f"that a detector drives (e.g. loom-steer), not {how!r}")
+    return controllers.make(how, model=name, preset=preset, cruise=cruise)
+
+
+def drive(seed: int, jitter: float, detector: str, how: str | None = None,
           resolution: str | Sequence[int] | None = None) -> AvoidEpisode:
-    """Run one episode with `ReactiveAvoid` driven by `detector` ("model/preset+front",
-    `models.parse_spec`), telling the threat's side by `side` ("halves", "eyes"; None:
-    `ReactiveParams`' default), at `resolution` (None: the closed-loop benchmark's)."""
+    """Run one episode with `detector` ("model/preset+front", `models.parse_spec`) driving
+    as `how` says (`parse_avoider`; None: `ReactiveAvoid` at its default side), at
+    `resolution` (None: the closed-loop benchmark's)."""
     import gymnasium as gym
 
     import lgmd_sim  # noqa: F401  (registers the scenarios)
     from lgmd_sim import controllers
     from lgmd_sim.bench.closed_loop import ClosedLoopConfig
-    from lgmd_sim.controllers.avoid import ReactiveParams
 
-    side = ReactiveParams.side if side is None else side
     name, preset = models.parse_spec(detector)
     bench = ClosedLoopConfig()
-    controller = controllers.make("reactive", model=name, preset=preset, side=side,
-                                  cruise=bench.cruise)
+    controller = _controller(name, preset, how, cruise=bench.cruise)
+    how = how or SIDES[0]
     env = gym.make(SCENARIO, jitter=jitter,
                    resolution=bench.resolution if resolution is None else resolution)
     frames, xy, potential, alarm, manoeuvring, ttc = [], [], [], [], [], []
@@ -130,7 +140,7 @@ def drive(seed: int, jitter: float, detector: str, side: str | None = None,
         env.close()
     collision = int(last["first_collision_frame"])
     return AvoidEpisode(
-        detector, side, seed, jitter, frames, np.array(xy, float), np.array(potential, float),
+        detector, how, seed, jitter, frames, np.array(xy, float), np.array(potential, float),
         float(controller.model.params.threshold), np.array(alarm), np.array(manoeuvring),
         np.array(ttc, float), collision if collision >= 0 else None,
         bool(last["goal_reached"]), view, float(env.metadata["render_fps"]))
@@ -195,7 +205,7 @@ def figure(ep: AvoidEpisode) -> Figure:
 
     time = np.arange(len(ep.frames)) / ep.fps
     colour = model_style(ep.detector)["color"]
-    eye = " (the more excited eye)" if ep.side == "eyes" else ""
+    eye = " (the more excited eye)" if ep.how != "halves" else ""
     trace.plot(time, ep.potential, color=colour, lw=1.6,
                label=f"potential of {ep.detector}{eye}")
     # its value not beside the right edge: the time to collision's axis is there
@@ -221,7 +231,9 @@ def figure(ep: AvoidEpisode) -> Figure:
     trace.legend(lines[0] + twin[0], lines[1] + twin[1], loc="upper center",
                  bbox_to_anchor=(0.5, -0.16), ncols=2, fontsize="small")
     n = len(onsets)
-    fig.suptitle(f"ReactiveAvoid driven by {ep.detector} ({ep.side}): RoughTerrainObstacles, "
+    driver = (f"ReactiveAvoid driven by {ep.detector} ({ep.how})" if ep.how in SIDES
+              else f"{ep.how} driven by {ep.detector}")
+    fig.suptitle(f"{driver}: RoughTerrainObstacles, "
                  f"seed {ep.seed}, jitter {ep.jitter:g}: {ep.outcome}, "
                  f"{n} alarm{'' if n == 1 else 's'}")
     return fig

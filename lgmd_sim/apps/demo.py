@@ -301,7 +301,7 @@ def run(*, out: str | Path = "demo-out", seed: int = SEED, jitter: float = 1.0,
         resolution: str | Sequence[int] = "rl", avoider: str | None = None,
         avoid_seed: int = AVOID_SEED, avoid_resolution: str | Sequence[int] | None = None) -> int:
     """Drive one episode with `detectors` watching (the first one's S layer shown) at the
-    camera `resolution`, and with `avoider` ("DETECTOR[,SIDE]", `demo_avoid.parse_avoider`;
+    camera `resolution`, and with `avoider` ("DETECTOR[,HOW]", `demo_avoid.parse_avoider`;
     None: not) one in which `ReactiveAvoid` avoids the obstacles (`lgmd_sim.apps.avoid`),
     seeded `avoid_seed`, at `avoid_resolution` (None: the closed-loop benchmark's); write
     the videos, the summaries and the still into `out`, all of them or (on an error) none
@@ -337,7 +337,7 @@ def run(*, out: str | Path = "demo-out", seed: int = SEED, jitter: float = 1.0,
         alarm = ep.first_alarm(name)
         print(f"  {name}: first alarm {'none' if alarm is None else f'at frame {alarm}'}")
     if avoid is not None:
-        print(f"avoiding ({avoid.detector}, {avoid.side}, seed {avoid_seed}): "
+        print(f"avoiding ({avoid.detector}, {avoid.how}, seed {avoid_seed}): "
               f"{len(avoid.frames)} frames, {avoid.outcome}, {len(avoid.onsets)} alarm(s) "
               f"at frame(s) {', '.join(map(str, avoid.onsets)) or 'none'}")
     for label, name in [("video", "demo.mp4"), ("summary", "demo.png"),

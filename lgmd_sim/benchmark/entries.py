@@ -1,6 +1,7 @@
 """What a benchmark row runs (an `Entry`), from what a user types: a detector (a model
-spec with its preset and front ends, "@eyes" for two LGMDs) driving the reference
-controller, a controller of its own, or a policy folder.
+spec with its preset and front ends) driving the reference controller ("@eyes": with two
+LGMDs) or another controller driven by a detector ("@loom-steer"), a controller of its
+own, or a policy folder.
 """
 
 from __future__ import annotations
@@ -25,7 +26,8 @@ class Entry:
 
     Attributes:
         spec: as the user gave it ("lgmd1/robot-image@eyes", "oracle", "runs/ppo").
-        kind: "detector" (a model driving `REFERENCE`), "controller" or "policy".
+        kind: "detector" (a model driving `REFERENCE` or another controller that takes
+            one), "controller" or "policy".
         controller: the controller of its cells.
         model, preset: the detector (a detector entry).
         side: how the reference controller reads the side ("halves" or "eyes").
@@ -44,7 +46,8 @@ class Entry:
     def label(self) -> str:
         """The row's name."""
         if self.kind == "detector":
-            return f"{self.model}/{self.preset}" + ("" if self.side == "halves" else "@eyes")
+            return (f"{self.model}/{self.preset}" + ("" if self.side == "halves" else "@eyes")
+                    + ("" if self.controller == REFERENCE else f"@{self.controller}"))
         if self.kind == "policy":
             from lgmd_sim.policies import name_of
 
@@ -84,6 +87,13 @@ class Entry:
             out.update(model=self.model, preset=self.preset, side=self.side,
                        params=dataclasses.asdict(models.make(self.model,
                                                              preset=self.preset).params))
+            if self.controller != REFERENCE:  # its constants, as it resolves them
+                from lgmd_sim import controllers
+
+                driver = controllers.make(self.controller, model=self.model, preset=self.preset)
+                out["controller_params"] = {
+                    k: v for k, v in dataclasses.asdict(driver.params).items()
+                    if k not in ("model", "preset", "model_params")}
         if self.kind == "policy":
             out["policy"] = str(self.policy)
         return out
@@ -105,14 +115,24 @@ def parse(spec: str) -> Entry:
         raise ValueError("an entry is a detector, a controller or a policy folder, got ''")
     if text in ("shipped", *policies.available()) or (Path(text) / "policy.json").is_file():
         return Entry(spec, "policy", "policy", policy=policies.resolve(text).resolve())
-    if text in ("policy", REFERENCE):
-        raise ValueError(f"entry {text!r}: name " + ("the policy's folder (or 'shipped')"
-                         if text == "policy" else "the detector it drives (e.g. lgmd1)"))
+    if text == "policy":
+        raise ValueError("entry 'policy': name the policy's folder (or 'shipped')")
+    if text in controllers.available() and controllers.controller_class(text).uses_model:
+        raise ValueError(f"entry {text!r}: name the detector it drives (e.g. " + (
+            "lgmd1)" if text == REFERENCE else f"lgmd1@{text})"))
     if text in controllers.available():
         return Entry(spec, "controller", text)
     head, at, side = text.partition("@")
+    controller = REFERENCE
     if at and side not in SIDES:
-        raise ValueError(f"entry {spec!r}: the side after '@' is one of {', '.join(SIDES)}")
+        try:
+            driven = controllers.controller_class(side).uses_model
+        except ValueError:
+            driven = False
+        if not driven:
+            raise ValueError(f"entry {spec!r}: after '@' comes a side ({', '.join(SIDES)}) "
+                             "or a controller that a detector drives (e.g. loom-steer)")
+        controller, side = side, ""
     try:
         name, preset = models.parse_spec(head)
     except ValueError as exc:
@@ -122,4 +142,4 @@ def parse(spec: str) -> Entry:
             raise ValueError(f"entry {spec!r}: not a controller, a policy folder or a "
                              f"detector ({exc})") from None
         return Entry(spec, "controller", text)
-    return Entry(spec, "detector", REFERENCE, name, preset, side or "halves")
+    return Entry(spec, "detector", controller, name, preset, side or "halves")

@@ -22,7 +22,8 @@ from importlib import import_module
 from lgmd_sim import __version__
 from lgmd_sim.core.extras import MissingExtra
 from lgmd_sim.core.fileio import error_text
-from lgmd_sim.core.parallel import WorkerDied, stop_again_when_swallowed
+from lgmd_sim.core.parallel import WorkerDied
+from lgmd_sim.core.stops import catch_swallowed_stops, stop_raised
 
 #: The subcommands, in the order `--help` lists them.
 COMMANDS = ("demo", "detect", "record", "models", "envs", "bench", "calibrate", "speed", "dataset",
@@ -48,7 +49,13 @@ class Terminated(BaseException):
 
 
 def _terminate(signum: int, frame: object) -> None:
+    stop_raised()
     raise Terminated
+
+
+def _interrupt(signum: int, frame: object) -> None:
+    stop_raised()
+    raise KeyboardInterrupt
 
 
 def command_line(argv: Sequence[str]) -> str:
@@ -64,7 +71,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     args.command_line = command_line(argv)
     previous = signal.signal(signal.SIGTERM, _terminate)
-    previous_hook = stop_again_when_swallowed({Terminated: signal.SIGTERM,
+    # Ctrl-C as Python's default raises it (where it is ignored, as in a background job, it
+    # stays ignored), noted as a stop
+    previous_int = signal.getsignal(signal.SIGINT)
+    if previous_int is signal.default_int_handler:
+        signal.signal(signal.SIGINT, _interrupt)
+    previous_hook = catch_swallowed_stops({Terminated: signal.SIGTERM,
                                                KeyboardInterrupt: signal.SIGINT})
     try:
         return int(import_module(f"lgmd_sim.cli.{args.command}").run(args) or 0)
@@ -86,4 +98,6 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 128 + signal.SIGTERM
     finally:
         signal.signal(signal.SIGTERM, previous)
+        if previous_int is signal.default_int_handler:
+            signal.signal(signal.SIGINT, previous_int)
         sys.unraisablehook = previous_hook

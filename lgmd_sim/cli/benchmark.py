@@ -29,7 +29,8 @@ Tracks and scores (each in [0, 1], higher is better):
   overall    the mean of goal and arena
 
 An ENTRY is a detector driving the reference controller (ReactiveAvoid, its constants
-as they ship): MODEL[/PRESET][+FRONT...][@eyes], a built-in name or a
+as they ship; @eyes: with two LGMDs) or the controller named after '@' (@loom-steer):
+MODEL[/PRESET][+FRONT...][@eyes|@CONTROLLER], a built-in name or a
 package.module:Class spec; or a controller (oracle, straight, steer, a spec); or a
 policy folder (or shipped). Cost on a 2-core machine: about 10 minutes a detector
 (240 episodes and 240 clips). Running the same command again completes an interrupted

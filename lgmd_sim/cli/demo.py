@@ -41,10 +41,11 @@ def add(sub: argparse._SubParsersAction) -> None:
     more.add_argument("--resolution", type=resolution, default="rl",
                       help="camera resolution: rl (120x160, default: the robot presets' "
                       "calibration's), paper (270x480), small (64x64) or HxW")
-    more.add_argument("--avoider", default=AVOIDER, metavar="DETECTOR[,SIDE]",
-                      help="the detector that drives the avoiding robot, and how it tells "
-                      "the threat's side: halves (of one LGMD's S layer) or eyes (two LGMDs "
-                      f"over the left and right of the view) (default {AVOIDER})")
+    more.add_argument("--avoider", default=AVOIDER, metavar="DETECTOR[,HOW]",
+                      help="the detector that drives the avoiding robot, and how: "
+                      "ReactiveAvoid telling the threat's side by halves (of one LGMD's S "
+                      "layer) or eyes (two LGMDs over the left and right of the view), or "
+                      f"loom-steer (steering by two LGMDs' potentials) (default {AVOIDER})")
     more.add_argument("--avoid-seed", type=non_negative_int, default=AVOID_SEED,
                       help=f"seed of the avoiding episode (default {AVOID_SEED})")
     more.add_argument("--avoid-resolution", type=resolution, default=None,

@@ -30,6 +30,7 @@ _CONTROLLERS = Registry("controller", Controller, {
     "reactive": "lgmd_sim.controllers.avoid:ReactiveAvoid",
     "oracle": "lgmd_sim.controllers.avoid:Oracle",
     "steer": "lgmd_sim.controllers.steer:Steer",  # the Oracle's inputs, no memory
+    "loom-steer": "lgmd_sim.controllers.loom:LoomSteer",  # steered by two LGMDs' potentials
     "policy": "lgmd_sim.controllers.policy:Policy",  # a trained policy (the 'rl' extra)
 })
 

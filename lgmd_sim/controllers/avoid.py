@@ -7,7 +7,7 @@ from __future__ import annotations
 import math
 from abc import abstractmethod
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any
 
 import gymnasium as gym
@@ -15,11 +15,12 @@ import numpy as np
 
 from lgmd_sim import models
 from lgmd_sim.controllers.base import Controller
-from lgmd_sim.controllers.straight import DESIGN, StraightParams
+from lgmd_sim.controllers.detector import DetectorParams, eye_overlap, eyes
+from lgmd_sim.controllers.straight import StraightParams
 from lgmd_sim.core.params import in_range, one_of, param
 from lgmd_sim.envs.wrappers.frames import check_frame_space
 from lgmd_sim.envs.zone import ORACLE_TUNED, TriggerZone, in_trigger_zone
-from lgmd_sim.models.sectors import Sectors, below_one
+from lgmd_sim.models.sectors import Sectors
 
 __all__ = [
     "AvoidParams",
@@ -104,27 +105,10 @@ class Oracle(Avoider):
         return float(info["threat_bearing"]) if in_trigger_zone(info, self.params) else None
 
 
-def _model_check(v: Any) -> str | None:
-    """A model name or a plug-in's "package.module:Class" spec (`lgmd_sim.models`)."""
-    if not isinstance(v, str):
-        return "must be a model name or a 'package.module:Class' spec"
-    try:
-        models.model_class(v)
-    except ValueError as exc:
-        return str(exc)
-    return None
-
-
 @dataclass(frozen=True)
-class ReactiveParams(AvoidParams):
-    model: str = param("feedback", DESIGN, check=_model_check,
-                       doc="the LGMD model that triggers the manoeuvre: a name of "
-                           "lgmd_sim.models.available() or a 'package.module:Class' spec")
-    preset: str | None = param(None, "the model's default preset",
-                               doc="its preset, with front ends (e.g. 'calibrated+image')")
-    model_params: Mapping[str, Any] = field(
-        default_factory=dict, metadata={"source": DESIGN, "check": None,
-                                        "doc": "parameter overrides of the model"})
+class ReactiveParams(DetectorParams, AvoidParams):
+    """The manoeuvre's constants, the detector that triggers it, and how it tells the side."""
+
     side: str = param("halves", "design: one LGMD, as the published models are",
                       check=one_of("halves", "eyes"),
                       doc="how the threat's side is told: 'halves', one LGMD over the whole "
@@ -132,10 +116,8 @@ class ReactiveParams(AvoidParams):
                           "S layer: its last layer's); 'eyes', two LGMDs "
                           "over overlapping left and right parts of the view, alarming when "
                           "either does, turning away from the more excited")
-    eye_overlap: float = param(0.2, "Gary2017: the eyes see 0-60% and 40-100% of the width",
-                               check=below_one,
-                               doc="with side='eyes', the share of the view's width both "
-                                   "eyes see")
+    eye_overlap: float = eye_overlap("with side='eyes', the share of the view's width both "
+                                     "eyes see")
 
 
 class ReactiveAvoid(Avoider):
@@ -155,8 +137,7 @@ class ReactiveAvoid(Avoider):
     def __init__(self, **params: Any) -> None:
         p = self.Params(**params)  # checked before the model is made from it
         if p.side == "eyes":
-            self.model = Sectors(p.model, preset=p.preset, columns=2, rows=1,
-                                 overlap=p.eye_overlap, **dict(p.model_params))
+            self.model = eyes(p, p.eye_overlap)
         else:
             self.model = models.make(p.model, preset=p.preset, **dict(p.model_params))
             names = type(self.model).layer_names

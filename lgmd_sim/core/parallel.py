@@ -16,7 +16,9 @@ from one `run_jobs` call to the next.
 The workers end with the run (a `Pool`'s when it closes), whatever ends it: an error,
 SIGTERM or Ctrl-C here stop them within seconds (SIGTERM, which lets a job remove its
 temporaries, then SIGKILL), and they stop by themselves when this process ends, even
-killed outright (on Linux at once, elsewhere after their job).
+killed outright (on Linux at once, elsewhere after their job). The standard library's
+pools do not: a killed worker unnamed or hanging the run, workers left running after the
+parent's death or a stop (measured in docs/experiments/house.md), hence a pool of its own.
 
 >>> from lgmd_sim.core.parallel import Job, run_jobs
 >>> jobs = [Job(f"seed{s}", my_episode, {"seed": s}) for s in range(50)]
@@ -25,12 +27,10 @@ killed outright (on Linux at once, elsewhere after their job).
 
 from __future__ import annotations
 
-import ctypes
 import multiprocessing
 import os
 import signal
 import sys
-import threading
 import time
 import traceback
 from collections import OrderedDict, deque
@@ -42,16 +42,15 @@ from multiprocessing.context import BaseContext
 from multiprocessing.process import BaseProcess
 from typing import Any, TypeVar
 
-__all__ = ["KEEP", "Job", "Pool", "WorkerDied", "default_workers", "kept", "run_jobs",
-           "stop_again_if_swallowed", "stop_again_when_swallowed"]
+from lgmd_sim.core.stops import STOPPING, catch_swallowed_stops, held_stops, stop_raised
+
+__all__ = ["KEEP", "Job", "Pool", "WorkerDied", "default_workers", "kept", "run_jobs"]
 
 T = TypeVar("T")
 
 #: Seconds the workers have to stop (their jobs' temporaries removed) before SIGKILL.
 _GRACE = 3
 _PR_SET_PDEATHSIG = 1  # <linux/prctl.h>
-#: The signals that stop a run.
-_STOPPING = {signal.SIGINT, signal.SIGTERM}
 
 
 @dataclass(frozen=True)
@@ -76,10 +75,6 @@ def default_workers() -> int:
         return len(os.sched_getaffinity(0))
     except AttributeError:  # not on Linux
         return os.cpu_count() or 1
-
-
-def _call(fn: Callable[..., Any], kwargs: Mapping[str, Any]) -> Any:
-    return fn(**kwargs)
 
 
 #: How many objects `kept` holds in one process: a benchmark's jobs come cell by cell, so
@@ -232,7 +227,7 @@ def run_jobs(jobs: Sequence[Job], on_result: Callable[[Job, Any], None], *,
         elif (workers or default_workers()) == 1 or len(jobs) == 1:
             with _keeping():
                 for job in jobs:
-                    store(job, _call(job.fn, job.kwargs))
+                    store(job, job.fn(**job.kwargs))
         else:
             with Pool(min(workers or default_workers(), len(jobs))) as own:
                 own.run(jobs, store)
@@ -249,8 +244,8 @@ def _worker(conn: Connection, parent: int) -> None:
     until the parent (process `parent`) closes its end, or ends."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C reaches the whole group: the
     signal.signal(signal.SIGTERM, _stop_worker)  # parent alone decides, and stops us
-    stop_again_when_swallowed({SystemExit: signal.SIGTERM})
-    signal.pthread_sigmask(signal.SIG_UNBLOCK, _STOPPING)
+    catch_swallowed_stops({SystemExit: signal.SIGTERM})
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, STOPPING)
     if sys.platform.startswith("linux"):
         import ctypes
 
@@ -273,7 +268,7 @@ def _serve(conn: Connection) -> None:
         except EOFError:
             return
         try:
-            reply = (True, _call(fn, kwargs))
+            reply = (True, fn(**kwargs))
         except Exception as exc:  # raised in the parent, with this traceback as its cause
             reply = (False, exc, traceback.format_exc())
         try:
@@ -291,57 +286,8 @@ def _stop_worker(signum: int, frame: object) -> None:
     # grace: then SIGALRM's default action ends the process.
     if not signal.getitimer(signal.ITIMER_REAL)[0]:
         signal.alarm(_GRACE)
+    stop_raised()
     raise SystemExit(128 + signum)
-
-
-def stop_again_when_swallowed(stops: Mapping[type[BaseException], int]
-                              ) -> Callable[[Any], None]:
-    """Make sure a signal that stops this process does: `stops` are the exceptions its
-    handlers raise, each with its signal. Raised where Python cannot pass it on (a C
-    callback, as numba's compiler makes, a ``__del__``, a weakref callback), one would be
-    printed and swallowed, and the process go on, as would a ctypes.ArgumentError naming
-    one there (`stop_again_if_swallowed`): instead the signal comes again a moment later,
-    quietly. Installs a `sys.unraisablehook`; returns the one it replaces."""
-    previous = sys.unraisablehook
-
-    def hook(unraisable: Any) -> None:
-        signum = _stop_of(unraisable.exc_type, unraisable.exc_value, stops)
-        if signum is None:
-            previous(unraisable)
-            return
-        again = threading.Timer(0.01, os.kill, (os.getpid(), signum))
-        again.daemon = True
-        again.start()
-
-    hook.stops = dict(stops)  # type: ignore[attr-defined]  # for stop_again_if_swallowed
-    sys.unraisablehook = hook
-    return previous
-
-
-def stop_again_if_swallowed(exc: BaseException) -> None:
-    """A stop that came while ctypes converted a C call's arguments (a GL driver's) comes
-    back as a ctypes.ArgumentError naming it ("argument 3: KeyboardInterrupt: "): send its
-    signal again, so that the handler stops the program as it would have (it raises during
-    the wait). The stops are those `stop_again_when_swallowed` installed, and Ctrl-C's
-    KeyboardInterrupt always; anything else returns."""
-    stops = {KeyboardInterrupt: signal.SIGINT, **getattr(sys.unraisablehook, "stops", {})}
-    signum = _stop_of(type(exc), exc, stops) if isinstance(exc, ctypes.ArgumentError) else None
-    if signum is not None:
-        os.kill(os.getpid(), signum)
-        time.sleep(1.0)
-
-
-def _stop_of(kind: type[BaseException], exc: BaseException | None,
-             stops: Mapping[type[BaseException], int]) -> int | None:
-    """The signal of the stop that `exc` (of class `kind`) is, or that it names as a
-    ctypes.ArgumentError (ctypes gives the class's name: "argument 3: Terminated: "), among
-    `stops`; None for anything else."""
-    named = (str(exc).partition(": ")[2].partition(":")[0]
-             if issubclass(kind, ctypes.ArgumentError) else None)
-    for stop, signum in stops.items():
-        if issubclass(kind, stop) or stop.__name__ == named:
-            return signum
-    return None
 
 
 @dataclass
@@ -382,35 +328,14 @@ def _start_worker(context: BaseContext, pool: list[_Worker]) -> None:
     # while it starts would print its traceback); here they wait until the worker is in
     # `pool`, whose workers _stop ends: a stop half-way through its start would leave it
     # reading its start-up data from a closed pipe, and printing that traceback.
-    mask = signal.pthread_sigmask(signal.SIG_BLOCK, _STOPPING)
+    mask = signal.pthread_sigmask(signal.SIG_BLOCK, STOPPING)
     try:
-        with _stops_held():
+        with held_stops():
             process.start()
             pool.append(_Worker(process, ours))
     finally:
         signal.pthread_sigmask(signal.SIG_SETMASK, mask)
     theirs.close()  # its end is the worker's alone, so that its death is an end of file
-
-
-@contextmanager
-def _stops_held() -> Iterator[None]:
-    """Hold the stopping signals' handlers until the block ends, then run them. Blocking
-    the signals in this thread is not enough: another thread of the process (OpenBLAS's,
-    pyarrow's) takes a signal sent to the process, and Python then runs its handler here
-    all the same."""
-    if threading.current_thread() is not threading.main_thread():
-        yield  # handlers can be set from the main thread only; signals are run there
-        return
-    caught: list[int] = []
-    held = {s: signal.signal(s, lambda signum, frame: caught.append(signum))
-            for s in _STOPPING}
-    try:
-        yield
-    finally:
-        for s, handler in held.items():
-            signal.signal(s, signal.SIG_DFL if handler is None else handler)
-        for s in caught:
-            os.kill(os.getpid(), s)  # now, to the handlers of the run
 
 
 class Pool:

@@ -28,7 +28,7 @@ import cv2
 import numba
 import numpy as np
 
-from lgmd_sim.core.parallel import stop_again_if_swallowed
+from lgmd_sim.core.stops import reraise_stop_from_ctypes
 from lgmd_sim.world.gl import BACKEND, mujoco
 
 # SSIM as lgmd_sim.metrics.ssim (Wang et al. 2004): 11 x 11 Gaussian window, sigma 1.5,
@@ -50,7 +50,7 @@ def _thread_context():  # -> mujoco.GLContext
             # Renderers draw into their own framebuffers: the context's own size is moot.
             gl = mujoco.GLContext(64, 64)
         except Exception as exc:  # GL set-up fails deep inside a driver: name the cause
-            stop_again_if_swallowed(exc)
+            reraise_stop_from_ctypes(exc)
             raise RuntimeError(
                 f"cannot create an offscreen OpenGL context (MUJOCO_GL={BACKEND}): {exc}. "
                 "Install Mesa EGL (libegl1 libegl-mesa0) or OSMesa, or set MUJOCO_GL to a "
@@ -136,7 +136,7 @@ class OffscreenRenderer:
         try:
             self.close()
         except Exception as exc:  # at interpreter exit EGL may already be torn down
-            stop_again_if_swallowed(exc)  # but a stop that came in a GL call must stop us
+            reraise_stop_from_ctypes(exc)  # but a stop that came in a GL call must stop us
 
 
 def _release_gl_before_fork() -> None:

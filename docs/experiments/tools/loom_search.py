@@ -1,0 +1,138 @@
+"""Where `LoomSteer`'s steering constants come from (lgmd_sim.controllers.loom): the same
+budget for every detector, on the search seeds of RoughTerrainObstacles at jitter 1 at
+the benchmark's frame size and cruise, in two rounds of eight settings: the design and
+seven variations (which double as the ablations: no steering between the eyes, no
+memory, shorter and longer turns), then eight variations of the first round's best. The
+setting with the most successes less collisions (then the most successes; the first among
+equals) over both rounds is that detector's choice; the benchmark's seeds (20000 and up)
+are the held-out check. Each episode's record goes to
+docs/experiments/loom-search/<detector>.json as it finishes, so that a stopped search
+resumes. A ninth row, no candidate, runs the design with the video presets' alarm rule.
+
+    .venv/bin/python docs/experiments/tools/loom_search.py lgmd1/robot-image   # ~10 min
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+from lgmd_sim import options
+from lgmd_sim.bench.episode import Cell, episode
+from lgmd_sim.core.fileio import write_text_atomic
+from lgmd_sim.core.parallel import Job, run_jobs
+from lgmd_sim.metrics import wilson_interval
+
+ROOT = Path(__file__).resolve().parents[3]
+OUT = ROOT / "docs/experiments/loom-search"
+#: Search seeds: none of the benchmark's (20000 and up), training's (< 900), validation's
+#: (900-949) or evaluation's (1000-1049).
+SEEDS = range(2000, 2016)
+SCENARIO, JITTER = "RoughTerrainObstacles", 1.0
+#: The design ({}: LoomParams' defaults) and its variations.
+SETTINGS: list[dict[str, float]] = [
+    {}, {"steer_gain": 0.0}, {"steer_gain": 2.0}, {"memory": 0.0}, {"memory": 3.0},
+    {"release": 0.3, "hold": 0.6}, {"release": 0.8, "hold": 0.2}, {"smooth": 0.25, "slow": 0.8},
+]
+#: The second round: variations of the first round's best (`second_round`).
+SECOND: list[dict[str, float]] = [
+    {"slow": 0.8}, {"smooth": 0.25}, {"memory": 1.0}, {"memory": 2.0}, {"avoid_speed": -0.3},
+    {"eye_overlap": 0.4},
+]
+#: Not a candidate: the design with the video presets' alarm rule (4 frames above the
+#: threshold, rising) at the robot preset's threshold, to see whether that rule helps.
+ALARM_RULE = {"model_params": (("alarm_frames", 4), ("alarm_rising", True))}
+
+
+def _cell(detector: str, setting: dict[str, float]) -> Cell:
+    from lgmd_sim import models
+
+    model, preset = models.parse_spec(detector)
+    return Cell(SCENARIO, JITTER, "loom-steer", model, preset, tuple(sorted(setting.items())))
+
+
+def second_round(best: dict[str, Any]) -> list[dict[str, Any]]:
+    """The second round's settings: the first round's `best` with its steering gain 0.5
+    either side (0.5 and 1.5 above a gain under 0.5: no setting run twice), or with one of
+    `SECOND`."""
+    gain = best.get("steer_gain", 1.0)
+    gains = (gain - 0.5, gain + 0.5) if gain >= 0.5 else (gain + 0.5, gain + 1.5)
+    return [{**best, "steer_gain": g} for g in gains] + [{**best, **v} for v in SECOND]
+
+
+def _name(setting: dict[str, Any]) -> str:
+    """A setting's name in the records: its values, so that a setting two rounds share
+    runs once."""
+    return json.dumps({k: dict(v) if k == "model_params" else v for k, v in setting.items()},
+                      sort_keys=True)
+
+
+def _run(detector: str, settings: list[dict[str, Any]], records: dict[str, Any], path: Path,
+         workers: int | None) -> None:
+    """Every episode of `settings` not in `records`, each stored as it comes."""
+    def store(job: Job, record: dict[str, Any]) -> None:
+        records[job.key] = record
+        write_text_atomic(path, json.dumps(records, indent=1))
+
+    jobs = {f"{_name(setting)}-s{seed}": Job(
+        f"{_name(setting)}-s{seed}", episode, {"cell": _cell(detector, setting), "seed": seed,
+                                               "resolution": "rl", "cruise": 0.6,
+                                               "horizon": 2.0})
+            for setting in settings for seed in SEEDS}
+    run_jobs([j for k, j in jobs.items() if k not in records], store, workers=workers,
+             desc=detector)
+
+
+def _rates(records: dict[str, Any], setting: dict[str, Any]) -> tuple[int, int]:
+    """Episodes of `setting` reaching the goal, and colliding."""
+    got = [records[f"{_name(setting)}-s{seed}"] for seed in SEEDS]
+    return sum(r["goal_reached"] for r in got), sum(r["collided"] for r in got)
+
+
+def _pct(count: int) -> str:
+    """A share of the seeds in percent, with its 95% Wilson interval."""
+    low, high = wilson_interval(count, len(SEEDS))
+    return f"{100 * count / len(SEEDS):.0f} [{100 * low:.0f}, {100 * high:.0f}]"
+
+
+def _best(rows: list[tuple[int, dict[str, Any], int, int]]) -> tuple:
+    return max(rows, key=lambda r: (r[2] - r[3], r[2]))
+
+
+def search(detector: str, workers: int | None = None) -> tuple[str, dict[str, Any]]:
+    """Run (or complete) the search for `detector`: its table (markdown) and its choice."""
+    path = OUT / f"{options.file_key(detector).replace('/', '-')}.json"
+    path.parent.mkdir(parents=True, exist_ok=True)
+    records: dict[str, Any] = json.loads(path.read_text()) if path.exists() else {}
+    _run(detector, [*SETTINGS, ALARM_RULE], records, path, workers)
+    rows = [(1, s, *_rates(records, s)) for s in SETTINGS]
+    second = second_round(_best(rows)[1])
+    _run(detector, second, records, path, workers)
+    rows += [(2, s, *_rates(records, s)) for s in second]
+    best = _best(rows)
+    lines = [f"| {detector}: setting | round | success % | collisions % |",
+             "|---|---:|---:|---:|"]
+    lines += [f"| {s or 'as designed'}{' (chosen)' if row is best else ''} | {n} | "
+              f"{_pct(a)} | {_pct(c)} |" for row in rows for n, s, a, c in [row]]
+    a, c = _rates(records, ALARM_RULE)
+    lines.append(f"| as designed, the video presets' alarm rule (4 frames, rising): no "
+                 f"candidate | - | {_pct(a)} | {_pct(c)} |")
+    return "\n".join(lines), best[1]
+
+
+def main(argv: Sequence[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("detectors", nargs="+", help="MODEL/PRESET, e.g. lgmd1/robot-image")
+    parser.add_argument("--workers", type=int, default=None)
+    args = parser.parse_args(argv)
+    for detector in args.detectors:
+        text, chosen = search(detector, args.workers)
+        print(f"{text}\n\nchosen for {detector}: {chosen or 'as designed'} "
+              f"(seeds {SEEDS.start}-{SEEDS.stop - 1})\n")
+
+
+if __name__ == "__main__":
+    main()
