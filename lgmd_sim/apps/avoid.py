@@ -1,8 +1,8 @@
 """`lgmd-sim demo`'s closed-loop part: the robot avoids the obstacles by itself.
 
-One episode of RoughTerrainObstacles driven by `ReactiveAvoid` with a detector watching
-the camera, at the closed-loop benchmark's resolution and cruise (its detectors' presets
-are calibrated there). Writes
+One episode of RoughTerrainObstacles driven by a detector watching the camera (through
+`LoomSteer` by default, or `ReactiveAvoid`), at the closed-loop benchmark's resolution and
+cruise (its detectors' presets are calibrated there). Writes
 
 - ``avoid.png``: the episode from above (terrain, obstacles, goal as the benchmark's
   trajectories figure draws them), the robot's path with its manoeuvres and each alarm's

@@ -10,12 +10,11 @@ BEST = "feedback/robot-image"
 SEED = 2
 #: What the demo shows by default: the best detector, then the paper's model.
 DETECTORS = (BEST, "feedback/paper")
-#: The detector that drives ReactiveAvoid in the closed-loop episode, and how it tells the
-#: threat's side ("DETECTOR[,SIDE]"): the one that reached the goal most often on the
-#: robot benchmark's search seeds at jitter 1 (LGMD2 with the IMU's rotation removed, its
-#: robot calibration, two eyes); its held-out rates are in docs/experiments/results-log.md.
-AVOIDER = "lgmd2/robot-imu,eyes"
-#: An episode (a search seed of that benchmark) in which it avoids the obstacles in the
-#: way and reaches the goal, with four alarms and none false. Not every episode goes so:
-#: docs/experiments/results-log.md gives the rates.
-AVOID_SEED = 309
+#: The detector that drives the robot in the closed-loop episode, and how
+#: ("DETECTOR[,HOW]"): the best hand-made LGMD controller of the leaderboard, LoomSteer
+#: steered by LGMD1 at its robot preset with the rotation fitted from the frames.
+AVOIDER = "lgmd1/robot-image,loom-steer"
+#: An episode (a search seed of LoomSteer's, docs/experiments/loom-steer.md) in which it
+#: avoids the 7 obstacles it meets and reaches the goal, with six alarms, one of them false.
+#: Not every episode goes so: the leaderboard gives the rates.
+AVOID_SEED = 2002

@@ -302,11 +302,11 @@ def run(*, out: str | Path = "demo-out", seed: int = SEED, jitter: float = 1.0,
         avoid_seed: int = AVOID_SEED, avoid_resolution: str | Sequence[int] | None = None) -> int:
     """Drive one episode with `detectors` watching (the first one's S layer shown) at the
     camera `resolution`, and with `avoider` ("DETECTOR[,HOW]", `demo_avoid.parse_avoider`;
-    None: not) one in which `ReactiveAvoid` avoids the obstacles (`lgmd_sim.apps.avoid`),
-    seeded `avoid_seed`, at `avoid_resolution` (None: the closed-loop benchmark's); write
-    the videos, the summaries and the still into `out`, all of them or (on an error) none
-    (without `avoider`, an earlier run's avoiding episode there is removed); print where
-    they are."""
+    None: not) one in which that detector drives the robot round the obstacles
+    (`lgmd_sim.apps.avoid`), seeded `avoid_seed`, at `avoid_resolution` (None: the
+    closed-loop benchmark's); write the videos, the summaries and the still into `out`,
+    all of them or (on an error) none (without `avoider`, an earlier run's avoiding
+    episode there is removed); print where they are."""
     from lgmd_sim.apps import avoid as demo_avoid
 
     detectors = list(detectors)

@@ -19,7 +19,7 @@ from lgmd_sim.benchmark.protocol import Protocol
 from lgmd_sim.core.fileio import atomic_outputs
 from lgmd_sim.core.runs import NUMBER, Maybe, read_record
 
-__all__ = ["RESULT_FIELDS", "leaderboard", "load_result", "markdown"]
+__all__ = ["RESULT_FIELDS", "leaderboard", "load_result", "markdown", "parts"]
 
 #: What the leaderboard reads of a result.
 RESULT_FIELDS = {
@@ -47,7 +47,8 @@ def load_result(path: str | Path) -> dict[str, Any]:
     return read_record(file, RESULT_FIELDS, "run lgmd-sim benchmark again for it")
 
 
-def _parts(result: Mapping[str, Any]) -> dict[str, scores.Parts]:
+def parts(result: Mapping[str, Any]) -> dict[str, scores.Parts]:
+    """A result's per-seed parts by track, as `lgmd_sim.benchmark.scores.compare` takes them."""
     return {t: scores.Parts.from_json(p) for t, p in result["parts"].items() if p}
 
 
@@ -93,7 +94,7 @@ def markdown(results: Sequence[Mapping[str, Any]], names: Sequence[str],
         ranked = r["scores"].get("overall") is not None
         # A rank counts only the entries better beyond doubt (paired on the seeds), so that
         # a chain of close neighbours does not carry one rank down the table.
-        separable = [scores.compare(_parts(r), _parts(a), resamples, seed)["overall"][
+        separable = [scores.compare(parts(r), parts(a), resamples, seed)["overall"][
             "separable"] for a in above] if ranked else []
         tied = bool(separable) and not separable[-1]
         rank = max(rank, 1 + sum(separable))  # never above an entry higher in the table

@@ -16,12 +16,12 @@ def add(sub: argparse._SubParsersAction) -> None:
         "obstacle over rough ground while LGMD detectors watch its camera: by default the "
         "feedback LGMD at its robot preset beside the paper's model. Writes "
         "an MP4 (camera view, the first detector's S layer, every membrane potential with "
-        "the collision frame), a PNG summary and a still. Then one episode in which the "
-        "ReactiveAvoid controller, driven by a detector (--avoider) at the closed-loop "
-        "benchmark's resolution, avoids the obstacles: an MP4 (camera view beside the path from "
-        "above) and a PNG (the path with its alarms and manoeuvres, the membrane potential "
-        "and the time to collision). All files are written, or (on an error) none; it prints "
-        "where they are.",
+        "the collision frame), a PNG summary and a still. Then one episode in which a "
+        "detector (--avoider: LoomSteer on LGMD1 by default) drives the robot at the "
+        "closed-loop benchmark's resolution and avoids the obstacles: an MP4 (camera view "
+        "beside the path from above) and a PNG (the path with its alarms and manoeuvres, "
+        "the membrane potential and the time to collision). All files are written, or (on "
+        "an error) none; it prints where they are.",
     )
     p.add_argument("--out", default="demo-out", metavar="DIR",
                    help="output folder (default: ./demo-out)")

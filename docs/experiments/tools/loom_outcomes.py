@@ -1,8 +1,10 @@
-"""How the benchmark's goal episodes end, ReactiveAvoid against LoomSteer on the same
-detectors and seeds: the goal reached, timed out, or a collision, split by when the last
-alarm before it came (none; less than 0.6 s before; 0.6-1.15 s, the robot objective's
-window; more than 1.15 s). Reads the kept episodes.csv of each entry's goal track; writes
-docs/experiments/figures/loom_outcomes.png and prints the counts as a markdown table.
+"""ReactiveAvoid against LoomSteer on the same detectors and the benchmark's seeds: the
+figures issue 43's targets name (goal track at jitter 1 and 2, arena track at jitter 1,
+from each entry's result.json), and how the goal episodes at jitter 1 end: the goal
+reached, timed out, or a collision, split by when the last alarm before it came (none;
+less than 0.6 s before; 0.6-1.15 s, the robot objective's window; more than 1.15 s;
+from each goal track's kept episodes.csv). Prints both as markdown tables and writes the
+second as docs/experiments/figures/loom_outcomes.png.
 
     .venv/bin/python docs/experiments/tools/loom_outcomes.py            # a few seconds
 """
@@ -11,16 +13,25 @@ from __future__ import annotations
 
 import argparse
 import csv
+import json
 from collections.abc import Sequence
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[3]
 RUNS = ROOT / "docs/benchmark/runs"
 OUT = ROOT / "docs/experiments/figures/loom_outcomes.png"
-#: The detectors with a row under both controllers: (ReactiveAvoid's folder, LoomSteer's).
+#: The detectors LoomSteer was benchmarked with: (ReactiveAvoid's folder, LoomSteer's). The
+#: feedback LGMD's open-loop control has no ReactiveAvoid row: its bar is left out.
 PAIRS = [(d, f"{d}-loom-steer") for d in (
     "lgmd1-robot-image", "lgmd2-robot-imu", "feedback-robot-image",
     "feedback-robot-open-loop-image")]
+
+
+def _folders() -> list[tuple[str, str]]:
+    """(controller, folder) of every row of `PAIRS` that was run."""
+    return [(c, f) for pair in PAIRS for c, f in zip(("ReactiveAvoid", "LoomSteer"), pair,
+                                                      strict=True)
+            if (RUNS / f / "result.json").is_file()]
 #: The robot objective's window of times to collision (s): lgmd_sim.calibration.robot.
 WINDOW = (0.6, 1.15)
 OUTCOMES = ("goal reached", "timed out", "collided: no alarm",
@@ -50,6 +61,61 @@ def counts(folder: str, jitter: float) -> dict[str, int]:
     return {o: sum(outcome(r) == o for r in rows) for o in OUTCOMES}
 
 
+def _pct(value: float, ci: Sequence[float] | None = None) -> str:
+    shown = f"{100 * value:.0f}"
+    return shown if ci is None else f"{shown} [{100 * ci[0]:.0f}, {100 * ci[1]:.0f}]"
+
+
+def targets() -> str:
+    """The targets' figures of every entry of `PAIRS`, a markdown table."""
+    from lgmd_sim.benchmark import protocol
+
+    reference = protocol.load("v1").arena.reference_distance_m[1]
+    lines = ["| entry | overall | goal j1: success % | goal j1: collisions % | "
+             "goal j2: success % | arena j1: avoided % | arena j1: distance / Oracle's |",
+             "|---|---|---:|---:|---:|---:|---:|"]
+    for _, folder in _folders():
+        r = json.loads((RUNS / folder / "result.json").read_text())
+        goal, arena = r["metrics"]["goal"], r["metrics"]["arena"]
+        g1, g2, a1 = goal["1"], goal["2"], arena["1"]
+        low, high = r["intervals"]["overall"]
+        lines.append(
+            f"| `{r['entry']['label']}` | {r['scores']['overall']:.2f} [{low:.2f}, {high:.2f}] | "
+            f"{_pct(g1['success_rate'], g1['success_ci'])} | "
+            f"{_pct(g1['collision_rate'], g1['collision_ci'])} | "
+            f"{_pct(g2['success_rate'], g2['success_ci'])} | "
+            f"{_pct(a1['avoidance_rate'], a1['avoidance_ci'])} | "
+            f"{a1['mean_distance_m'] / reference:.2f} |")
+    return "\n".join(lines)
+
+
+#: The paired comparisons the page quotes: (entry, against), result folders.
+PAIRED = [("lgmd1-robot-image-loom-steer", "lgmd1-robot-image"),
+          ("lgmd1-robot-image-loom-steer", "lgmd1-robot-image-eyes"),
+          ("lgmd2-robot-imu-loom-steer", "lgmd2-robot-imu"),
+          ("feedback-robot-image-loom-steer", "feedback-robot-image"),
+          ("feedback-robot-image-loom-steer", "feedback-robot-open-loop-image-loom-steer")]
+
+
+def paired() -> str:
+    """The overall score's difference of each of `PAIRED`, paired on the seeds, with the
+    leaderboard's bootstrap (`lgmd_sim.benchmark.scores.compare`), a markdown table."""
+    from lgmd_sim.benchmark import protocol, scores
+    from lgmd_sim.benchmark.leaderboard import load_result, parts
+
+    proto = protocol.load("v1")
+    lines = ["| entry | against | overall difference [95% interval] | told apart |",
+             "|---|---|---|---|"]
+    for a, b in PAIRED:
+        ra, rb = (load_result(RUNS / f / "result.json") for f in (a, b))
+        c = scores.compare(parts(ra), parts(rb), proto.bootstrap, proto.bootstrap_seed)
+        low, high = c["overall"]["interval"]
+        lines.append(f"| `{ra['entry']['label']}` | `{rb['entry']['label']}` | "
+                     f"{c['overall']['difference']:+.2f} [{low:+.2f}, {high:+.2f}] | "
+                     f"{'yes' if c['overall']['separable'] else 'no'} |")
+    return "\n".join(lines)
+
+
 def main(argv: Sequence[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--jitter", type=float, default=1.0)
@@ -59,8 +125,10 @@ def main(argv: Sequence[str] | None = None) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    bars = [(f"{a.replace('-robot', '/robot')}\n{c}", counts(f, args.jitter))
-            for a, b in PAIRS for c, f in (("ReactiveAvoid", a), ("LoomSteer", b))]
+    print(targets() + "\n")
+    print(paired() + "\n")
+    bars = [(f"{f.removesuffix('-loom-steer').replace('-robot', '/robot')}\n{c}",
+             counts(f, args.jitter)) for c, f in _folders()]
     print("| entry | controller | " + " | ".join(OUTCOMES) + " |")
     print("|---|---|" + "---:|" * len(OUTCOMES))
     for label, got in bars:
