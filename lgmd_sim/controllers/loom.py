@@ -1,12 +1,12 @@
-"""`LoomSteer`: steer by an LGMD's two eyes all the time, not by one alarm and a timer.
+"""`LoomSteer`: steer by two LGMD eyes all the time, not by one alarm and a timer.
 
 `ReactiveAvoid` runs a fixed manoeuvre on an alarm (turn 0.7 s, drive on 0.8 s) and then
 heads for the goal whatever it sees: in about half of its collisions the last alarm came
 more than 1.15 s before the hit, and the robot had turned back into the obstacle
-(docs/experiments/results-log.md, "collisions_lead"). The LGMD robots steer otherwise:
-Gary2017's testbed turns away from the more excited of two overlapping LGMDs, the Colias
-robots keep turning while the neuron stays excited. `LoomSteer` does both, with every
-frame's potentials:
+(docs/experiments/results-log.md, the robot's closed-loop targets). The LGMD robots steer
+otherwise: Gary2017's testbed turns away from the more excited of two overlapping LGMDs,
+the Colias robots keep turning while the neuron stays excited. `LoomSteer` does both,
+with every frame's potentials:
 
 - each eye's potential, low-passed, as an excitation: 0 at the episode's first frame
   (nothing has moved yet), 1 at the model's threshold;
@@ -18,6 +18,9 @@ frame's potentials:
 - after an avoidance, for ``memory`` seconds, the turn back to the goal never turns
   towards the side it avoided: an obstacle passed at the side leaves the 70-degree view
   before the chassis clears it.
+
+What each part does, measured, and each detector's constants (`TUNED`):
+docs/experiments/loom-steer.md.
 """
 
 from __future__ import annotations
