@@ -52,6 +52,7 @@ SEARCHED = ("design; per detector, chosen on search seeds of RoughTerrainObstacl
 TUNED: dict[str, dict[str, float]] = {
     "lgmd1/robot-image": {"steer_gain": 1.5},
     "lgmd2/robot-imu": {"steer_gain": 0.0},
+    "f_on/robot-image": {"steer_gain": 0.0},
     "feedback/robot-image": {"steer_gain": 1.5},
     "feedback/robot-open-loop-image": {"release": 0.8, "hold": 0.2},
 }

@@ -23,8 +23,8 @@ OUT = ROOT / "docs/experiments/figures/loom_outcomes.png"
 #: The detectors LoomSteer was benchmarked with: (ReactiveAvoid's folder, LoomSteer's). The
 #: feedback LGMD's open-loop control has no ReactiveAvoid row: its bar is left out.
 PAIRS = [(d, f"{d}-loom-steer") for d in (
-    "lgmd1-robot-image", "lgmd2-robot-imu", "feedback-robot-image",
-    "feedback-robot-open-loop-image")]
+    "lgmd1-robot-image", "lgmd2-robot-imu", "f_on-robot-image",
+    "feedback-robot-image", "feedback-robot-open-loop-image")]
 
 
 def _folders() -> list[tuple[str, str]]:
@@ -32,6 +32,8 @@ def _folders() -> list[tuple[str, str]]:
     return [(c, f) for pair in PAIRS for c, f in zip(("ReactiveAvoid", "LoomSteer"), pair,
                                                       strict=True)
             if (RUNS / f / "result.json").is_file()]
+
+
 #: The robot objective's window of times to collision (s): lgmd_sim.calibration.robot.
 WINDOW = (0.6, 1.15)
 OUTCOMES = ("goal reached", "timed out", "collided: no alarm",
@@ -94,7 +96,8 @@ PAIRED = [("lgmd1-robot-image-loom-steer", "lgmd1-robot-image"),
           ("lgmd1-robot-image-loom-steer", "lgmd1-robot-image-eyes"),
           ("lgmd2-robot-imu-loom-steer", "lgmd2-robot-imu"),
           ("feedback-robot-image-loom-steer", "feedback-robot-image"),
-          ("feedback-robot-image-loom-steer", "feedback-robot-open-loop-image-loom-steer")]
+          ("feedback-robot-image-loom-steer", "feedback-robot-open-loop-image-loom-steer"),
+          ("f_on-robot-image-loom-steer", "f_on-robot-image")]
 
 
 def paired() -> str:
