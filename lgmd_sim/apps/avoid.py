@@ -85,26 +85,28 @@ def parse_avoider(text: str) -> tuple[str, str]:
     "halves" or "eyes" (none: `ReactiveParams`' default), or another controller that a
     detector drives ("loom-steer"). ValueError, one line naming `text`, where either is
     unknown."""
+    from lgmd_sim import controllers
+
     detector, _, how = (t.strip() for t in text.partition(","))
     try:
         name, preset = models.parse_spec(detector)
-        _controller(name, preset, how or None, cruise=0.0)
+        controller, params = _controller(name, preset, how or None)
+        controllers.controller_class(controller).Params(**params)  # checked; no model made
     except ValueError as exc:
         raise ValueError(f"--avoider {text!r}: {exc}") from None
     return detector, how or SIDES[0]
 
 
-def _controller(name: str, preset: str, how: str | None, cruise: float) -> Any:
-    """The controller of "DETECTOR,HOW" (`parse_avoider`), at `cruise`."""
+def _controller(name: str, preset: str, how: str | None) -> tuple[str, dict[str, Any]]:
+    """The controller of "DETECTOR,HOW" (`parse_avoider`) and its parameters."""
     from lgmd_sim import controllers
 
     if how is None or how in SIDES:
-        return controllers.make("reactive", model=name, preset=preset, side=how or SIDES[0],
-                                cruise=cruise)
+        return "reactive", {"model": name, "preset": preset, "side": how or SIDES[0]}
     if not controllers.controller_class(how).uses_model:
         raise ValueError(f"after ',' comes a side ({', '.join(SIDES)}) or a controller "
                          f"that a detector drives (e.g. loom-steer), not {how!r}")
-    return controllers.make(how, model=name, preset=preset, cruise=cruise)
+    return how, {"model": name, "preset": preset}
 
 
 def drive(seed: int, jitter: float, detector: str, how: str | None = None,
@@ -120,7 +122,8 @@ def drive(seed: int, jitter: float, detector: str, how: str | None = None,
 
     name, preset = models.parse_spec(detector)
     bench = ClosedLoopConfig()
-    controller = _controller(name, preset, how, cruise=bench.cruise)
+    kind, params = _controller(name, preset, how)
+    controller = controllers.make(kind, **params, cruise=bench.cruise)
     how = how or SIDES[0]
     env = gym.make(SCENARIO, jitter=jitter,
                    resolution=bench.resolution if resolution is None else resolution)
