@@ -180,7 +180,7 @@ OPTIONS = {
     "dataset export": "--format --codec",
     "train": "--algo --env --obs --model --preset --steps --envs --seed --out --resume"
              " --no-progress"
-             " | --grid --grid-history --resolution --jitter --eval-every --eval-seeds"
+             " | --grid --grid-history --memory --resolution --jitter --eval-every --eval-seeds"
              " --checkpoint-every --hp --reward --curriculum --teacher --imitation-steps"
              " --dagger-rounds --dagger-epochs --dagger-student --value-warmup",
     "eval": "--controllers --models --presets --jitter --seeds --out --resume --workers"
@@ -219,7 +219,8 @@ PARSED = {
         "command": "train", "algo": None, "env": None, "obs": "features", "model": "feedback",
         "preset": "robot-image", "steps": 104000, "envs": None, "seed": None,
         "out": "runs/mine", "resume": None, "no_progress": False, "grid": (3, 5),
-        "grid_history": 4, "resolution": None, "jitter": None, "eval_every": None,
+        "grid_history": 4, "memory": None, "resolution": None, "jitter": None,
+        "eval_every": None,
         "eval_seeds": None, "checkpoint_every": None, "hp": None,
         "reward": ["goal_bonus=10", "effort_penalty=0.001"], "curriculum": None,
         "teacher": "steer", "imitation_steps": None, "dagger_rounds": None,

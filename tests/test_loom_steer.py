@@ -121,3 +121,5 @@ def test_a_detector_drives_at_its_tuned_constants_under_the_callers(monkeypatch)
     assert (tuned.params.steer_gain, tuned.params.memory) == (3.0, 0.5)
     other = make("loom-steer", model="lgmd1", preset="robot")
     assert other.params.steer_gain == loom.LoomParams().steer_gain
+    # what a benchmark result records, resolved without building the controller
+    assert loom.LoomSteer.resolve(model="lgmd1", preset="robot-image", memory=0.5) == tuned.params

@@ -367,6 +367,7 @@ REFUSED_AT_LOAD = {
     "a grid of more cells than pixels": (_config(grid=[10000, 10000]), "policy.json",
                                          "grid 10000x10000"),
     "a history of 1e9": (_config(history=10**9), "policy.json", "history=1000000000"),
+    "a memory of -5 frames": (_config(memory=-5), "policy.json", "memory must be"),
     "frames of 1e6 x 1e6": (_config(obs="pixels", model=None, frame_size=[10**6] * 2),
                             "policy.json", "size"),
     "another kind of environment": (_config(env_id="CartPole-v1"), "policy.json",

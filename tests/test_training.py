@@ -91,18 +91,20 @@ def test_the_policy_acts_deterministically_on_what_it_was_trained_to_see(run):
     env.close()
 
 
-def test_the_s_layer_grid_and_its_history_are_options_the_policy_keeps(tmp_path):
+def test_the_s_layer_grid_its_history_and_memory_are_options_the_policy_keeps(tmp_path):
     out = tmp_path / "grid"
     assert _train(out, "--steps", "64", "--envs", "1", "--grid", "2x4",
-                  "--grid-history", "3") == 0
+                  "--grid-history", "3", "--memory", "30") == 0
     config = json.loads((out / "policy.json").read_text())["config"]
-    assert (config["grid"], config["grid_history"]) == ([2, 4], 3)
+    assert (config["grid"], config["grid_history"], config["memory"]) == ([2, 4], 3, 30)
     policy = controllers.make("policy", path=str(out))
     env = policy.wrap_env(base_env(policy.policy.config))
     obs, _ = env.reset(seed=1)
     assert obs["lgmd_grid"].shape == (24,)
+    assert obs["lgmd_memory"].shape == (4,)  # a column each
     env.close()
-    assert "S-layer grid 2x4 over the last 3 frames" in (out / "summary.md").read_text()
+    assert ("S-layer grid 2x4 over the last 3 frames with a 30-frame memory"
+            in (out / "summary.md").read_text())
 
 
 def test_the_training_vec_env_observes_as_the_controller_does(run):
@@ -298,6 +300,8 @@ def _nan_reward_env(**overrides):
      "not pixels"),
     (["--obs", "privileged", "--grid-history", "2"], "--grid-history is of --obs features"),
     (["--grid-history", "0"], "--grid-history must be a positive integer, got 0"),
+    (["--memory", "-1"], "--memory must be a non-negative integer (frames), got -1"),
+    (["--obs", "pixels", "--memory", "30"], "--memory is of --obs features"),
 ])
 def test_bad_input_is_one_line_before_training(tmp_path, capsys, args, message):
     if "lgmd_test/NanReward-v0" not in gym.registry:

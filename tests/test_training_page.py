@@ -78,20 +78,37 @@ def test_choice_ships_the_best_score_on_validation_seeds_only(tmp_path, monkeypa
     ends = {"a": [("False", "True"), ("True", "False")],  # 50% / 50%: score 0
             "b": [("False", "True"), ("False", "False")]}  # 50% / 0%: score 0.5
     run = _choice(tmp_path / "choice", 900, ends)
-    lines = page.choice([run], "b")
+    lines = page.choice([run], "b", "shipped")
     assert "policy: b has the highest score" in lines[0] and "0.50), so it was shipped" in lines[0]
     assert lines[-2:] == ["| policy: b | 50 / 0 | 50 / 0 | 0.50 |",
                           "| policy: a | 50 / 50 | 50 / 50 | 0.00 |"]
-    assert page.choice([run], "a")[0].endswith("but the shipped one is a.")
+    assert page.choice([run], "a", "shipped")[0].endswith("but the shipped one is a.")
     with pytest.raises(SystemExit, match="a choice runs validation seeds"):
-        page.choice([_choice(tmp_path / "held-out", 999, ends)], "b")  # 999 and 1000
+        page.choice([_choice(tmp_path / "held-out", 999, ends)], "b", "shipped")  # 999, 1000
     # a later candidate, evaluated apart on the same seeds, joins the choice
     later = _choice(tmp_path / "later", 900, {"c": [("False", "True"), ("False", "True")]})
-    lines = page.choice([run, later], "c")
+    lines = page.choice([run, later], "c", "shipped")
     assert "the 3 candidates below" in lines[0] and "policy: c has the highest" in lines[0]
     assert lines[-3] == "| policy: c | 100 / 0 | 100 / 0 | 1.00 |"
     with pytest.raises(SystemExit, match="played other seeds"):
-        page.choice([run, _choice(tmp_path / "other", 910, ends)], "b")
+        page.choice([run, _choice(tmp_path / "other", 910, ends)], "b", "shipped")
+
+
+def test_a_later_candidate_replaces_the_shipped_policy_only_beyond_the_paired_interval(
+        tmp_path, monkeypatch):
+    monkeypatch.syspath_prepend(str(TOOLS))
+    page = importlib.import_module("training_page")
+    even = [("False", "True"), ("True", "False")] * 2  # score 0
+    first = _choice(tmp_path / "choice", 900, {"a": even})
+    # the shipped policy played again beside a later candidate, one episode in four better
+    later = _choice(tmp_path / "later", 900, {
+        "shipped": even, "c": [("False", "True"), ("False", "True"), ("True", "False"),
+                               ("False", "True")]})
+    verdict = page.choice([first, later], "a", "shipped")[0]
+    assert "policy: c has the highest score" in verdict
+    assert verdict.endswith(
+        "but a stays shipped as shipped: policy: c against policy: shipped, paired on the "
+        "seeds of later: +0.50 [-1.00, +2.00], within its 95% interval.")
 
 
 def _cell(reached: int, collided: int, n: int = 30) -> dict[str, float]:

@@ -22,7 +22,8 @@ from lgmd_sim.envs.wrappers import (
 SIZE = (32, 48)
 NOISE = "gaussian:0.003,saltpepper:0.003"
 #: several models, a short history and a 2 x 2 grid: every part of the observation
-LGMD = {"model": ["feedback", "lgmd2"], "history": 3, "grid": (2, 2), "grid_history": 2}
+LGMD = {"model": ["feedback", "lgmd2"], "history": 3, "grid": (2, 2), "grid_history": 2,
+        "memory": 3}
 
 
 def make(time_limit: float = 0.2, scenario: str = "HandheldApproach", **kw) -> gym.Env:
@@ -112,6 +113,43 @@ def test_a_grid_history_holds_the_last_grids_oldest_first_and_starts_at_the_firs
     np.testing.assert_array_equal(obs["lgmd_grid"], np.full(18, 1 / 6, np.float32))
     env.close()
     present.close()
+
+
+def test_the_memory_keeps_the_excitation_by_column_and_fades_over_its_frames():
+    """Each frame, the column of the grid's largest share takes the potential's
+    excitation (0 at rest, 1 at the threshold) where that is more; every column loses
+    1 / memory a frame; a reset clears it."""
+    env = LGMDObservation(make(1.0), model="lgmd1", grid=(2, 3), memory=4)
+    threshold = env.features.models["lgmd1"].params.threshold
+    obs, _ = env.reset(seed=3)
+    assert env.observation_space["lgmd_memory"].shape == (3,)
+    assert obs["lgmd_memory"].tolist() == [0.0] * 3
+    expected, peak = np.zeros(3), 0.0
+    for _ in range(25):
+        obs = env.step([0.5, 0.0])[0]
+        expected = np.maximum(expected - 1 / 4, 0.0)
+        column = int(np.argmax(obs["lgmd_grid"])) % 3
+        excitation = np.clip((obs["lgmd_potential"][-1] - 0.5) / (threshold - 0.5), 0, 1)
+        expected[column] = max(expected[column], excitation)
+        np.testing.assert_allclose(obs["lgmd_memory"], expected, atol=1e-6)
+        peak = max(peak, float(excitation))
+    assert peak > 0.5  # the approach excites it: the rule was checked on real values
+    obs, _ = env.reset(seed=4)
+    assert obs["lgmd_memory"].tolist() == [0.0] * 3
+    env.close()
+
+
+@pytest.mark.parametrize(("kwargs", "message"), [
+    ({"memory": -1}, "memory must be a non-negative integer"),
+    ({"memory": 1.5}, "memory must be a non-negative integer"),
+    ({"memory": True}, "memory must be a non-negative integer"),
+    ({"memory": 30, "grid": None}, "memory needs a grid"),
+])
+def test_a_bad_memory_is_refused_naming_it(kwargs, message):
+    env = make()
+    with pytest.raises(ValueError, match=message):
+        LGMDObservation(env, **kwargs)
+    env.close()
 
 
 def test_several_models_are_concatenated_in_the_order_given_and_the_frame_can_go():

@@ -91,7 +91,7 @@ def parse_avoider(text: str) -> tuple[str, str]:
     try:
         name, preset = models.parse_spec(detector)
         controller, params = _controller(name, preset, how or None)
-        controllers.controller_class(controller).Params(**params)  # checked; no model made
+        controllers.controller_class(controller).resolve(**params)  # checked; no model made
     except ValueError as exc:
         raise ValueError(f"--avoider {text!r}: {exc}") from None
     return detector, how or SIDES[0]

@@ -90,9 +90,10 @@ class Entry:
             if self.controller != REFERENCE:  # its constants, as it resolves them
                 from lgmd_sim import controllers
 
-                driver = controllers.make(self.controller, model=self.model, preset=self.preset)
+                resolved = controllers.controller_class(self.controller).resolve(
+                    model=self.model, preset=self.preset)
                 out["controller_params"] = {
-                    k: v for k, v in dataclasses.asdict(driver.params).items()
+                    k: v for k, v in dataclasses.asdict(resolved).items()
                     if k not in ("model", "preset", "model_params")}
         if self.kind == "policy":
             out["policy"] = str(self.policy)

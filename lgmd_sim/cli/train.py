@@ -61,6 +61,10 @@ def add(sub: argparse._SubParsersAction) -> None:
     more.add_argument("--grid-history", type=int, metavar="K",
                       help="how many of the last grids --obs features observes, oldest first "
                       "(default 1: the present frame's; more show where the activity grows)")
+    more.add_argument("--memory", type=int, metavar="N",
+                      help="--obs features also observes, per column of the grid, the "
+                      "potential's excitation seen there lately, fading over N frames (30: "
+                      "a second), for what has left the frame (default 0: none)")
     more.add_argument("--resolution", type=resolution,
                       help="frame size the environment renders: rl (120x160, default, as the "
                       "benchmark), paper, small or HxW")

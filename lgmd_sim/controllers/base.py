@@ -33,8 +33,14 @@ class Controller(ABC):
     manoeuvring: bool | None = None
 
     def __init__(self, **params: Any) -> None:
-        self.params = self.Params(**params)
+        self.params = self.resolve(**params)
         self.reset()
+
+    @classmethod
+    def resolve(cls, **params: Any) -> CheckedParams:
+        """The parameters a controller built with overrides `params` runs with, checked,
+        without building it (or its model)."""
+        return cls.Params(**params)
 
     def reset(self) -> None:  # noqa: B027  (optional hook: stateless controllers keep it)
         """Start a new episode (forget any state)."""

@@ -101,11 +101,15 @@ class LoomSteer(Controller):
     uses_model = True
 
     def __init__(self, **params: Any) -> None:
-        p = self.Params(**params)  # checked before the model is made from it
-        params = {**TUNED.get(f"{p.model}/{p.preset}", {}), **params}
-        p = self.Params(**params)
+        p = self.resolve(**params)  # checked before the model is made from it
         self.model = eyes(p, p.eye_overlap)
         super().__init__(**params)
+
+    @classmethod
+    def resolve(cls, **params: Any) -> LoomParams:
+        """The parameters it runs with: its detector's `TUNED` constants, then `params`."""
+        p = cls.Params(**params)
+        return cls.Params(**{**TUNED.get(f"{p.model}/{p.preset}", {}), **params})
 
     def wrap_env(self, env: gym.Env) -> gym.Env:
         check_frame_space(env.observation_space)

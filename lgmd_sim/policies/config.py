@@ -32,6 +32,8 @@ class PolicyConfig:
         model, preset: the LGMD model and its preset (features).
         history, grid, grid_history: the potentials observed, the S-layer grid and how
             many of the last grids are observed (features).
+        memory: frames the per-column memory of the excitation lasts, 0 for none
+            (features; `lgmd_sim.envs.wrappers.LGMDFeatures`).
         frame_size, frame_stack: the observed frames (pixels).
     """
 
@@ -45,6 +47,7 @@ class PolicyConfig:
     history: int = 8
     grid: tuple[int, int] = (1, 3)
     grid_history: int = 1
+    memory: int = 0
     frame_size: tuple[int, int] = (60, 80)
     frame_stack: int = 4
 

@@ -93,7 +93,8 @@ def observe(env: gym.Env, config: PolicyConfig) -> gym.Env:
     if config.obs == "features":
         return LGMDObservation(env, config.model, preset=config.preset,
                                history=config.history, grid=config.grid,
-                               grid_history=config.grid_history, keep_frame=False)
+                               grid_history=config.grid_history, memory=config.memory,
+                               keep_frame=False)
     if config.obs == "privileged":
         return PrivilegedObservation(env)
     return PixelObservation(env, config.frame_size, config.frame_stack)

@@ -41,6 +41,8 @@ class TrainConfig:
         grid: (rows, columns) of the S-layer grid of "features"
             (`lgmd_sim.envs.wrappers.LGMDFeatures`).
         grid_history: how many of the last grids "features" observes (1: the present).
+        memory: frames the per-column memory of the excitation of "features" lasts, 0
+            for none (`lgmd_sim.envs.wrappers.LGMDFeatures`).
         resolution: the frame size the environment renders.
         jitter: the jitter level of the training episodes.
         steps: environment steps in all, over every environment and session.
@@ -80,6 +82,7 @@ class TrainConfig:
     preset: str | None = None
     grid: tuple[int, int] = PolicyConfig.grid
     grid_history: int = PolicyConfig.grid_history
+    memory: int = PolicyConfig.memory
     resolution: str | tuple[int, int] = "rl"
     jitter: float = 1.0
     steps: int = 300_000
@@ -146,6 +149,12 @@ class TrainConfig:
                              f"{self.grid_history!r}")
         if self.obs != "features" and self.grid_history != PolicyConfig.grid_history:
             raise ValueError(f"--grid-history is of --obs features, not {self.obs}")
+        if not (isinstance(self.memory, int) and not isinstance(self.memory, bool)
+                and self.memory >= 0):
+            raise ValueError(f"--memory must be a non-negative integer (frames), got "
+                             f"{self.memory!r}")
+        if self.obs != "features" and self.memory != PolicyConfig.memory:
+            raise ValueError(f"--memory is of --obs features, not {self.obs}")
         object.__setattr__(self, "model", model)
         object.__setattr__(self, "preset", preset)
         object.__setattr__(self, "resolution", options.resolution(self.resolution))
@@ -207,7 +216,7 @@ class TrainConfig:
         """The configuration of the policy it trains."""
         return PolicyConfig(self.algo, self.obs, self.env, self.resolution,
                             float(self.jitter), self.model, self.preset, grid=self.grid,
-                            grid_history=self.grid_history)
+                            grid_history=self.grid_history, memory=self.memory)
 
     def as_json(self) -> dict[str, Any]:
         """The configuration as the run folder records it."""

@@ -103,7 +103,8 @@ def make_vec_env(config: PolicyConfig, n_envs: int,
     if config.obs == "features":
         venv = VecLGMDObservation(base, config.model, preset=config.preset,
                                   history=config.history, grid=config.grid,
-                                  grid_history=config.grid_history, keep_frame=False)
+                                  grid_history=config.grid_history, memory=config.memory,
+                                  keep_frame=False)
     return VecEnvs(base, vec_env.VecMonitor(venv))
 
 

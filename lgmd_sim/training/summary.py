@@ -58,10 +58,13 @@ def grid_text(config: dict[str, Any]) -> str:
     """The S-layer grid a run's recorded options chose, in words; "" for the default."""
     grid, frames = (tuple(config.get("grid", PolicyConfig.grid)),
                     config.get("grid_history", PolicyConfig.grid_history))
-    if (grid, frames) == (PolicyConfig.grid, PolicyConfig.grid_history):
+    memory = config.get("memory", PolicyConfig.memory)
+    if (grid, frames, memory) == (PolicyConfig.grid, PolicyConfig.grid_history,
+                                  PolicyConfig.memory):
         return ""
-    return f"S-layer grid {grid[0]}x{grid[1]}" + (f" over the last {frames} frames"
-                                                  if frames > 1 else "")
+    return (f"S-layer grid {grid[0]}x{grid[1]}"
+            + (f" over the last {frames} frames" if frames > 1 else "")
+            + (f" with a {memory}-frame memory" if memory else ""))
 
 
 def trained(config: dict[str, Any]) -> str:

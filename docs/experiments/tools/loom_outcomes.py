@@ -3,8 +3,9 @@ figures issue 43's targets name (goal track at jitter 1 and 2, arena track at ji
 from each entry's result.json), and how the goal episodes at jitter 1 end: the goal
 reached, timed out, or a collision, split by when the last alarm before it came (none;
 less than 0.6 s before; 0.6-1.15 s, the robot objective's window; more than 1.15 s;
-from each goal track's kept episodes.csv). Prints both as markdown tables and writes the
-second as docs/experiments/figures/loom_outcomes.png.
+from each goal track's kept episodes.csv). Prints them as markdown tables, with the
+student policies' figures and the paired differences the page quotes, and writes the
+outcomes as docs/experiments/figures/loom_outcomes.png.
 
     .venv/bin/python docs/experiments/tools/loom_outcomes.py            # a few seconds
 """
@@ -91,31 +92,52 @@ def targets() -> str:
     return "\n".join(lines)
 
 
+#: The student policies held to issue 43's target (15% or fewer collisions at jitter 1,
+#: success no lower than the shipped one's): result folders, the shipped one first.
+STUDENTS = ("policy_feedback-student", "policy_student-feedback-h4-memory-best")
+
+
+def students() -> str:
+    """The goal track's figures of every one of `STUDENTS`, a markdown table."""
+    lines = ["| policy | goal j1: success % | goal j1: collisions % | goal j2: success % | "
+             "goal j2: collisions % |", "|---|---:|---:|---:|---:|"]
+    for folder in STUDENTS:
+        r = json.loads((RUNS / folder / "result.json").read_text())
+        g = r["metrics"]["goal"]
+        lines.append(f"| `{r['entry']['label']}` | " + " | ".join(
+            _pct(g[j][f"{k}_rate"], g[j][f"{k}_ci"]) for j in ("1", "2")
+            for k in ("success", "collision")) + " |")
+    return "\n".join(lines)
+
+
 #: The paired comparisons the page quotes: (entry, against), result folders.
 PAIRED = [("lgmd1-robot-image-loom-steer", "lgmd1-robot-image"),
           ("lgmd1-robot-image-loom-steer", "lgmd1-robot-image-eyes"),
           ("lgmd2-robot-imu-loom-steer", "lgmd2-robot-imu"),
           ("feedback-robot-image-loom-steer", "feedback-robot-image"),
           ("feedback-robot-image-loom-steer", "feedback-robot-open-loop-image-loom-steer"),
-          ("f_on-robot-image-loom-steer", "f_on-robot-image")]
+          ("f_on-robot-image-loom-steer", "f_on-robot-image"),
+          ("policy_student-feedback-h4-memory-best", "policy_feedback-student")]
 
 
 def paired() -> str:
-    """The overall score's difference of each of `PAIRED`, paired on the seeds, with the
-    leaderboard's bootstrap (`lgmd_sim.benchmark.scores.compare`), a markdown table."""
+    """The score's difference of each of `PAIRED`, paired on the seeds, with the
+    leaderboard's bootstrap (`lgmd_sim.benchmark.scores.compare`), a markdown table: the
+    overall score, or the goal track's for policies (they have no arena)."""
     from lgmd_sim.benchmark import protocol, scores
     from lgmd_sim.benchmark.leaderboard import load_result, parts
 
     proto = protocol.load("v1")
-    lines = ["| entry | against | overall difference [95% interval] | told apart |",
-             "|---|---|---|---|"]
+    lines = ["| entry | against | score | difference [95% interval] | told apart |",
+             "|---|---|---|---|---|"]
     for a, b in PAIRED:
         ra, rb = (load_result(RUNS / f / "result.json") for f in (a, b))
         c = scores.compare(parts(ra), parts(rb), proto.bootstrap, proto.bootstrap_seed)
-        low, high = c["overall"]["interval"]
-        lines.append(f"| `{ra['entry']['label']}` | `{rb['entry']['label']}` | "
-                     f"{c['overall']['difference']:+.2f} [{low:+.2f}, {high:+.2f}] | "
-                     f"{'yes' if c['overall']['separable'] else 'no'} |")
+        key = "overall" if "overall" in c else "goal"
+        low, high = c[key]["interval"]
+        lines.append(f"| `{ra['entry']['label']}` | `{rb['entry']['label']}` | {key} | "
+                     f"{c[key]['difference']:+.2f} [{low:+.2f}, {high:+.2f}] | "
+                     f"{'yes' if c[key]['separable'] else 'no'} |")
     return "\n".join(lines)
 
 
@@ -129,6 +151,7 @@ def main(argv: Sequence[str] | None = None) -> None:
     import matplotlib.pyplot as plt
 
     print(targets() + "\n")
+    print(students() + "\n")
     print(paired() + "\n")
     bars = [(f"{f.removesuffix('-loom-steer').replace('-robot', '/robot')}\n{c}",
              counts(f, args.jitter)) for c, f in _folders()]

@@ -316,7 +316,7 @@ def shipped(eval_runs: list[Path], train_runs: list[Path], choice_runs: list[Pat
             continue
         tag = name_of(source)
         if choice_runs:
-            out += [*choice(choice_runs, tag), ""]
+            out += [*choice(choice_runs, tag, name), ""]
         mine, theirs = played[name], played.get(tag, {})
         both = sorted(set(mine) & set(theirs))
         differ = sum(mine[k] != theirs[k] for k in both)
@@ -357,12 +357,34 @@ def agreement(eval_runs: list[Path]) -> list[str]:
     return out
 
 
-def choice(runs: list[Path], tag: str) -> list[str]:
+def _against(runs: list[Path], label: str, shipped: str) -> str | None:
+    """`label`'s score less that of the shipped policy (`shipped`, its label), paired on
+    the seeds of the first of `runs` that played both (the benchmark's bootstrap), in
+    words; None where no run did."""
+    from lgmd_sim.benchmark.scores import compare, parts_of
+
+    for run in runs:
+        rows = [r for r in _episodes(run) if r["controller"] == "policy"]
+        parts = {who: parts_of([r for r in rows if _label(r) == who],
+                               lambda r: (r["goal_reached"] == "True") - (r["collided"] == "True"))
+                 for who in (label, shipped) if any(_label(r) == who for r in rows)}
+        if len(parts) == 2:
+            c = compare({"goal": parts[label]}, {"goal": parts[shipped]}, 2000, 0)["goal"]
+            low, high = c["interval"]
+            return (f"{label} against {shipped}, paired on the seeds of {run.name}: "
+                    f"{c['difference']:+.2f} [{low:+.2f}, {high:+.2f}], "
+                    + ("beyond" if c["separable"] else "within") + " its 95% interval")
+    return None
+
+
+def choice(runs: list[Path], tag: str, name: str) -> list[str]:
     """The rule that chose the shipped policy, from `runs`: ``lgmd-sim eval`` runs of the
     candidate policies on the same validation seeds (below the evaluation's), never on the
     evaluation's. A candidate's score: successes minus collisions, as rates, averaged over
-    the jitter levels; the highest is shipped. `tag`: the shipped policy's name there (the
-    training run's policy it was released from)."""
+    the jitter levels; the highest is shipped, and a later candidate replaces the shipped
+    policy only where a run that played both (the shipped one again, on that machine) puts
+    the difference beyond its paired interval. `tag`: the shipped policy's name there (the
+    training run's policy it was released from); `name`: its shipped name."""
     records = [json.loads((run / "run.json").read_text()) for run in runs]
     seeds = {tuple(r["config"]["seeds"]) for r in records}
     if len(seeds) > 1:
@@ -390,7 +412,10 @@ def choice(runs: list[Path], tag: str) -> list[str]:
             f"{100 * cells[j, label]['collided'] / cells[j, label]['n']:.0f}"
             for j in jitters) + f" | {score[label]:.2f} |")
     leaders = [label for label in labels if score[label] == top]
+    paired = (None if f"policy: {tag}" in leaders or len(leaders) > 1 else
+              _against(runs, leaders[0], f"policy: {name}"))
     verdict = ("so it was shipped" if f"policy: {tag}" in leaders else
+               f"but {tag} stays shipped as {name}: {paired}" if paired else
                f"but the shipped one is {tag}")
     return [f"- Chosen on validation: the {len(labels)} candidates below played seeds "
             f"{first} to {first + n - 1} (validation seeds: no training episode and no "

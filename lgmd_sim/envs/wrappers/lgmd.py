@@ -25,7 +25,7 @@ from lgmd_sim.envs.wrappers.frames import check_frame_space, frame_size_of
 __all__ = ["KEYS", "MAX_FEATURES", "LGMDFeatures", "LGMDObservation", "LGMDVectorObservation"]
 
 #: The observation keys the LGMD wrappers add.
-KEYS = ("lgmd_potential", "lgmd_alarm", "lgmd_grid")
+KEYS = ("lgmd_potential", "lgmd_alarm", "lgmd_grid", "lgmd_memory")
 #: The membrane potential of a resting LGMD (a stream's first frame gives it).
 REST = 0.5
 #: The most values one model's potentials, or its grids, may hold per environment: 2**20
@@ -69,6 +69,12 @@ class LGMDFeatures:
       ``grid_history`` k > 1 it holds the last k grids, oldest first (k * rows * cols per
       model): where the activity grows, cell by cell; a reset fills them with the first
       frame's.
+    - ``lgmd_memory`` (n_models * cols,), with ``memory`` m > 0 frames (needs a grid):
+      where, by column, the potential rose lately, for what has left the frame. On each
+      frame the column holding the grid's largest share takes the potential's excitation
+      (0 at rest, 1 at the model's threshold, clipped to [0, 1]) where that is more than
+      it holds; every column loses 1/m a frame. So an alarm is remembered at its bearing
+      for m frames, fading; a reset clears it.
 
     Bounds: potentials and grid in [0, 1] (potentials are sigmoids, mostly [0.5, 1)),
     alarms in {0, 1}. 1-D Boxes, as stable-baselines3's MultiInputPolicy and its
@@ -88,6 +94,7 @@ class LGMDFeatures:
         grid: (rows, cols) of the S-layer summary, or None for none (and no layer maps
             computed: faster).
         grid_history: number of grids observed, newest last.
+        memory: frames the per-column memory of the excitation lasts; 0 for none.
         keep_frame: keep the camera frame in the observation; False drops it, for
             compact observations (MLP policies).
         frame_size: (height, width) of the frames, where known: a grid with more rows or
@@ -103,8 +110,8 @@ class LGMDFeatures:
     def __init__(self, n_envs: int, model: str | Sequence[str] = "feedback", *,
                  preset: str | None = None, history: int = 8,
                  grid: tuple[int, int] | None = (1, 3), grid_history: int = 1,
-                 keep_frame: bool = True, frame_size: tuple[int, int] | None = None,
-                 **params: Any) -> None:
+                 memory: int = 0, keep_frame: bool = True,
+                 frame_size: tuple[int, int] | None = None, **params: Any) -> None:
         if not _count(n_envs):
             raise ValueError(f"n_envs must be a positive integer, got {n_envs!r}")
         names = [model] if isinstance(model, str) else model
@@ -119,6 +126,11 @@ class LGMDFeatures:
                                      and all(_count(v) for v in grid)):
             raise ValueError(f"grid must be (rows, cols) of positive integers or None, "
                              f"got {grid!r}")
+        if not (_count(memory) or (isinstance(memory, int | np.integer)
+                                   and not isinstance(memory, bool) and memory == 0)):
+            raise ValueError(f"memory must be a non-negative integer (frames), got {memory!r}")
+        if memory and grid is None:
+            raise ValueError("memory needs a grid: it remembers by the grid's columns")
         if not isinstance(keep_frame, bool | np.bool_):
             raise ValueError(f"keep_frame must be True or False, got {keep_frame!r}")
         self.grid = None if grid is None else (int(grid[0]), int(grid[1]))
@@ -142,8 +154,11 @@ class LGMDFeatures:
         self.potential = np.full((n, m), REST)
         self.alarm = np.zeros((n, m), bool)
         self._shares = np.zeros((n, m, int(grid_history), cells), np.float32)
+        self.memory = int(memory)
+        columns = self.grid[1] if self.memory else 0
+        self._memory = np.zeros((n, m, columns), np.float32)
         unit = {"lgmd_potential": m * int(history), "lgmd_alarm": m,
-                "lgmd_grid": m * int(grid_history) * cells}
+                "lgmd_grid": m * int(grid_history) * cells, "lgmd_memory": m * columns}
         self.spaces = {k: spaces.Box(0.0, 1.0, (size,), np.float32)
                        for k, size in unit.items() if size}
 
@@ -180,6 +195,8 @@ class LGMDFeatures:
         potential = np.empty_like(self.potential)
         alarm = np.empty_like(self.alarm)
         shares = np.empty_like(self._shares)
+        fade = np.float32(1 / self.memory if self.memory else 0)
+        memory = np.where(new[:, None, None], np.float32(0), (self._memory - fade).clip(0))
         for k, model in enumerate(self.models.values()):
             if new.all():
                 model.reset()  # every stream anew: the frame size may change too
@@ -193,10 +210,24 @@ class LGMDFeatures:
                 # a new stream's older grids are its first: no motion before it
                 older = np.where(new[:, None, None], newest[:, None], self._shares[:, k, 1:])
                 shares[:, k] = np.concatenate([older, newest[:, None]], axis=1)
+                if self.memory:
+                    self._remember(memory[:, k], newest, out.potential,
+                                   model.params.threshold)
         history = np.where(new[:, None, None], np.float32(REST), self._history)
         self._history = np.concatenate([history[..., 1:], potential[..., None]], axis=-1,
                                        dtype=np.float32)
         self.potential, self.alarm, self._shares = potential, alarm, shares
+        self._memory = memory
+
+    def _remember(self, memory: np.ndarray, shares: np.ndarray, potential: np.ndarray,
+                  threshold: float) -> None:
+        """Raise, in place, each stream's `memory` (n, cols) in the column of its grid's
+        largest share to the excitation of its `potential`."""
+        column = shares.argmax(axis=1) % self.grid[1]
+        excitation = np.clip((np.asarray(potential, np.float64) - REST)
+                             / max(float(threshold) - REST, 1e-9), 0.0, 1.0)
+        streams = np.arange(len(memory))
+        memory[streams, column] = np.maximum(memory[streams, column], excitation)
 
     def _cell_shares(self, s: np.ndarray) -> np.ndarray:
         """Each grid cell's share of the mean rectified S, (n, H, W) -> (n, rows * cols)."""
@@ -220,7 +251,8 @@ class LGMDFeatures:
         n = self.n_envs
         lgmd = {"lgmd_potential": self._history.reshape(n, -1),
                 "lgmd_alarm": self.alarm.astype(np.float32),
-                "lgmd_grid": self._shares.reshape(n, -1)}
+                "lgmd_grid": self._shares.reshape(n, -1),
+                "lgmd_memory": self._memory.reshape(n, -1)}
         rows = slice(None) if index is None else index
         kept = {k: v for k, v in base.items() if self.keep_frame or k != "frame"}
         return {**kept, **{k: lgmd[k][rows] for k in self.spaces}}
@@ -257,9 +289,10 @@ class LGMDFeatures:
 class LGMDObservation(gym.Wrapper, gym.utils.RecordConstructorArgs):
     """LGMD models watching the camera: their potentials, alarms and S-layer map observed.
 
-    Adds ``lgmd_potential``, ``lgmd_alarm`` and ``lgmd_grid`` to the observation and the
-    model outputs to ``info`` (see `LGMDFeatures` for the keys, shapes and what the grid
-    holds). The models start new streams at every reset.
+    Adds ``lgmd_potential``, ``lgmd_alarm``, ``lgmd_grid`` and, with a ``memory``,
+    ``lgmd_memory`` to the observation and the model outputs to ``info`` (see
+    `LGMDFeatures` for the keys, shapes and what the grid and the memory hold). The
+    models start new streams at every reset.
 
     >>> env = LGMDObservation(gym.make("lgmd_sim/RoughTerrainObstacles-v0"), keep_frame=False)
     >>> obs, info = env.reset(seed=0)  # obs["lgmd_potential"]: the last 8 potentials
@@ -273,6 +306,8 @@ class LGMDObservation(gym.Wrapper, gym.utils.RecordConstructorArgs):
         grid: (rows, cols) of the S-layer summary, at most the frame's (height, width), or
             None for none.
         grid_history: number of grids observed, newest last.
+        memory: frames the per-column memory of the excitation lasts (0: none; see
+            `LGMDFeatures`).
         keep_frame: keep the camera frame in the observation.
         **params: the models' parameter overrides.
 
@@ -284,15 +319,16 @@ class LGMDObservation(gym.Wrapper, gym.utils.RecordConstructorArgs):
     def __init__(self, env: gym.Env, model: str | Sequence[str] = "feedback",
                  preset: str | None = None, history: int = 8,
                  grid: tuple[int, int] | None = (1, 3), grid_history: int = 1,
-                 keep_frame: bool = True, **params: Any) -> None:
+                 memory: int = 0, keep_frame: bool = True, **params: Any) -> None:
         # recorded for env.spec, so that gym.make(env.spec) rebuilds the wrapper
         gym.utils.RecordConstructorArgs.__init__(self, model=model, preset=preset,
                                                  history=history, grid=grid,
-                                                 grid_history=grid_history,
+                                                 grid_history=grid_history, memory=memory,
                                                  keep_frame=keep_frame, **params)
         gym.Wrapper.__init__(self, env)
         self.features = LGMDFeatures(1, model, preset=preset, history=history, grid=grid,
-                                     grid_history=grid_history, keep_frame=keep_frame,
+                                     grid_history=grid_history, memory=memory,
+                                     keep_frame=keep_frame,
                                      frame_size=frame_size_of(env.observation_space), **params)
         self.observation_space = self.features.observation_space(env.observation_space)
 
@@ -328,21 +364,21 @@ class LGMDVectorObservation(VectorWrapper):
 
     Args:
         env: a vector environment of jitter environments.
-        model, preset, history, grid, grid_history, keep_frame, **params: as
+        model, preset, history, grid, grid_history, memory, keep_frame, **params: as
             `LGMDObservation`.
     """
 
     def __init__(self, env: VectorEnv, model: str | Sequence[str] = "feedback",
                  preset: str | None = None, history: int = 8,
                  grid: tuple[int, int] | None = (1, 3), grid_history: int = 1,
-                 keep_frame: bool = True, **params: Any) -> None:
+                 memory: int = 0, keep_frame: bool = True, **params: Any) -> None:
         super().__init__(env)
         self._mode = AutoresetMode(env.metadata.get("autoreset_mode", AutoresetMode.NEXT_STEP))
         if self._mode == AutoresetMode.DISABLED:
             raise ValueError("env: autoreset mode 'Disabled' is not supported (it resets "
                              "environments apart); use next-step or same-step autoreset")
         self.features = LGMDFeatures(env.num_envs, model, preset=preset, history=history,
-                                     grid=grid, grid_history=grid_history,
+                                     grid=grid, grid_history=grid_history, memory=memory,
                                      keep_frame=keep_frame,
                                      frame_size=frame_size_of(env.single_observation_space),
                                      **params)

@@ -38,6 +38,7 @@ class VecLGMDObservation(_vec_env.VecEnvWrapper):
         history: number of membrane potentials observed, newest last.
         grid: (rows, cols) of the S-layer summary, or None for none.
         grid_history: number of grids observed, newest last.
+        memory: frames the per-column memory of the excitation lasts (0: none).
         keep_frame: keep the camera frame in the observation.
         **params: the models' parameter overrides.
     """
@@ -45,9 +46,10 @@ class VecLGMDObservation(_vec_env.VecEnvWrapper):
     def __init__(self, venv: Any, model: str | Sequence[str] = "feedback",
                  preset: str | None = None, history: int = 8,
                  grid: tuple[int, int] | None = (1, 3), grid_history: int = 1,
-                 keep_frame: bool = True, **params: Any) -> None:
+                 memory: int = 0, keep_frame: bool = True, **params: Any) -> None:
         features = LGMDFeatures(venv.num_envs, model, preset=preset, history=history,
-                                grid=grid, grid_history=grid_history, keep_frame=keep_frame,
+                                grid=grid, grid_history=grid_history, memory=memory,
+                                keep_frame=keep_frame,
                                 frame_size=frame_size_of(venv.observation_space), **params)
         super().__init__(venv, observation_space=features.observation_space(
             venv.observation_space))
