@@ -143,18 +143,13 @@ class TrainConfig:
         if self.obs != "features" and grid != PolicyConfig.grid:
             raise ValueError(f"--grid is the S-layer grid of --obs features, not {self.obs}")
         object.__setattr__(self, "grid", grid)
-        if not (isinstance(self.grid_history, int) and not isinstance(self.grid_history, bool)
-                and self.grid_history >= 1):
-            raise ValueError(f"--grid-history must be a positive integer, got "
-                             f"{self.grid_history!r}")
-        if self.obs != "features" and self.grid_history != PolicyConfig.grid_history:
-            raise ValueError(f"--grid-history is of --obs features, not {self.obs}")
-        if not (isinstance(self.memory, int) and not isinstance(self.memory, bool)
-                and self.memory >= 0):
-            raise ValueError(f"--memory must be a non-negative integer (frames), got "
-                             f"{self.memory!r}")
-        if self.obs != "features" and self.memory != PolicyConfig.memory:
-            raise ValueError(f"--memory is of --obs features, not {self.obs}")
+        for key, least, what in (("grid_history", 1, "a positive integer"),
+                                 ("memory", 0, "a non-negative integer (frames)")):
+            value, option = getattr(self, key), f"--{key.replace('_', '-')}"
+            if not (isinstance(value, int) and not isinstance(value, bool) and value >= least):
+                raise ValueError(f"{option} must be {what}, got {value!r}")
+            if self.obs != "features" and value != getattr(PolicyConfig, key):
+                raise ValueError(f"{option} is of --obs features, not {self.obs}")
         object.__setattr__(self, "model", model)
         object.__setattr__(self, "preset", preset)
         object.__setattr__(self, "resolution", options.resolution(self.resolution))
