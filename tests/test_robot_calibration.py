@@ -96,6 +96,26 @@ def test_the_objective_is_the_mean_of_its_three_parts_from_one_run():
     assert full.shape == THRESHOLDS.shape and full[i] == pytest.approx(score[0])
 
 
+@pytest.mark.usefixtures("placeholder_window")
+def test_robot_frames_judges_the_same_clips_by_the_video_presets_alarm_rule():
+    """A one-frame surge in the window alarms by the paper's rule and not by 4 rising
+    frames; a climb through the window alarms by both."""
+    surge, climb = np.full(101, 0.5), np.where(T >= 66, 0.9, 0.5) + 0.001 * T
+    surge[70] = 0.9
+    i = int(np.flatnonzero(np.isclose(THRESHOLDS, 0.8))[0])
+    labels, potentials = [_approach(), _approach(), _clear()], [surge, climb, surge]
+    for objective, hit in ((robot.ROBOT, [True, True, False]),
+                           (robot.ROBOT_FRAMES, [False, True, True])):
+        scores = json.loads(json.dumps(objective.scores(labels, potentials, THRESHOLDS)))
+        hits = robot.unpack_hits(scores["hits"], 3)[:, i]
+        assert hits.tolist() == hit, objective.alarm
+    assert robot.ROBOT_FRAMES.identity() == {**robot.ROBOT.identity(),
+                                             "alarm": {"frames": 4, "rising": True}}
+    assert run.preset_name("lgmd1+image", "robot-frames") == ("lgmd1", "robot-frames-image")
+    assert run.TASKS["robot-frames"].preset_params(None, "rl") == {
+        "alarm_frames": 4, "alarm_rising": True}  # its presets alarm as they were chosen
+
+
 def test_the_robot_presets_are_named_apart_from_the_walker_ones():
     assert run.preset_name("lgmd1", "robot") == ("lgmd1", "robot")
     assert run.preset_name("lgmd1+imu", "robot") == ("lgmd1", "robot-imu")

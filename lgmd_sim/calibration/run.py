@@ -36,7 +36,7 @@ from lgmd_sim import options
 from lgmd_sim.bench.closed_loop import ClosedLoopConfig
 from lgmd_sim.calibration import clips as clip_mod
 from lgmd_sim.calibration.objective import VIDEO, WALKER, Objective
-from lgmd_sim.calibration.robot import ROBOT
+from lgmd_sim.calibration.robot import ROBOT, ROBOT_FRAMES
 from lgmd_sim.calibration.search import (
     CONTROLS,
     THRESHOLDS,
@@ -124,6 +124,8 @@ class Task:
 TASKS: dict[str, Task] = {
     "walker": Task(WALKER, clip_mod.DEFAULT_GROUPS, "calibrated"),
     "robot": Task(ROBOT, clip_mod.ROBOT_GROUPS, "robot", ClosedLoopConfig.cruise),
+    "robot-frames": Task(ROBOT_FRAMES, clip_mod.ROBOT_GROUPS, "robot-frames",
+                         ClosedLoopConfig.cruise),
     "video": Task(VIDEO, clip_mod.VIDEO_GROUPS, "video", fronts=("image+gain",),
                   front="image+gain", looks=clip_mod.VIDEO_LOOKS, fovy=clip_mod.VIDEO_FOVY,
                   at_clip_size=True),
