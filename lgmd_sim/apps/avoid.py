@@ -22,7 +22,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from lgmd_sim import models
-from lgmd_sim.benchmark.entries import SIDES  # ReactiveAvoid's sides, its default first
+from lgmd_sim.benchmark.entries import REFERENCE, SIDES, driver
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -99,14 +99,12 @@ def parse_avoider(text: str) -> tuple[str, str]:
 
 def _controller(name: str, preset: str, how: str | None) -> tuple[str, dict[str, Any]]:
     """The controller of "DETECTOR,HOW" (`parse_avoider`) and its parameters."""
-    from lgmd_sim import controllers
-
-    if how is None or how in SIDES:
-        return "reactive", {"model": name, "preset": preset, "side": how or SIDES[0]}
-    if not controllers.controller_class(how).uses_model:
-        raise ValueError(f"after ',' comes a side ({', '.join(SIDES)}) or a controller "
-                         f"that a detector drives (e.g. loom-steer), not {how!r}")
-    return how, {"model": name, "preset": preset}
+    try:
+        controller, side = driver(how or SIDES[0])
+    except ValueError as exc:
+        raise ValueError(f"after ',' comes {exc}") from None
+    return controller, {"model": name, "preset": preset,
+                        **({"side": side} if controller == REFERENCE else {})}
 
 
 def drive(seed: int, jitter: float, detector: str, how: str | None = None,

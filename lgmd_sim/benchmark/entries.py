@@ -12,7 +12,7 @@ from typing import Any
 
 from lgmd_sim.bench.episode import Cell
 
-__all__ = ["REFERENCE", "SIDES", "Entry", "parse"]
+__all__ = ["REFERENCE", "SIDES", "Entry", "driver", "parse"]
 
 #: The reference controller a detector drives (`lgmd_sim.controllers.avoid.ReactiveAvoid`
 #: with its constants as they ship), and the ways it reads a side from the detector.
@@ -100,6 +100,29 @@ class Entry:
         return out
 
 
+def driver(how: str) -> tuple[str, str]:
+    """The controller a detector drives and the reference controller's side, from what
+    follows the detector (after "@" in an entry, after "," in the demo's ``--avoider``): a
+    side of `SIDES` (the reference controller), or a controller that a detector drives
+    (at the default side).
+
+    Raises:
+        ValueError: neither, in words that follow "after '@' comes".
+    """
+    from lgmd_sim import controllers
+
+    if how in SIDES:
+        return REFERENCE, how
+    try:
+        if controllers.controller_class(how).uses_model:
+            return how, SIDES[0]
+        why = ""
+    except ValueError as exc:
+        why = f" ({exc})"
+    raise ValueError(f"a side ({', '.join(SIDES)}) or a controller that a detector drives "
+                     f"(e.g. loom-steer), not {how!r}{why}")
+
+
 def parse(spec: str) -> Entry:
     """The entry `spec` names: a controller's name or spec ("oracle", "straight",
     "mypkg.drive:Mine"), a policy (a folder holding policy.json, or a shipped policy's
@@ -123,17 +146,11 @@ def parse(spec: str) -> Entry:
             "lgmd1)" if text == REFERENCE else f"lgmd1@{text})"))
     if text in controllers.available():
         return Entry(spec, "controller", text)
-    head, at, side = text.partition("@")
-    controller = REFERENCE
-    if at and side not in SIDES:
-        try:
-            driven = controllers.controller_class(side).uses_model
-        except ValueError:
-            driven = False
-        if not driven:
-            raise ValueError(f"entry {spec!r}: after '@' comes a side ({', '.join(SIDES)}) "
-                             "or a controller that a detector drives (e.g. loom-steer)")
-        controller, side = side, ""
+    head, at, how = text.partition("@")
+    try:
+        controller, side = driver(how) if at else (REFERENCE, SIDES[0])
+    except ValueError as exc:
+        raise ValueError(f"entry {spec!r}: after '@' comes {exc}") from None
     try:
         name, preset = models.parse_spec(head)
     except ValueError as exc:
@@ -143,4 +160,4 @@ def parse(spec: str) -> Entry:
             raise ValueError(f"entry {spec!r}: not a controller, a policy folder or a "
                              f"detector ({exc})") from None
         return Entry(spec, "controller", text)
-    return Entry(spec, "detector", controller, name, preset, side or "halves")
+    return Entry(spec, "detector", controller, name, preset, side)
