@@ -77,7 +77,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     if previous_int is signal.default_int_handler:
         signal.signal(signal.SIGINT, _interrupt)
     previous_hook = catch_swallowed_stops({Terminated: signal.SIGTERM,
-                                               KeyboardInterrupt: signal.SIGINT})
+                                           KeyboardInterrupt: signal.SIGINT})
     try:
         return int(import_module(f"lgmd_sim.cli.{args.command}").run(args) or 0)
     except BrokenPipeError:  # output piped into e.g. `head`, which stopped reading

@@ -37,8 +37,7 @@ def stop_raised() -> None:
     _RAISED.set()
 
 
-def catch_swallowed_stops(stops: Mapping[type[BaseException], int]
-                              ) -> Callable[[Any], None]:
+def catch_swallowed_stops(stops: Mapping[type[BaseException], int]) -> Callable[[Any], None]:
     """Make sure a signal that stops this process does: `stops` are the exceptions its
     handlers raise, each with its signal. Raised where Python cannot pass it on (a C
     callback, as numba's compiler makes, a ``__del__``, a weakref callback), one would be
