@@ -251,6 +251,24 @@ def test_a_worker_killed_while_sending_its_result_ends_the_run_in_one_line(tmp_p
         _assert_ends(proc.pid, 10)
 
 
+def test_a_ctrl_c_while_the_first_worker_starts_is_ignored_by_it():
+    # The first process an interpreter starts also starts multiprocessing's resource
+    # tracker, which unblocks SIGINT and SIGTERM: that worker once started unprotected, and
+    # a Ctrl-C during its imports printed a KeyboardInterrupt traceback.
+    script = ("import os, signal\n"
+              "from lgmd_sim.core.parallel import Job, Pool, run_jobs\n"
+              "signal.signal(signal.SIGINT, lambda signum, frame: None)  # this one goes on\n"
+              "done = []\n"
+              "with Pool(1) as pool:\n"
+              "    os.killpg(0, signal.SIGINT)  # the worker is still importing\n"
+              "    run_jobs([Job('pid', os.getpid)], lambda job, pid: done.append(pid),\n"
+              "             pool=pool)\n"
+              "print(len(done))\n")
+    result = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True,
+                            timeout=60, start_new_session=True)
+    assert (result.returncode, result.stdout, result.stderr) == (0, "1\n", "")
+
+
 def _signal_mid_run(args: list[str], out: Path, tmp: Path, rng: random.Random,
                     ctrl_c: bool) -> tuple[int, str, float]:
     """Run `lgmd-sim ARGS --out OUT`, SIGTERM it (or Ctrl-C its process group, as a

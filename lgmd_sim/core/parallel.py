@@ -37,6 +37,7 @@ from collections import OrderedDict, deque
 from collections.abc import Callable, Hashable, Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass, field
+from multiprocessing import resource_tracker
 from multiprocessing.connection import Connection, wait
 from multiprocessing.context import BaseContext
 from multiprocessing.process import BaseProcess
@@ -327,7 +328,10 @@ def _start_worker(context: BaseContext, pool: list[_Worker]) -> None:
     # The worker starts with these blocked, until its handlers are in place (a Ctrl-C
     # while it starts would print its traceback); here they wait until the worker is in
     # `pool`, whose workers _stop ends: a stop half-way through its start would leave it
-    # reading its start-up data from a closed pipe, and printing that traceback.
+    # reading its start-up data from a closed pipe, and printing that traceback. The first
+    # start of a process would also start multiprocessing's resource tracker, which unblocks
+    # them as it does: that is done before.
+    resource_tracker.ensure_running()
     mask = signal.pthread_sigmask(signal.SIG_BLOCK, STOPPING)
     try:
         with held_stops():
