@@ -49,6 +49,29 @@ def test_a_wall_driven_into_is_seen_ahead_and_a_replay_that_differs_is_left_out(
     assert (out / "collision_views.png").stat().st_size > 0
 
 
+def test_a_loom_steer_collision_keeps_what_its_detector_said_before_it(tmp_path):
+    from lgmd_sim.bench.closed_loop import ClosedLoopConfig, run
+
+    bench = tmp_path / "bench"
+    # LoomSteer on LGMD1 drives into the wall of RobotWallAhead on seed 1.
+    run(ClosedLoopConfig(scenarios=("RobotWallAhead",), jitter=(0.0,),
+                         controllers=("loom-steer",), detectors=(("lgmd1", "robot-image"),),
+                         seeds=1, first_seed=1),
+        bench, workers=1, progress=False)
+    out = tmp_path / "views"
+    subprocess.run([sys.executable, str(TOOLS / "collision_views.py"), str(bench),
+                    str(out), "--workers", "1"], check=True, capture_output=True)
+    with (out / "collisions.csv").open(newline="") as f:
+        (row,) = csv.DictReader(f)
+    excitation = [float(row[f"excitation_{lag}s"]) for lag in ("1", "0.5", "0.25")]
+    assert all(0.0 <= x <= 2.0 for x in excitation)
+    assert excitation[0] < excitation[-1] < 1.0  # the wall excites it, never to an alarm
+    assert row["alarms_last_2s"] == "0"
+    table = (out / "collision_views.md").read_text()
+    shown = " | ".join(f"{x:.2f} ({x:.2f})" for x in excitation[::-1])  # 0.25 s first
+    assert f"| 0 | loom-steer: lgmd1/robot-image | 1 | {shown} | 0 (0%) |" in table
+
+
 def test_a_scenario_that_goes_on_after_a_collision_is_refused_in_one_line(tmp_path):
     import json
 

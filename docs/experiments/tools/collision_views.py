@@ -8,8 +8,11 @@ pixel shows, so occlusion and the frame's edges count: what the controller's det
 was shown) and takes the bearing of the nearest point of the obstacle hit. It reports
 how many pixels of that obstacle the camera saw LAGS seconds before the hit: an obstacle
 out of the frame then is one that no detector on this camera could warn of in time,
-while the Oracle and the privileged policy read the truth wherever the obstacle is. A
-replay must end in the recorded collision frame (the same processor plays the same
+while the Oracle and the privileged policy read the truth wherever the obstacle is. For a
+controller that steers by its detector's excitation (LoomSteer: 0 at rest, 1 at the
+alarm threshold) it also records that excitation and the alarm on each frame, so that an
+obstacle in view the detector did not answer to is told from one it alarmed for too late.
+A replay must end in the recorded collision frame (the same processor plays the same
 episode); one that does not is counted apart and left out.
 
     python docs/experiments/tools/collision_views.py EVAL OUT [--workers N]
@@ -18,7 +21,7 @@ Writes OUT/collisions.csv (one row per collision: the cell, the seed, the obstac
 its pixels and bearing at each lag), OUT/collision_views.md (per cell: its collisions
 and how many hit an obstacle out of the frame at each lag, with the command) and
 OUT/collision_views.png (the bearing and the visible pixels of the obstacle hit over the
-last WINDOW seconds before each collision).
+last WINDOW seconds before each collision, and the excitation where there is one).
 """
 
 from __future__ import annotations
@@ -59,7 +62,7 @@ def views(cell: Cell, seed: int, resolution: Any, cruise: float, frame: int
     `frame`: the threat hit and, for each frame of the last WINDOW seconds up to the hit,
     its visible pixels and the bearing (degrees, positive to the left) of its nearest
     point from the camera; ``replayed`` False where the replay went otherwise."""
-    pixels, bearings, before = [], [], []
+    pixels, bearings, before, excitation, alarms = [], [], [], [], []
     with driven(cell, resolution=resolution, cruise=cruise) as (env, controller):
         world = env.unwrapped.world
         m, d, sc = world.model, world.data, world.scene
@@ -93,6 +96,9 @@ def views(cell: Cell, seed: int, resolution: Any, cruise: float, frame: int
                         row[i] = math.degrees(math.atan2(to @ left, to @ forward))
                 bearings.append(row)
                 before.append(step.index)
+                if hasattr(controller, "excitation"):  # the collision frame: the one before
+                    excitation.append(round(float(np.max(controller.excitation)), 4))
+                    alarms.append(bool(controller.alarm))
         finally:
             seg.close()
         if int(last["first_collision_frame"]) != frame:
@@ -104,7 +110,8 @@ def views(cell: Cell, seed: int, resolution: Any, cruise: float, frame: int
                 "half_fov": half_fov, "frame_pixels": world.height * world.width,
                 "before": [round((frame - i) / world.params.fps, 4) for i in before],
                 "pixels": [int(p[hit]) for p in pixels],
-                "bearing": [round(float(b[hit]), 2) for b in bearings]}
+                "bearing": [round(float(b[hit]), 2) for b in bearings],
+                "excitation": excitation or None, "alarm": alarms or None}
 
 
 def at(record: dict[str, Any], lag: float) -> int:
@@ -169,13 +176,16 @@ def _csv(rows: list[Row]) -> str:
     out = io.StringIO()
     w = csv.writer(out)
     w.writerow(["jitter", "cell", "seed", "threat", "arena_wall",
-                *[f"pixels_{lag:g}s" for lag in (0, *LAGS)],
-                *[f"bearing_{lag:g}s" for lag in (0, *LAGS)]])
+                *[f"{key}_{lag:g}s" for key in ("pixels", "bearing", "excitation")
+                  for lag in (0, *LAGS)], f"alarms_last_{WINDOW:g}s"])
     for cell, seed, r in rows:
         if r["replayed"]:
             idx = [at(r, lag) for lag in (0, *LAGS)]
+            excited = r["excitation"] or [""] * len(r["pixels"])
             w.writerow([f"{cell.jitter:g}", cell.label, seed, r["hit"], r["wall"],
-                        *[r["pixels"][i] for i in idx], *[r["bearing"][i] for i in idx]])
+                        *[r["pixels"][i] for i in idx], *[r["bearing"][i] for i in idx],
+                        *[excited[i] for i in idx],
+                        "" if r["alarm"] is None else sum(r["alarm"])])
     return out.getvalue()
 
 
@@ -200,6 +210,25 @@ def _markdown(cells: list[Cell], episodes: int, rows: list[Row], command: str) -
         lines.append(f"| {cell.jitter:g} | {cell.label} | {episodes} | {len(found)} | "
                      f"{len(hits)} | {sum(r['wall'] for r in hits)} | "
                      + " | ".join(f"{n} ({_pct(n, len(hits))})" for n in outs) + " |")
+    excited = [(cell, [r for r in by_cell[(cell.jitter, cell.label)]
+                       if r["replayed"] and r["excitation"]])
+               for cell in sorted(cells, key=lambda c: (c.jitter, c.label))]
+    if any(hits for _cell, hits in excited):
+        lines += ["", "What the controller's detector said before those collisions: its "
+                  "excitation (the larger eye's; 0 at rest, 1 at the alarm threshold) the "
+                  "given time before the hit, the median and the largest over the "
+                  f"collisions, and how many saw an alarm in the last {WINDOW:g} s:", "",
+                  "| jitter | controller | replayed | "
+                  + " | ".join(f"excitation {lag:g} s before" for lag in LAGS)
+                  + f" | an alarm in the last {WINDOW:g} s |",
+                  "|---:|---|---:|" + "---:|" * (len(LAGS) + 1)]
+        for cell, hits in excited:
+            cols = [np.array([r["excitation"][at(r, lag)] for r in hits]) for lag in LAGS]
+            alarmed = sum(any(r["alarm"]) for r in hits)
+            lines.append(f"| {cell.jitter:g} | {cell.label} | {len(hits)} | "
+                         + " | ".join(f"{np.median(x):.2f} ({x.max():.2f})" if len(x) else "-"
+                                      for x in cols)
+                         + f" | {alarmed} ({_pct(alarmed, len(hits))}) |")
     return "\n".join(lines) + "\n"
 
 
@@ -216,18 +245,27 @@ def _figure(rows: list[Row], path: Path) -> None:
     rows = [row for row in rows if row[2]["replayed"]]
     labels = sorted({cell.label for cell, _seed, _r in rows})
     jitters = sorted({cell.jitter for cell, _seed, _r in rows})
-    fig, axes = plt.subplots(len(labels), 2, figsize=(11, 2.6 * len(labels)),
+    excited = any(r["excitation"] for _cell, _seed, r in rows)
+    fig, axes = plt.subplots(len(labels), 2 + excited, figsize=(5.5 * (2 + excited),
+                                                               2.6 * len(labels)),
                              squeeze=False, sharex=True)
     colours = dict(zip(jitters, ("tab:blue", "tab:orange", "tab:green", "tab:red"),
                        strict=False))
     for row, label in enumerate(labels):
-        ax_b, ax_p = axes[row]
+        ax_b, ax_p = axes[row][:2]
         mine = [(cell, r) for cell, _seed, r in rows if cell.label == label]
         for cell, r in mine:
             t = -np.asarray(r["before"])
             share = 100 * np.asarray(r["pixels"]) / r["frame_pixels"]
             ax_b.plot(t, r["bearing"], color=colours[cell.jitter], lw=0.8, alpha=0.7)
             ax_p.plot(t, share, color=colours[cell.jitter], lw=0.8, alpha=0.7)
+            if excited and r["excitation"]:
+                axes[row][2].plot(t, r["excitation"], color=colours[cell.jitter], lw=0.8,
+                                  alpha=0.7)
+        if excited:
+            axes[row][2].axhline(1.0, color="black", ls="--", lw=0.8)
+            axes[row][2].set_ylim(-0.05, 2.05)
+            axes[row][2].set_ylabel("excitation")
         fov = mine[0][1]["half_fov"]
         ax_b.axhspan(-fov, fov, color="0.88", zorder=0)
         ax_b.set_ylim(-180, 180)
@@ -241,9 +279,14 @@ def _figure(rows: list[Row], path: Path) -> None:
     handles = [plt.Line2D([], [], color=colours[j], label=f"jitter {j:g}") for j in jitters]
     handles.append(plt.Rectangle((0, 0), 1, 1, color="0.88",
                                  label="the camera's horizontal field of view"))
+    if excited:
+        handles.append(plt.Line2D([], [], color="black", ls="--",
+                                  label="the detector's alarm threshold"))
     fig.legend(handles=handles, loc="lower center", ncol=len(handles), fontsize=8)
     fig.suptitle("The obstacle each collision hits: the bearing of its nearest point from the "
-                 "camera (left) and its pixels in the camera's frame (right)", fontsize=10)
+                 "camera, its pixels in the camera's frame"
+                 + (", and the controller's excitation (the larger eye's)" if excited else ""),
+                 fontsize=10)
     fig.tight_layout(rect=(0, 0.03, 1, 0.97))
     tmp = path.with_suffix(".tmp.png")
     fig.savefig(tmp, dpi=110)
