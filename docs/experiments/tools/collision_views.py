@@ -198,10 +198,9 @@ def _markdown(cells: list[Cell], episodes: int, rows: list[Row], command: str) -
              "these how many hit an arena wall and how many an obstacle out of the camera's "
              "frame (no pixel of it in the segmentation) the given time before the hit, and "
              f"in every frame of the last {WINDOW:g} s:", "",
-             "| jitter | controller | episodes | collisions | replayed | with an arena wall | "
-             + " | ".join(f"out of the frame {lag:g} s before" for lag in LAGS)
-             + f" | out of the frame all the last {WINDOW:g} s |",
-             "|---:|---|---:|---:|---:|---:|" + "---:|" * (len(LAGS) + 1)]
+             *_head("episodes", "collisions", "replayed", "with an arena wall",
+                    *[f"out of the frame {lag:g} s before" for lag in LAGS],
+                    f"out of the frame all the last {WINDOW:g} s")]
     for cell in sorted(cells, key=lambda c: (c.jitter, c.label)):
         found = by_cell[(cell.jitter, cell.label)]
         hits = [r for r in found if r["replayed"]]
@@ -218,10 +217,8 @@ def _markdown(cells: list[Cell], episodes: int, rows: list[Row], command: str) -
                   "excitation (the larger eye's; 0 at rest, 1 at the alarm threshold) the "
                   "given time before the hit, the median and the largest over the "
                   f"collisions, and how many saw an alarm in the last {WINDOW:g} s:", "",
-                  "| jitter | controller | replayed | "
-                  + " | ".join(f"excitation {lag:g} s before" for lag in LAGS)
-                  + f" | an alarm in the last {WINDOW:g} s |",
-                  "|---:|---|---:|" + "---:|" * (len(LAGS) + 1)]
+                  *_head("replayed", *[f"excitation {lag:g} s before" for lag in LAGS],
+                         f"an alarm in the last {WINDOW:g} s")]
         for cell, hits in excited:
             cols = [np.array([r["excitation"][at(r, lag)] for r in hits]) for lag in LAGS]
             alarmed = sum(any(r["alarm"]) for r in hits)
@@ -230,6 +227,12 @@ def _markdown(cells: list[Cell], episodes: int, rows: list[Row], command: str) -
                                       for x in cols)
                          + f" | {alarmed} ({_pct(alarmed, len(hits))}) |")
     return "\n".join(lines) + "\n"
+
+
+def _head(*columns: str) -> list[str]:
+    """The heading and alignment rows of a per-cell table with these counts' columns."""
+    return ["| jitter | controller | " + " | ".join(columns) + " |",
+            "|---:|---|" + "---:|" * len(columns)]
 
 
 def _pct(n: int, total: int) -> str:
