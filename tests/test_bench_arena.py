@@ -305,10 +305,13 @@ def test_a_run_folders_configuration_reads_back_as_the_one_that_ran():
         scenarios=("RobotWallAhead",), jitter=(0.0, 2.0), controllers=("oracle", "reactive"),
         detectors=(("lgmd1", "robot"),), seeds=3, first_seed=7, resolution=(60, 80),
         cruise=0.5, horizon=1.5, sides=("halves", "eyes"), top_views=2,
-        extra=(Cell("RobotWallAhead", 2.0, "oracle", params=(("horizon", 0.8),), tag="h"),))
+        extra=(Cell("RobotWallAhead", 2.0, "oracle", params=(("horizon", 0.8),), tag="h"),
+               Cell("RobotWallAhead", 0.0, "loom-steer", "lgmd1", "robot",
+                    params=(("slow", 0.0),), tag="s")))
     back = ClosedLoopConfig.from_json(json.loads(json.dumps(ran.as_json())))
     assert back == ran  # sides in their recorded order: the default first
-    assert back.cells() == ran.cells()
+    assert back.cells() == ran.cells()  # an extra cell's detector too
+    assert "model" not in ran.as_json()["extra"][0]  # as runs before detectors wrote it
     no_extra = ClosedLoopConfig(controllers=("straight",))
     assert ClosedLoopConfig.from_json(no_extra.as_json()) == no_extra
 

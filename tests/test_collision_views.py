@@ -51,25 +51,29 @@ def test_a_wall_driven_into_is_seen_ahead_and_a_replay_that_differs_is_left_out(
 
 def test_a_loom_steer_collision_keeps_what_its_detector_said_before_it(tmp_path):
     from lgmd_sim.bench.closed_loop import ClosedLoopConfig, run
+    from lgmd_sim.bench.episode import Cell
 
     bench = tmp_path / "bench"
-    # LoomSteer on LGMD1 drives into the wall of RobotWallAhead on seed 1.
-    run(ClosedLoopConfig(scenarios=("RobotWallAhead",), jitter=(0.0,),
-                         controllers=("loom-steer",), detectors=(("lgmd1", "robot-image"),),
-                         seeds=1, first_seed=1),
+    # LoomSteer on LGMD1 that cannot steer nor slow: whatever its detector says, it drives
+    # into the wall of RobotWallAhead.
+    blind = Cell("RobotWallAhead", 0.0, "loom-steer", "lgmd1", "robot-image",
+                 params=(("steer_gain", 0.0), ("slow", 0.0), ("avoid_turn", 0.0),
+                         ("avoid_speed", 0.6)), tag="blind")
+    run(ClosedLoopConfig(scenarios=("RobotWallAhead",), jitter=(0.0,), controllers=(),
+                         extra=(blind,), seeds=1, first_seed=0),
         bench, workers=1, progress=False)
     out = tmp_path / "views"
     subprocess.run([sys.executable, str(TOOLS / "collision_views.py"), str(bench),
                     str(out), "--workers", "1"], check=True, capture_output=True)
     with (out / "collisions.csv").open(newline="") as f:
         (row,) = csv.DictReader(f)
-    excitation = [float(row[f"excitation_{lag}s"]) for lag in ("1", "0.5", "0.25")]
-    assert all(0.0 <= x <= 2.0 for x in excitation)
-    assert excitation[0] < excitation[-1] < 1.0  # the wall excites it, never to an alarm
-    assert row["alarms_last_2s"] == "0"
-    table = (out / "collision_views.md").read_text()
-    shown = " | ".join(f"{x:.2f} ({x:.2f})" for x in excitation[::-1])  # 0.25 s first
-    assert f"| 0 | loom-steer: lgmd1/robot-image | 1 | {shown} | 0 (0%) |" in table
+    excitation = [float(row[f"excitation_{lag}s"]) for lag in ("0.25", "0.5", "1")]
+    assert all(0.0 <= x <= 2.0 for x in excitation) and len(set(excitation)) > 1
+    alarmed = int(row["alarms_last_2s"]) > 0
+    shown = " | ".join(f"{x:.2f} ({x:.2f})" for x in excitation)
+    assert (f"| 0 | loom-steer: lgmd1/robot-image | 1 | {shown} | {int(alarmed)} "
+            f"({100 * alarmed}%) |"
+            in (out / "collision_views.md").read_text())
 
 
 def test_a_scenario_that_goes_on_after_a_collision_is_refused_in_one_line(tmp_path):
@@ -89,4 +93,23 @@ def test_a_scenario_that_goes_on_after_a_collision_is_refused_in_one_line(tmp_pa
     assert done.returncode == 1
     assert done.stderr.strip().endswith("holds ArenaRoam, whose episodes go on after a "
                                         "collision: only scenarios that end at one")
+    assert not (tmp_path / "views").exists()
+
+
+def test_a_run_without_collisions_is_refused_in_one_line(tmp_path):
+    import json
+
+    from lgmd_sim.bench.closed_loop import ClosedLoopConfig
+
+    config = ClosedLoopConfig(scenarios=("RobotWallAhead",), jitter=(0.0,),
+                              controllers=("straight",), seeds=1)
+    (tmp_path / "run.json").write_text(json.dumps({"config": config.as_json()}))
+    (tmp_path / "episodes.csv").write_text(
+        "scenario,jitter,controller,model,preset,tag,side,seed,task,frames,collided\n"
+        "RobotWallAhead,0.0,straight,,,,,1000,roam,90,False\n")
+    done = subprocess.run([sys.executable, str(TOOLS / "collision_views.py"),
+                           str(tmp_path), str(tmp_path / "views")], capture_output=True,
+                          text=True)
+    assert (done.returncode, done.stderr) == (
+        1, f"collision_views.py: {tmp_path} records no collision to replay\n")
     assert not (tmp_path / "views").exists()

@@ -126,6 +126,7 @@ class ClosedLoopConfig:
     def from_json(cls, config: dict[str, Any]) -> ClosedLoopConfig:
         """The configuration a run folder's run.json records (`as_json`'s inverse)."""
         extra = tuple(Cell(e["scenario"], float(e["jitter"]), e["controller"],
+                           e.get("model"), e.get("preset"),
                            params=tuple(e["params"].items()), tag=e["tag"])
                       for e in config.get("extra", ()))
         return cls(
@@ -157,9 +158,12 @@ class ClosedLoopConfig:
         if self.top_views != 1:  # only then, so that a run from before it still resumes
             out["top_views"] = self.top_views
         if self.extra:
+            # a cell's detector only where it has one, so that a run from before still
+            # resumes
             out["extra"] = [{"scenario": c.scenario, "jitter": c.jitter,
-                             "controller": c.controller, "params": dict(c.params),
-                             "tag": c.tag} for c in self.extra]
+                             "controller": c.controller,
+                             **({"model": c.model, "preset": c.preset} if c.model else {}),
+                             "params": dict(c.params), "tag": c.tag} for c in self.extra]
         # every parameter of every detector a cell runs, as its preset resolves today: a
         # preset recalibrated (or a default changed) since the run began is another run
         detectors = sorted({(c.model, c.preset) for c in self.cells() if c.model})

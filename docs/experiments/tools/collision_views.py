@@ -143,6 +143,8 @@ def main() -> None:
                                              "resolution": config.resolution,
                                              "cruise": config.cruise,
                                              "frame": int(r["frames"]) - 1}))
+    if not jobs:
+        sys.exit(f"collision_views.py: {args.eval} records no collision to replay")
     results: dict[str, dict[str, Any]] = {}
     run_jobs(jobs, lambda job, r: results.__setitem__(job.key, r), workers=args.workers,
              progress=True, desc="collisions replayed")
@@ -246,6 +248,9 @@ def _figure(rows: list[Row], path: Path) -> None:
     import matplotlib.pyplot as plt
 
     rows = [row for row in rows if row[2]["replayed"]]
+    if not rows:  # none replayed to its collision: nothing to draw
+        path.unlink(missing_ok=True)
+        return
     labels = sorted({cell.label for cell, _seed, _r in rows})
     jitters = sorted({cell.jitter for cell, _seed, _r in rows})
     excited = any(r["excitation"] for _cell, _seed, r in rows)
