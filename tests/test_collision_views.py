@@ -76,40 +76,24 @@ def test_a_loom_steer_collision_keeps_what_its_detector_said_before_it(tmp_path)
             in (out / "collision_views.md").read_text())
 
 
-def test_a_scenario_that_goes_on_after_a_collision_is_refused_in_one_line(tmp_path):
+@pytest.mark.parametrize("scenario, collided, says", [
+    ("ArenaRoam", True, "holds ArenaRoam, whose episodes go on after a collision: only "
+                        "scenarios that end at one"),
+    ("RobotWallAhead", False, "records no collision to replay"),
+])
+def test_a_run_it_cannot_replay_is_refused_in_one_line(tmp_path, scenario, collided, says):
     import json
 
     from lgmd_sim.bench.closed_loop import ClosedLoopConfig
 
-    config = ClosedLoopConfig(scenarios=("ArenaRoam",), jitter=(1.0,), controllers=("straight",),
+    config = ClosedLoopConfig(scenarios=(scenario,), jitter=(1.0,), controllers=("straight",),
                               seeds=1)
     (tmp_path / "run.json").write_text(json.dumps({"config": config.as_json()}))
     (tmp_path / "episodes.csv").write_text(
         "scenario,jitter,controller,model,preset,tag,side,seed,task,frames,collided\n"
-        "ArenaRoam,1.0,straight,,,,,1000,roam,900,True\n")
+        f"{scenario},1.0,straight,,,,,1000,roam,900,{collided}\n")
     done = subprocess.run([sys.executable, str(TOOLS / "collision_views.py"),
                            str(tmp_path), str(tmp_path / "views")], capture_output=True,
                           text=True)
-    assert done.returncode == 1
-    assert done.stderr.strip().endswith("holds ArenaRoam, whose episodes go on after a "
-                                        "collision: only scenarios that end at one")
-    assert not (tmp_path / "views").exists()
-
-
-def test_a_run_without_collisions_is_refused_in_one_line(tmp_path):
-    import json
-
-    from lgmd_sim.bench.closed_loop import ClosedLoopConfig
-
-    config = ClosedLoopConfig(scenarios=("RobotWallAhead",), jitter=(0.0,),
-                              controllers=("straight",), seeds=1)
-    (tmp_path / "run.json").write_text(json.dumps({"config": config.as_json()}))
-    (tmp_path / "episodes.csv").write_text(
-        "scenario,jitter,controller,model,preset,tag,side,seed,task,frames,collided\n"
-        "RobotWallAhead,0.0,straight,,,,,1000,roam,90,False\n")
-    done = subprocess.run([sys.executable, str(TOOLS / "collision_views.py"),
-                           str(tmp_path), str(tmp_path / "views")], capture_output=True,
-                          text=True)
-    assert (done.returncode, done.stderr) == (
-        1, f"collision_views.py: {tmp_path} records no collision to replay\n")
+    assert (done.returncode, done.stderr) == (1, f"collision_views.py: {tmp_path} {says}\n")
     assert not (tmp_path / "views").exists()
