@@ -253,6 +253,14 @@ def test_an_extra_cell_with_parameters_needs_a_tag():
     with pytest.raises(ValueError, match=r"cell oracle \(ArenaRoam, jitter 0\) is a cell of"):
         ClosedLoopConfig(scenarios=("ArenaRoam",), jitter=(0.0,),
                          extra=(Cell("ArenaRoam", 0.0, "oracle"),))
+    # one driven by a detector too: its tag tells it apart from the planned cell
+    planned = dict(scenarios=("ArenaRoam",), jitter=(0.0,), controllers=("loom-steer",),
+                   detectors=(("lgmd1", "robot"),))
+    slow = Cell("ArenaRoam", 0.0, "loom-steer", "lgmd1", "robot", (("slow", 0.0),), "slow 0")
+    both = ClosedLoopConfig(**planned, extra=(slow,)).cells()
+    assert [c.label for c in both] == ["loom-steer: lgmd1/robot",
+                                       "loom-steer: lgmd1/robot (slow 0)"]
+    assert len({c.key(0) for c in both}) == 2
 
 
 def test_a_controller_that_cannot_tell_reports_no_manoeuvring_share(monkeypatch):

@@ -71,7 +71,7 @@ def test_a_loom_steer_collision_keeps_what_its_detector_said_before_it(tmp_path)
     assert all(0.0 <= x <= 2.0 for x in excitation) and len(set(excitation)) > 1
     alarmed = int(row["alarms_last_2s"]) > 0
     shown = " | ".join(f"{x:.2f} ({x:.2f})" for x in excitation)
-    assert (f"| 0 | loom-steer: lgmd1/robot-image | 1 | {shown} | {int(alarmed)} "
+    assert (f"| 0 | loom-steer: lgmd1/robot-image (blind) | 1 | {shown} | {int(alarmed)} "
             f"({100 * alarmed}%) |"
             in (out / "collision_views.md").read_text())
 

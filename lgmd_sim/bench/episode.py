@@ -73,15 +73,16 @@ class Cell:
     @property
     def label(self) -> str:
         """"reactive: feedback/paper", "reactive: feedback/paper, eyes", "oracle",
-        "straight", "policy: ppo-feedback"."""
+        "straight", "policy: ppo-feedback", "loom-steer: lgmd1/robot (slow 0)"."""
         detail = f"{self.model}/{self.preset}" if self.model else self.tag
+        if self.model and self.tag:
+            detail += f" ({self.tag})"
         side = f", {self.side}" if self.side else ""
         return self.controller + (f": {detail}" if detail else "") + side
 
     def key(self, seed: int) -> str:
         """The cell's record name for one seed (a file name: `lgmd_sim.options.file_key`)."""
-        detail = f"-{self.model}-{self.preset}" if self.model else (
-            f"-{self.tag}" if self.tag else "")
+        detail = "".join(f"-{part}" for part in (self.model, self.preset, self.tag) if part)
         side = f"-{self.side}" if self.side else ""
         key = f"{self.scenario}-j{self.jitter:g}-{self.controller}{detail}{side}-s{seed}"
         return options.file_key(key)
