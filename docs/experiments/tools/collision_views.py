@@ -183,10 +183,10 @@ def _csv(rows: list[Row]) -> str:
     for cell, seed, r in rows:
         if r["replayed"]:
             idx = [at(r, lag) for lag in (0, *LAGS)]
-            excited = r["excitation"] or [""] * len(r["pixels"])
+            excitation = r["excitation"] or [""] * len(r["pixels"])
             w.writerow([f"{cell.jitter:g}", cell.label, seed, r["hit"], r["wall"],
                         *[r["pixels"][i] for i in idx], *[r["bearing"][i] for i in idx],
-                        *[excited[i] for i in idx],
+                        *[excitation[i] for i in idx],
                         "" if r["alarm"] is None else sum(r["alarm"])])
     return out.getvalue()
 
@@ -203,6 +203,7 @@ def _markdown(cells: list[Cell], episodes: int, rows: list[Row], command: str) -
              *_head("episodes", "collisions", "replayed", "with an arena wall",
                     *[f"out of the frame {lag:g} s before" for lag in LAGS],
                     f"out of the frame all the last {WINDOW:g} s")]
+    excited: list[tuple[Cell, list[dict[str, Any]]]] = []  # those with an excitation
     for cell in sorted(cells, key=lambda c: (c.jitter, c.label)):
         found = by_cell[(cell.jitter, cell.label)]
         hits = [r for r in found if r["replayed"]]
@@ -211,9 +212,7 @@ def _markdown(cells: list[Cell], episodes: int, rows: list[Row], command: str) -
         lines.append(f"| {cell.jitter:g} | {cell.label} | {episodes} | {len(found)} | "
                      f"{len(hits)} | {sum(r['wall'] for r in hits)} | "
                      + " | ".join(f"{n} ({_pct(n, len(hits))})" for n in outs) + " |")
-    excited = [(cell, [r for r in by_cell[(cell.jitter, cell.label)]
-                       if r["replayed"] and r["excitation"]])
-               for cell in sorted(cells, key=lambda c: (c.jitter, c.label))]
+        excited.append((cell, [r for r in hits if r["excitation"]]))
     if any(hits for _cell, hits in excited):
         lines += ["", "What the controller's detector said before those collisions: its "
                   "excitation (the larger eye's; 0 at rest, 1 at the alarm threshold) the "
@@ -253,9 +252,9 @@ def _figure(rows: list[Row], path: Path) -> None:
         return
     labels = sorted({cell.label for cell, _seed, _r in rows})
     jitters = sorted({cell.jitter for cell, _seed, _r in rows})
-    excited = any(r["excitation"] for _cell, _seed, r in rows)
-    fig, axes = plt.subplots(len(labels), 2 + excited, figsize=(5.5 * (2 + excited),
-                                                               2.6 * len(labels)),
+    has_excitation = any(r["excitation"] for _cell, _seed, r in rows)
+    panels = 2 + has_excitation
+    fig, axes = plt.subplots(len(labels), panels, figsize=(5.5 * panels, 2.6 * len(labels)),
                              squeeze=False, sharex=True)
     colours = dict(zip(jitters, ("tab:blue", "tab:orange", "tab:green", "tab:red"),
                        strict=False))
@@ -267,10 +266,10 @@ def _figure(rows: list[Row], path: Path) -> None:
             share = 100 * np.asarray(r["pixels"]) / r["frame_pixels"]
             ax_b.plot(t, r["bearing"], color=colours[cell.jitter], lw=0.8, alpha=0.7)
             ax_p.plot(t, share, color=colours[cell.jitter], lw=0.8, alpha=0.7)
-            if excited and r["excitation"]:
+            if r["excitation"]:
                 axes[row][2].plot(t, r["excitation"], color=colours[cell.jitter], lw=0.8,
                                   alpha=0.7)
-        if excited:
+        if has_excitation:
             axes[row][2].axhline(1.0, color="black", ls="--", lw=0.8)
             axes[row][2].set_ylim(-0.05, 2.05)
             axes[row][2].set_ylabel("excitation")
@@ -287,13 +286,14 @@ def _figure(rows: list[Row], path: Path) -> None:
     handles = [plt.Line2D([], [], color=colours[j], label=f"jitter {j:g}") for j in jitters]
     handles.append(plt.Rectangle((0, 0), 1, 1, color="0.88",
                                  label="the camera's horizontal field of view"))
-    if excited:
+    if has_excitation:
         handles.append(plt.Line2D([], [], color="black", ls="--",
                                   label="the detector's alarm threshold"))
     fig.legend(handles=handles, loc="lower center", ncol=len(handles), fontsize=8)
     fig.suptitle("The obstacle each collision hits: the bearing of its nearest point from the "
                  "camera, its pixels in the camera's frame"
-                 + (", and the controller's excitation (the larger eye's)" if excited else ""),
+                 + (", and the controller's excitation (the larger eye's)"
+                    if has_excitation else ""),
                  fontsize=10)
     fig.tight_layout(rect=(0, 0.03, 1, 0.97))
     tmp = path.with_suffix(".tmp.png")
