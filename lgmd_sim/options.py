@@ -67,10 +67,10 @@ def file_key(name: str) -> str:
     return name.replace(":", "_")
 
 
-def _jitter_error(shown: str) -> ValueError:
+def _jitter_error(shown: str, option: str = "--jitter") -> ValueError:
     from lgmd_sim.world.params import MAX_JITTER
 
-    return ValueError(f"--jitter: jitter level {shown} is not a number in [0, {MAX_JITTER:g}]")
+    return ValueError(f"{option}: jitter level {shown} is not a number in [0, {MAX_JITTER:g}]")
 
 
 def _is_jitter(level: Any) -> bool:
@@ -95,15 +95,16 @@ def jitter_levels(text: str, *, drop_repeats: bool = True) -> tuple[float, ...]:
     return tuple(dict.fromkeys(levels)) if drop_repeats else tuple(levels)
 
 
-def check_jitter(levels: Sequence[float]) -> None:
-    """Jitter levels of a configuration: at least one, each in range, none twice."""
+def check_jitter(levels: Sequence[float], option: str = "--jitter") -> None:
+    """Jitter levels of a configuration: at least one, each in range, none twice (`option`:
+    where they were given, for the message)."""
     if not levels:
-        raise ValueError("--jitter: no jitter levels given")
+        raise ValueError(f"{option}: no jitter levels given")
     for level in levels:
         if not _is_jitter(level):
-            raise _jitter_error(repr(level))
+            raise _jitter_error(repr(level), option)
     if len(set(levels)) < len(levels):
-        raise ValueError(f"--jitter: a level is given twice: {', '.join(map(str, levels))}")
+        raise ValueError(f"{option}: a level is given twice: {', '.join(map(str, levels))}")
 
 
 def noise_levels(text: str) -> tuple[float, ...]:
@@ -151,12 +152,13 @@ def check_seed(value: Any, option: str) -> None:
         raise ValueError(f"{option} must be an integer >= 0, got {value!r}")
 
 
-def resolution(value: str | Sequence[int]) -> str | tuple[int, int]:
+def resolution(value: str | Sequence[int], option: str = "--resolution"
+               ) -> str | tuple[int, int]:
     """A frame size, checked (`lgmd_sim.world.params.parse_resolution`): a preset name
     (`lgmd_sim.world.params.RESOLUTIONS`), "HEIGHTxWIDTH" or (height, width)."""
     from lgmd_sim.world.params import parse_resolution
 
-    return parse_resolution(value, "--resolution")
+    return parse_resolution(value, option)
 
 
 def check_range(value: Any, option: str, lo: float, hi: float) -> None:

@@ -9,6 +9,7 @@ import json
 import os
 import re
 import shutil
+import time
 from pathlib import Path
 
 import numpy as np
@@ -60,6 +61,20 @@ def test_the_shipped_protocol_reads_as_it_says():
     ({"jitter": "jitter = []"}, "goal.jitter must be a non-empty array"),
     ({"reference_distance_m": "reference_distance_m = [1.0, 2.0]"},
      "reference_distance_m must hold a distance > 0 per jitter level"),
+    # found only after the closed-loop tracks ran, or never (issue 49, item 7)
+    ({"approaching": 'approaching = ["Looming", "Looming"]'},
+     "detection.approaching: stimulus 'Looming' is in detection.approaching already"),
+    ({"non_approach": 'non_approach = ["Receding", "Looming"]'},
+     "detection.non_approach: stimulus 'Looming' is in detection.approaching already"),
+    ({"bootstrap_seed": "bootstrap_seed = -1"}, "bootstrap_seed must be an integer >= 0"),
+    ({"bootstrap": "bootstrap = 1000000000000"}, "bootstrap must be at most 100,000"),
+    ({"bootstrap": "bootstrap = 20000000"}, "bootstrap must be at most 100,000"),
+    ({"budget": "budget = 0"}, "calibration.budget must be a positive integer"),
+    ({"heldout_seed": "heldout_seed = 3"}, "calibration: the search seeds"),
+    # the protocol's keys, not the CLI's options (--jitter, --resolution)
+    ({"jitter": "jitter = [1.0, 1.0]"}, "goal.jitter: a level is given twice"),
+    ({"jitter": "jitter = [99.0]"}, "goal.jitter: jitter level 99.0 is not"),
+    ({"resolution": 'resolution = "huge"'}, ": resolution must be"),
 ])
 def test_a_bad_protocol_is_one_line_naming_the_file_and_the_key(tmp_path, change, message):
     file = _tiny(tmp_path, **change)
@@ -67,6 +82,7 @@ def test_a_bad_protocol_is_one_line_naming_the_file_and_the_key(tmp_path, change
         protocol.load(file)
     text = str(exc.value)
     assert len(text.splitlines()) == 1 and str(file) in text and message in text, text
+    assert " --" not in text  # a key of the file, not an option of a command
 
 
 def test_an_unknown_protocol_or_a_file_that_is_no_toml_is_one_line(tmp_path):
@@ -162,7 +178,10 @@ def test_entries_are_detectors_controllers_or_policies():
                          ("lgmd1@left", "after '@' comes a side (halves, eyes) or a controller"),
                          ("lgmd1@oracle", "or a controller that a detector drives"),
                          ("reactive", "name the detector it drives (e.g. lgmd1)"),
-                         ("loom-steer", "name the detector it drives (e.g. lgmd1@loom-steer)")):
+                         ("loom-steer", "name the detector it drives (e.g. lgmd1@loom-steer)"),
+                         # "unknown model '.'", and "File name too long" with 5,000 'a's
+                         ("./nope/", "no policy folder there (no nope/policy.json)"),
+                         ("a" * 5000, "is 5,000 characters")):
         with pytest.raises(ValueError, match=re.escape(message)):
             entries.parse(bad)
 
@@ -301,3 +320,102 @@ def test_a_rank_counts_only_the_entries_better_beyond_doubt():
             if line.startswith("| ") and "`" in line]
     assert [(r.split("|")[1].strip(), r.split("|")[2].strip()) for r in rows] == [
         ("1", "`a`"), ("=1", "`b`"), ("=2", "`c`")]
+
+
+# --- every entry checked before the first episode (issue 49, items 7 and 9) ---------------
+
+
+def _shipped_policy_in(folder: Path) -> Path:
+    from lgmd_sim import policies
+
+    shutil.copytree(policies.path(policies.DEFAULT), folder)
+    return folder
+
+
+@pytest.mark.parametrize("case", ["two policies of one folder name",
+                                  "a policy trained at another frame size"])
+def test_entries_that_cannot_all_run_are_refused_before_any_runs(tmp_path, capsys, case):
+    if case == "two policies of one folder name":
+        tiny = _tiny(tmp_path, resolution='resolution = "rl"')
+        given = [str(_shipped_policy_in(tmp_path / d / "pol")) for d in ("a", "b")]
+        expected = "one folder"
+    else:  # the tiny protocol renders 64 x 64, the policy was trained on 120 x 160
+        tiny = _tiny(tmp_path)
+        given = [str(_shipped_policy_in(tmp_path / "pol"))]
+        expected = "trained on 120x160 frames, the protocol runs 64x64"
+    out = tmp_path / "out"
+    assert _benchmark(tiny, out, "straight", *given) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and expected in err, err
+    assert not out.exists()  # `straight`, first, did not run
+
+
+def test_a_recalibrated_built_in_does_not_take_a_shipped_preset_s_name(tmp_path, monkeypatch):
+    """`--calibrate lgmd1` made the row "lgmd1/robot", the shipped preset's name with other
+    parameters; the leaderboard then refused both as one entry twice."""
+    from lgmd_sim.benchmark import run
+    from lgmd_sim.calibration import run as calibration
+
+    def calibrate(config, folder, **_):  # what a calibration leaves, without its minutes
+        folder.mkdir(parents=True)
+        made = {"from": "published", "params": {"c_sig": 1.0, "threshold": 0.5}}
+        (folder / "calibrated.json").write_text(json.dumps(
+            {"command": "", "presets": {"lgmd1": {"robot": made}}}))
+
+    monkeypatch.setattr(calibration, "calibrate", calibrate)
+    assert "robot" in run.shipped_presets("lgmd1")
+    tuned, presets = run.calibrated(entries.parse("lgmd1"), protocol.load(_tiny(tmp_path)),
+                                    tmp_path / "out")
+    assert tuned.label == "lgmd1/robot-recalibrated"
+    with run.user_presets(presets):
+        from lgmd_sim import models
+
+        assert models.make("lgmd1", preset="robot-recalibrated").params.c_sig == 1.0
+        assert models.make("lgmd1", preset="robot").params.c_sig == pytest.approx(88.84, 1e-3)
+
+
+def test_a_second_benchmark_of_the_same_entry_into_the_same_folder_is_refused(tmp_path, capsys):
+    """Two at once both computed everything, and run.json lost one's wall time."""
+    from lgmd_sim.core.fileio import held_lock
+
+    out = tmp_path / "out"
+    with held_lock(out / ".straight.lock"):  # a benchmark of straight, running
+        assert _benchmark(_tiny(tmp_path), out, "straight") == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "another lgmd-sim benchmark is running" in err, err
+    assert sorted(p.name for p in out.iterdir()) == [".straight.lock"]
+
+
+@pytest.mark.parametrize("address, why", [("127.0.0.1:1", "no Ray cluster answers there"),
+                                          ("bogus", "give local, auto or HOST:PORT")])
+def test_a_ray_address_where_no_cluster_answers_is_one_line_at_once(tmp_path, capsys,
+                                                                     address, why):
+    """It retried for ever, and the Ray example with it."""
+    out = tmp_path / "out"
+    start = time.perf_counter()
+    assert cli.main(["benchmark", "straight", "--protocol", str(_tiny(tmp_path)), "--out",
+                     str(out), "--ray", address]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "--ray" in err and address in err and why in err, err
+    assert time.perf_counter() - start < 30 and not out.exists()
+
+
+def test_a_detector_that_always_alarms_scores_0_and_one_that_never_does_0_5(tmp_path,
+                                                                            monkeypatch):
+    """The guide said 0.5 for both: an alarm from the first frame comes before the window
+    on every looming clip, so it is no hit, and a false alarm on every other clip."""
+    from lgmd_sim.benchmark import detection
+
+    spec = "lgmd_sim.benchmark.baselines:RandomAlarm"
+    presets = {name: {"from": "default", "params": {"rate_per_min": rate}}
+               for name, rate in (("always", 1800.0), ("never", 0.0))}
+    (tmp_path / "calibrated.json").write_text(json.dumps({"presets": {spec: presets}}))
+    monkeypatch.setenv("LGMD_SIM_DATA_DIR", str(tmp_path))
+    track = protocol.load(_tiny(tmp_path)).detection
+    clips = [c for c in detection.clips(track) if c[0] in ("Looming", "Receding")]
+    got = {}
+    for preset in presets:
+        records = [detection.clip_job(c, spec, preset, "small", c[0] == "Looming",
+                                      track.window_s) for c in clips]
+        got[preset] = scores.detection_parts(records).score()
+    assert got == {"always": 0.0, "never": 0.5}

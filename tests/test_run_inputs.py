@@ -311,3 +311,29 @@ def test_the_missing_extra_hint_is_a_command_that_works_from_a_checkout(monkeypa
     message = str(exc.value)
     assert "'rl' extra" in message and "lgmd-sim[" not in message
     assert "from a checkout of lgmd-sim: pip install -c constraints.txt '.[rl]'" in message
+
+
+@pytest.mark.parametrize("job", ["closed-loop", "open-loop", "calibrate", "dataset"])
+@pytest.mark.parametrize("how, why", [({"workers": 0}, "workers must be a positive integer"),
+                                      ({"ray_address": "127.0.0.1:1"}, "no Ray cluster")])
+def test_how_the_jobs_run_is_checked_before_the_run_folder(tmp_path, job, how, why):
+    """Through the API: the run folder was made (run.json, "running") before a bad
+    `workers` or a Ray address where nothing answers was refused."""
+    from lgmd_sim.bench import closed_loop, open_loop
+    from lgmd_sim.calibration.run import CalibrateConfig, calibrate
+    from lgmd_sim.data.generate import GenerateConfig, generate
+
+    out = tmp_path / "out"
+    run, config = {  # each made only when asked for
+        "closed-loop": lambda: (closed_loop.run, closed_loop.ClosedLoopConfig(
+            scenarios=("StationaryApproach",), controllers=("straight",), seeds=1)),
+        "open-loop": lambda: (open_loop.run, open_loop.OpenLoopConfig(
+            scenarios=("StationaryApproach",), detectors=(("lgmd1", "published"),), seeds=1)),
+        "calibrate": lambda: (calibrate, CalibrateConfig(detectors=("lgmd1",), budget=1,
+                                                         seeds=1)),
+        "dataset": lambda: (generate, GenerateConfig(scenarios=("StationaryApproach",),
+                                                     jitter=(0.0,), episodes=1)),
+    }[job]()
+    with pytest.raises(ValueError, match=why):
+        run(config, out, **how)
+    assert not out.exists()

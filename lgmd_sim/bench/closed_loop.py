@@ -25,7 +25,7 @@ from lgmd_sim import options
 from lgmd_sim.bench.episode import DEFAULT_SIDE, RECORD_FIELDS, Cell, episode, plan
 from lgmd_sim.bench.summary import cell_of, summarise, write_tables
 from lgmd_sim.core.fileio import atomic_folder_outputs
-from lgmd_sim.core.parallel import Job, run_jobs
+from lgmd_sim.core.parallel import Job, check_parallel, run_jobs
 from lgmd_sim.core.runs import RunFolder, RunResult
 
 __all__ = ["ClosedLoopConfig", "run"]
@@ -207,6 +207,7 @@ def run(config: ClosedLoopConfig, out: str | Path, *, resume: bool = False,
     from lgmd_sim.models.check import preflight
 
     cells = config.cells()
+    check_parallel(workers, ray_address)
     preflight((c.model, c.preset) for c in cells if c.model)
     seeds = config.seed_list
     folder = RunFolder(out, config.as_json(), command, resume=resume)

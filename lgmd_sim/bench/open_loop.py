@@ -26,7 +26,7 @@ import numpy as np
 
 from lgmd_sim import metrics, options
 from lgmd_sim.core.fileio import csv_text, write_files, write_text_atomic
-from lgmd_sim.core.parallel import Job, run_jobs
+from lgmd_sim.core.parallel import Job, check_parallel, run_jobs
 from lgmd_sim.core.runs import NULL, NUMBER, RunFolder, RunResult
 
 __all__ = ["Clip", "OpenLoopConfig", "clip_job", "run", "summarise",
@@ -324,6 +324,7 @@ def run(config: OpenLoopConfig, out: str | Path, *, resume: bool = False,
     from lgmd_sim.bench import figures
     from lgmd_sim.models.check import preflight
 
+    check_parallel(workers, ray_address)
     preflight(config.detectors)
     clips = config.clips()
     noisy = _noisy(clips)

@@ -8,13 +8,15 @@ interval of the difference holds 0: the two are not separable on these seeds.
 
 from __future__ import annotations
 
+import html
+import re
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from lgmd_sim.benchmark import scores
+from lgmd_sim.benchmark import audit, scores
 from lgmd_sim.benchmark.protocol import Protocol
 from lgmd_sim.core.fileio import atomic_outputs
 from lgmd_sim.core.runs import NUMBER, Maybe, read_record
@@ -24,7 +26,9 @@ __all__ = ["RESULT_FIELDS", "leaderboard", "load_result", "markdown", "parts"]
 #: What the leaderboard reads of a result.
 RESULT_FIELDS = {
     "protocol": {"version": int, "sha256": str},
-    "entry": {"spec": str, "kind": str, "label": str},
+    "entry": {"spec": str, "kind": str, "label": str, "controller": Maybe(str),
+              "model": Maybe(str), "preset": Maybe(str), "side": Maybe(str),
+              "policy": Maybe(str)},
     "scores": {"goal": NUMBER, "arena": Maybe(NUMBER), "overall": Maybe(NUMBER),
                "detection": Maybe(NUMBER)},
     "intervals": dict,
@@ -36,20 +40,60 @@ RESULT_FIELDS = {
 }
 
 
-def load_result(path: str | Path) -> dict[str, Any]:
-    """A result file (or an entry's folder holding one), its shape checked.
+def load_result(path: str | Path, protocol: Protocol | None = None) -> dict[str, Any]:
+    """A result file (or an entry's folder holding one), its shape checked; with
+    `protocol`, also that it is a result of that protocol whose every number its parts
+    hold (`lgmd_sim.benchmark.audit.check`).
 
     Raises:
-        ValueError: one that cannot be read or is not a benchmark result (naming it).
+        ValueError: one that cannot be read, is not a benchmark result, is another
+            protocol's or claims what its parts do not hold (one line naming it).
     """
     path = Path(path)
     file = path / "result.json" if path.is_dir() else path
-    return read_record(file, RESULT_FIELDS, "run lgmd-sim benchmark again for it")
+    result = read_record(file, RESULT_FIELDS, "give the result.json files that lgmd-sim "
+                         "benchmark writes (OUT/ENTRY/result.json)")
+    if protocol is None:
+        return result
+    identity = protocol.identity()
+    if result["protocol"] != identity:
+        raise ValueError(f"{file}: a result of protocol v{result['protocol']['version']} "
+                         f"({result['protocol']['sha256'][:12]}), not of {protocol.path} "
+                         f"(v{identity['version']}, {identity['sha256'][:12]}): a "
+                         "leaderboard merges one protocol's results")
+    try:
+        audit.check(result, protocol)
+    except ValueError as exc:
+        raise ValueError(f"{file}: {exc}; not ranked") from None
+    return result
 
 
 def parts(result: Mapping[str, Any]) -> dict[str, scores.Parts]:
     """A result's per-seed parts by track, as `lgmd_sim.benchmark.scores.compare` takes them."""
     return {t: scores.Parts.from_json(p) for t, p in result["parts"].items() if p}
+
+
+def _printable(text: str) -> str:
+    """`text` on one line: a control character (a newline) as its escape, so that no value
+    starts another row."""
+    return "".join(c if c.isprintable() else repr(c)[1:-1] for c in text)
+
+
+def _code(text: str, cell: bool = True) -> str:
+    """`text` as a Markdown code span, fenced by more backticks than it holds in a row; in
+    a table's `cell`, its pipes escaped (a pipe ends a cell even within a span)."""
+    text = _printable(text)
+    if cell:
+        text = text.replace("|", "\\|")
+    fence = "`" * (1 + max((len(run) for run in re.findall("`+", text)), default=0))
+    pad = " " if text.startswith("`") or text.endswith("`") else ""
+    return f"{fence}{pad}{text}{pad}{fence}"
+
+
+def _plain(text: str) -> str:
+    """`text` as plain Markdown: no HTML, link, emphasis or cell of its own."""
+    text = html.escape(_printable(text), quote=False)
+    return re.sub(r"([\\`*\[\]|])", r"\\\1", text)
 
 
 def _cell(result: Mapping[str, Any], key: str) -> str:
@@ -103,7 +147,7 @@ def markdown(results: Sequence[Mapping[str, Any]], names: Sequence[str],
         alarms = np.mean([row["false_alarms_per_min"] for row in r["metrics"]["goal"].values()
                           if row.get("false_alarms_per_min") is not None] or [np.nan])
         lines.append(
-            f"| {shown} | `{r['entry']['label']}` | {_cell(r, 'overall')} "
+            f"| {shown} | {_code(r['entry']['label'])} | {_cell(r, 'overall')} "
             f"| {_cell(r, 'goal')} | {_cell(r, 'arena')} | {_cell(r, 'detection')} "
             f"| {_pooled(r, 'goal', 'success_rate')} | {_pooled(r, 'goal', 'collision_rate')} "
             f"| {_pooled(r, 'arena', 'avoidance_rate')} "
@@ -121,9 +165,10 @@ def markdown(results: Sequence[Mapping[str, Any]], names: Sequence[str],
               "(a policy observes a goal)._", "", "Rows' commands, wall time and machine:", ""]
     for i in order:
         r = results[i]
-        cpu = r["machine"].get("cpu", "?")
-        lines.append(f"- `{r['entry']['label']}` ({names[i]}): `{r['command'] or '?'}`, "
-                     f"{r['timing']['wall_time_s'] / 60:.0f} min on {cpu}")
+        cpu = str(r["machine"].get("cpu", "?"))
+        lines.append(f"- {_code(r['entry']['label'])} ({_plain(names[i])}): "
+                     f"{_code(r['command'] or '?', cell=False)}, "
+                     f"{r['timing']['wall_time_s'] / 60:.0f} min on {_plain(cpu)}")
     return "\n".join(lines) + "\n"
 
 
@@ -133,9 +178,10 @@ def _figure(results: Sequence[Mapping[str, Any]], file: Path) -> None:
     from lgmd_sim.core.plots import figure
 
     order = [results[i] for i in _order(results)]
+    # a track no result ran (the arena, among policies alone) has no column
     levels = {t: sorted(next(r["metrics"][t] for r in order if r["metrics"].get(t)), key=float)
-              for t in scores.CLOSED_LOOP}
-    columns = [("overall", None), *((t, j) for t in scores.CLOSED_LOOP for j in levels[t]),
+              for t in scores.CLOSED_LOOP if any(r["metrics"].get(t) for r in order)}
+    columns = [("overall", None), *((t, j) for t in levels for j in levels[t]),
                ("detection", None)]
     grid = np.full((len(order), len(columns)), np.nan)
     for row, r in enumerate(order):
@@ -174,19 +220,16 @@ def leaderboard(paths: Sequence[str | Path], out: str | Path, protocol: Protocol
     """
     if not paths:
         raise ValueError("no results given")
-    results = [load_result(p) for p in paths]
+    out = Path(out)
+    if out.suffix != ".md" or out.is_dir():
+        raise ValueError(f"--out {str(out)!r}: the table is a FILE.md (its figure goes beside "
+                         "it, FILE.png)")
+    results = [load_result(p, protocol) for p in paths]
     first = protocol.identity()
-    for p, r in zip(paths, results, strict=True):
-        if r["protocol"] != first:
-            raise ValueError(f"{p}: a result of protocol v{r['protocol']['version']} "
-                             f"({r['protocol']['sha256'][:12]}), not of {protocol.path} "
-                             f"(v{first['version']}, {first['sha256'][:12]}): a leaderboard "
-                             "merges one protocol's results")
     labels = [r["entry"]["label"] for r in results]
     twice = sorted({label for label in labels if labels.count(label) > 1})
     if twice:
         raise ValueError(f"two results of entry {twice[0]!r}: give each entry once")
-    out = Path(out)
     figure_file = out.with_suffix(".png")
     resamples, seed = protocol.bootstrap, protocol.bootstrap_seed
     header = (f"# Leaderboard\n\nProtocol v{first['version']} (sha256 {first['sha256'][:12]}); "

@@ -24,6 +24,9 @@ _HERE = Path(__file__).resolve().parent
 PROTOCOLS = {p.stem: p for p in sorted(_HERE.glob("v*.toml"))}
 #: The protocol `lgmd-sim benchmark` runs by default.
 CURRENT = "v1"
+#: The most bootstrap resamples a protocol may ask: its draws are resamples x seeds
+#: integers per track (100,000 x 40 seeds: 32 MB), computed again for every comparison.
+MAX_BOOTSTRAP = 100_000
 
 
 @dataclass(frozen=True)
@@ -164,35 +167,52 @@ def _check(p: Protocol) -> None:
     from lgmd_sim.calibration.run import TASKS
     from lgmd_sim.envs.catalogue import scenarios
 
-    options.resolution(p.resolution)
+    options.resolution(p.resolution, "resolution")
     options.check_range(p.cruise, "cruise", -1.0, 1.0)
-    for key in ("version", "bootstrap"):
-        if getattr(p, key) < 1:
-            raise ValueError(f"{key} must be >= 1, got {getattr(p, key)}")
+    options.check_positive(p.version, "version", integer=True)
+    options.check_positive(p.bootstrap, "bootstrap", integer=True)
+    if p.bootstrap > MAX_BOOTSTRAP:
+        raise ValueError(f"bootstrap must be at most {MAX_BOOTSTRAP:,} resamples, got "
+                         f"{p.bootstrap:,}")
+    options.check_seed(p.bootstrap_seed, "bootstrap_seed")
     known = scenarios()
     for name in ("goal", "arena"):
         track: ClosedLoopTrack = getattr(p, name)
         if track.scenario not in known:
             raise ValueError(f"{name}.scenario {track.scenario!r} is not a scenario "
                              "(lgmd-sim envs lists them)")
-        options.check_jitter(track.jitter)
+        options.check_jitter(track.jitter, f"{name}.jitter")
         options.check_positive(track.episodes, f"{name}.episodes", integer=True)
         options.check_seed(track.first_seed, f"{name}.first_seed")
     reference = p.arena.reference_distance_m
     if len(reference) != len(p.arena.jitter) or min(reference) <= 0:
         raise ValueError("arena.reference_distance_m must hold a distance > 0 per jitter level")
     d = p.detection
-    for name in (*d.approaching, *d.non_approach):
-        if name not in STIMULI:
-            raise ValueError(f"detection: stimulus {name!r} is none of {', '.join(STIMULI)}")
-    options.check_jitter(d.jitter)
+    seen: dict[str, str] = {}
+    for key in ("approaching", "non_approach"):
+        for name in getattr(d, key):
+            if name not in STIMULI:
+                raise ValueError(f"detection.{key}: stimulus {name!r} is none of "
+                                 f"{', '.join(STIMULI)}")
+            if name in seen:
+                raise ValueError(f"detection.{key}: stimulus {name!r} is in "
+                                 f"detection.{seen[name]} already: give each stimulus once")
+            seen[name] = key
+    options.check_jitter(d.jitter, "detection.jitter")
     options.check_positive(d.clips, "detection.clips", integer=True)
     options.check_seed(d.first_seed, "detection.first_seed")
-    if not (p.horizon > 0 and d.window_s > 0):
-        raise ValueError("horizon and detection.window_s must be > 0")
-    if p.calibration.task not in TASKS:
-        raise ValueError(f"calibration.task {p.calibration.task!r} is none of "
-                         f"{', '.join(TASKS)}")
+    options.check_positive(p.horizon, "horizon")
+    options.check_positive(d.window_s, "detection.window_s")
+    c = p.calibration
+    if c.task not in TASKS:
+        raise ValueError(f"calibration.task {c.task!r} is none of {', '.join(TASKS)}")
+    options.check_positive(c.budget, "calibration.budget", integer=True)
+    options.check_positive(c.seeds, "calibration.seeds", integer=True)
+    options.check_seed(c.first_seed, "calibration.first_seed")
+    options.check_seed(c.heldout_seed, "calibration.heldout_seed")
+    if abs(c.first_seed - c.heldout_seed) < c.seeds:
+        raise ValueError("calibration: the search seeds (first_seed on) and the held-out ones "
+                         f"(heldout_seed on) overlap, {c.seeds} of each")
 
 
 def load(spec: str | Path = CURRENT) -> Protocol:

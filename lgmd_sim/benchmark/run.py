@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import contextlib
 import os
-from collections.abc import Callable, Iterator, Mapping
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -25,10 +25,14 @@ from lgmd_sim.core.fileio import canonical_json, write_text_atomic
 from lgmd_sim.core.machine import machine
 from lgmd_sim.core.runs import RunFolder
 
-__all__ = ["RESULT", "benchmark", "calibrated", "track_config", "user_presets"]
+__all__ = ["RESULT", "benchmark", "calibrated", "check_entries", "track_config",
+           "user_presets"]
 
 #: An entry's result, in its folder.
 RESULT = "result.json"
+#: What `calibrated` adds to the preset a built-in's calibration makes, whose name the
+#: model ships already.
+RECALIBRATED = "recalibrated"
 #: What the closed-loop summary rows keep in a result, per jitter level.
 _GOAL_COLUMNS = ("episodes", "success_rate", "success_ci", "collision_rate", "collision_ci",
                  "false_alarms_per_min", "mean_progress", "mean_time_s")
@@ -102,6 +106,36 @@ def _rows(records: list[dict[str, Any]], rows: list[dict[str, Any]], columns: tu
     return out
 
 
+def check_entries(entries: Sequence[Entry], protocol: Protocol) -> None:
+    """Refuse, before the first episode of any, entries that could not all run: two of one
+    folder (two policies of the same folder name), a policy trained at another frame size
+    than the protocol's, a plug-in detector that fails the preflight
+    (`lgmd_sim.models.check.preflight`).
+
+    Raises:
+        ValueError: the first such entry, in one line naming it.
+    """
+    from lgmd_sim.models.check import preflight
+    from lgmd_sim.policies import load_config
+    from lgmd_sim.world.params import frame_size
+
+    folders: dict[str, str] = {}
+    for entry in entries:
+        if entry.key in folders:
+            raise ValueError(f"entries {folders[entry.key]!r} and {entry.spec!r} are both "
+                             f"{entry.label!r}, one folder (OUT/{entry.key}): benchmark them "
+                             "into two --out folders")
+        folders[entry.key] = entry.spec
+        if entry.kind == "policy":
+            _, config, _ = load_config(entry.policy)
+            trained, run = frame_size(config.resolution), frame_size(protocol.resolution)
+            if trained != run and config.obs != "privileged":
+                raise ValueError(f"entry {entry.spec!r}: the policy was trained on "
+                                 f"{trained[0]}x{trained[1]} frames, the protocol runs "
+                                 f"{run[0]}x{run[1]} ({protocol.resolution})")
+    preflight((e.model, e.preset) for e in entries if e.kind == "detector")
+
+
 def calibrated(entry: Entry, protocol: Protocol, out: str | Path, *,
                workers: int | None = None, ray_address: str | None = None,
                progress: bool | None = None, command: str = "") -> tuple[Entry, Path]:
@@ -115,22 +149,39 @@ def calibrated(entry: Entry, protocol: Protocol, out: str | Path, *,
     import dataclasses
 
     from lgmd_sim.calibration.run import CalibrateConfig, calibrate, preset_name
+    from lgmd_sim.core.fileio import read_json
+    from lgmd_sim.models.presets import merge_presets
 
     if entry.kind != "detector":
         raise ValueError(f"--calibrate: entry {entry.spec!r} is no detector")
     # the robot task's front ends are rotations (image, imu): a +gain is not calibrated
     detector = "+".join([entry.model, *(f for f in entry.preset.split("+")[1:] if f != "gain")])
     rule = protocol.calibration
-    model, preset = preset_name(detector, rule.task)
+    model, made = preset_name(detector, rule.task)
+    # a built-in's row must not take the name of a preset it ships ("lgmd1/robot"): two
+    # rows of one name, with other parameters
+    preset = f"{made}-{RECALIBRATED}" if made in shipped_presets(model) else made
     tuned = dataclasses.replace(entry, model=model, preset=preset)
     folder = Path(out) / tuned.key
     config = CalibrateConfig(task=rule.task, detectors=(detector,),
                              budget=rule.budget, seeds=rule.seeds, first_seed=rule.first_seed,
-                             heldout_seed=rule.heldout_seed, resolution=protocol.resolution,
-                             presets_file=folder / "presets" / "calibrated.json")
+                             heldout_seed=rule.heldout_seed, resolution=protocol.resolution)
     calibrate(config, folder / "calibration", resume=True, workers=workers,
               ray_address=ray_address, progress=progress, command=command)
+    calibration = read_json(folder / "calibration" / "calibrated.json")
+    calibration["presets"] = {model: {preset: calibration["presets"][model][made]}}
+    merge_presets(folder / "presets" / "calibrated.json", calibration)
     return tuned, folder / "presets"
+
+
+def shipped_presets(model: str) -> set[str]:
+    """The names of the presets model `model` ships: its class's and the package's
+    calibrated ones (not a user's)."""
+    from lgmd_sim import models
+    from lgmd_sim.models.presets import CALIBRATED, preset_files
+
+    return set(models.model_class(model).presets) | {
+        name for name, path in preset_files(model).items() if path == CALIBRATED}
 
 
 @contextlib.contextmanager

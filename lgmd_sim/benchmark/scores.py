@@ -9,8 +9,9 @@ overall, each from the episodes' (or clips') records of an entry.
   reference (the Oracle's mean on the same track), at most 1: avoiding by standing still
   scores 0;
 - detection (`detection_score`): balanced accuracy, the mean of the hit rate on approaching
-  clips and the silence rate on clips that do not loom: an entry that always alarms, or
-  never, scores 0.5;
+  clips and the silence rate on clips that do not loom: an entry that never alarms scores
+  0.5, one that alarms from the first frame 0 (its first alarm comes before the window
+  on every looming clip);
 - overall: the mean of the goal and arena scores, what a robot does with the detector; the
   detection score stands beside it, so that entries without a detector (the Oracle, a
   policy) rank on the same scale.

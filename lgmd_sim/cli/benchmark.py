@@ -3,8 +3,9 @@
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
 
-from lgmd_sim.cli.args import add_parallel_options, advanced
+from lgmd_sim.cli.args import add_parallel_options, advanced, ray_address
 
 
 def add(sub: argparse._SubParsersAction) -> None:
@@ -32,9 +33,9 @@ An ENTRY is a detector driving the reference controller (ReactiveAvoid, its cons
 as they ship; @eyes: with two LGMDs) or the controller named after '@' (@loom-steer):
 MODEL[/PRESET][+FRONT...][@eyes|@CONTROLLER], a built-in name or a
 package.module:Class spec; or a controller (oracle, straight, steer, a spec); or a
-policy folder (or shipped). Cost on a 2-core machine: about 10 minutes a detector
-(240 episodes and 240 clips). Running the same command again completes an interrupted
-benchmark. Then:
+policy folder (or shipped). A detector runs 240 episodes and 240 clips (each shipped
+row's wall time and machine: docs/leaderboard.md). Running the same command again
+completes an interrupted benchmark. Then:
 lgmd-sim leaderboard OUT/*/result.json --out leaderboard.md""")
     p.add_argument("entries", nargs="+", metavar="ENTRY",
                    help="detectors, controllers or policy folders (see above)")
@@ -44,8 +45,8 @@ lgmd-sim leaderboard OUT/*/result.json --out leaderboard.md""")
                    help="first tune each detector by the protocol's calibration rule (the "
                    "robot task, budget 16, search seeds 0-5, held-out 100-105, as the shipped "
                    "robot presets), on its front end, so that a new model is compared "
-                   "fairly: its row is MODEL/robot[-FRONT]; a few minutes more (the eta "
-                   "example plug-in: 3 minutes here)")
+                   "fairly: its row is MODEL/robot[-FRONT] (a built-in's, which ships that "
+                   "preset: MODEL/robot[-FRONT]-recalibrated); a few minutes more")
     more = advanced(p, "another protocol than the shipped one, and Ray")
     more.add_argument("--protocol", default="v1", metavar="NAME|FILE",
                       help="a shipped protocol (v1, the default) or a protocol TOML file")
@@ -54,22 +55,27 @@ lgmd-sim leaderboard OUT/*/result.json --out leaderboard.md""")
 
 def run(args: argparse.Namespace) -> int:
     from lgmd_sim.benchmark import entries, protocol
-    from lgmd_sim.benchmark.run import RESULT, benchmark, calibrated, user_presets
-    from lgmd_sim.models.check import preflight
+    from lgmd_sim.benchmark.run import RESULT, benchmark, calibrated, check_entries, user_presets
+    from lgmd_sim.core.fileio import held_lock
 
     proto = protocol.load(args.protocol)
     parsed = [entries.parse(e) for e in args.entries]  # every entry checked before any runs
-    preflight((e.model, e.preset) for e in parsed if e.kind == "detector")
+    check_entries(parsed, proto)
     if args.calibrate and any(e.kind != "detector" for e in parsed):
         raise ValueError("--calibrate tunes detectors: give detectors only")
-    options = {"workers": args.workers, "ray_address": args.ray,
+    options = {"workers": args.workers, "ray_address": ray_address(args),
                "progress": False if args.no_progress else None, "command": args.command_line}
     for entry in parsed:
-        presets = None
-        if args.calibrate:
-            entry, presets = calibrated(entry, proto, args.out, **options)
-        with user_presets(presets):
-            result = benchmark(entry, proto, args.out, **options)
+        # two runs of one entry into one folder would both compute everything, and one's
+        # record of its sessions would lose the other's
+        busy = (f"{args.out}/{entry.key}: another lgmd-sim benchmark is running this entry "
+                "into this folder now: wait for it, or choose another --out")
+        with held_lock(Path(args.out) / f".{entry.key}.lock", busy):
+            presets = None
+            if args.calibrate:
+                entry, presets = calibrated(entry, proto, args.out, **options)
+            with user_presets(presets):
+                result = benchmark(entry, proto, args.out, **options)
         s = result["scores"]
         shown = ", ".join(f"{k} {v:.2f}" for k, v in s.items())
         print(f"{entry.label}: {shown}; wrote {args.out}/{entry.key}/{RESULT}")

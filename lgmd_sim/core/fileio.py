@@ -19,10 +19,30 @@ import json
 import os
 import re
 import shutil
+import stat
+import sys
 import tempfile
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import Any
+
+if sys.platform == "win32":
+    import msvcrt
+
+    def _lock(fd: int, wait: bool) -> None:
+        # its first byte stands for the file; LK_LOCK tries for 10 s, then raises
+        msvcrt.locking(fd, msvcrt.LK_LOCK if wait else msvcrt.LK_NBLCK, 1)
+
+    def _unlock(fd: int) -> None:
+        msvcrt.locking(fd, msvcrt.LK_UNLCK, 1)
+else:
+    import fcntl
+
+    def _lock(fd: int, wait: bool) -> None:
+        fcntl.flock(fd, fcntl.LOCK_EX if wait else fcntl.LOCK_EX | fcntl.LOCK_NB)
+
+    def _unlock(fd: int) -> None:
+        fcntl.flock(fd, fcntl.LOCK_UN)
 
 __all__ = ["atomic_folder", "atomic_folder_outputs", "atomic_output", "atomic_outputs",
            "canonical_json", "csv_text", "error_text", "json_kind", "read_json", "read_text",
@@ -140,6 +160,30 @@ def _link_or_copy(src: Path, dst: Path) -> None:
 
 
 @contextlib.contextmanager
+def held_lock(lock: str | os.PathLike, busy: str | None = None) -> Iterator[None]:
+    """Hold the lock file `lock` (made, with its folder, where absent) for the block, from
+    any process in turn; where another holds it, wait for it, or with `busy` raise
+    ValueError(busy) at once. The lock file stays: the lock is the process's, released
+    when it ends however it ends."""
+    lock = Path(lock)
+    lock.parent.mkdir(parents=True, exist_ok=True)
+    fd = os.open(lock, os.O_RDWR | os.O_CREAT, 0o666)
+    try:
+        try:
+            _lock(fd, wait=busy is None)
+        except OSError as exc:
+            if busy is None or exc.errno not in (errno.EAGAIN, errno.EACCES):
+                raise
+            raise ValueError(busy) from None
+        try:
+            yield
+        finally:
+            _unlock(fd)
+    finally:
+        os.close(fd)
+
+
+@contextlib.contextmanager
 def atomic_outputs(paths: Sequence[str | os.PathLike]) -> Iterator[list[Path]]:
     """Yield temporary paths beside `paths`; move them all into place if the block succeeds.
 
@@ -148,9 +192,10 @@ def atomic_outputs(paths: Sequence[str | os.PathLike]) -> Iterator[list[Path]]:
     """
     targets = [Path(p) for p in paths]
     temps: list[Path] = []
+    made: list[Path] = []  # the folders made for the outputs, removed again on an error
     try:
         for target in targets:
-            target.parent.mkdir(parents=True, exist_ok=True)
+            made += _make_parents(target)
             remove_stale_partials(target)
             temps.append(_temporary(target))
         yield temps
@@ -158,9 +203,21 @@ def atomic_outputs(paths: Sequence[str | os.PathLike]) -> Iterator[list[Path]]:
         for tmp in temps:
             os.chmod(tmp, 0o666 & ~mask)  # mkstemp makes it private; outputs are not
         _commit(list(zip(temps, targets, strict=True)))
+        made = []
     finally:
         for tmp in temps:
             tmp.unlink(missing_ok=True)
+        for folder in reversed(made):
+            with contextlib.suppress(OSError):  # no longer empty: another process's now
+                folder.rmdir()
+
+
+def _make_parents(target: Path) -> list[Path]:
+    """Make the folders `target` goes in; return those that were not there, outermost
+    first."""
+    missing = [p for p in reversed(target.parents) if not p.exists()]
+    target.parent.mkdir(parents=True, exist_ok=True)
+    return missing
 
 
 @contextlib.contextmanager
@@ -247,12 +304,17 @@ TEXT_LIMIT = 64 * 2**20
 
 
 def read_text(path: str | os.PathLike, limit: int = TEXT_LIMIT) -> str:
-    """The text (UTF-8) of the file `path`, at most `limit` bytes; ValueError, one line
-    naming the file, where it is larger, cannot be read or is not text."""
+    """The text (UTF-8) of the regular file `path`, at most `limit` bytes; ValueError, one
+    line naming the file, where it is larger, cannot be read, is no regular file (a FIFO,
+    a device) or is not text."""
     if not isinstance(path, str | os.PathLike):  # open() would take an int for a descriptor
         raise ValueError(f"{path!r} is not a file name")
     try:
-        with open(path, "rb") as f:
+        # O_NONBLOCK: opening a FIFO waits for a writer; it is refused below instead
+        fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0))
+        with open(fd, "rb") as f:
+            if not stat.S_ISREG(os.fstat(fd).st_mode):
+                raise ValueError(f"{path}: not a regular file, not a file this reads")
             data = f.read(limit + 1)
     except OSError as exc:
         raise ValueError(f"{path}: cannot read it: {exc.strerror or exc}") from None
@@ -273,6 +335,8 @@ def read_json(path: str | os.PathLike, limit: int = TEXT_LIMIT) -> Any:
         return json.loads(text)
     except ValueError as exc:
         raise ValueError(f"{path}: not JSON ({exc})") from None
+    except RecursionError:
+        raise ValueError(f"{path}: JSON nested too deeply to be a file this reads") from None
 
 
 _JSON_KINDS = {dict: "an object", list: "an array", str: "a string", bool: "a boolean",

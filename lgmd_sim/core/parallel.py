@@ -207,8 +207,7 @@ def run_jobs(jobs: Sequence[Job], on_result: Callable[[Job, Any], None], *,
     keys = [job.key for job in jobs]
     if len(set(keys)) != len(keys):
         raise ValueError("run_jobs: job keys must be unique")
-    if workers is not None and (not isinstance(workers, int) or workers < 1):
-        raise ValueError(f"workers must be a positive integer, got {workers!r}")
+    check_parallel(workers)
     if pool is not None and (workers is not None or ray_address is not None):
         raise ValueError("run_jobs: a pool runs the jobs on its own workers: give pool, "
                          "or workers or ray_address, not both")
@@ -430,6 +429,48 @@ def _stop(pool: Sequence[_Worker]) -> None:
             worker.process.join(1)
 
 
+def check_parallel(workers: int | None, ray_address: str | None = None) -> None:
+    """How a job's jobs are to run, checked before the job makes anything: `workers`
+    None or a positive integer, `ray_address` None or one `check_ray_address` takes.
+
+    Raises:
+        ValueError: either is not, in one line.
+    """
+    if workers is not None and (not isinstance(workers, int) or isinstance(workers, bool)
+                                or workers < 1):
+        raise ValueError(f"workers must be a positive integer, got {workers!r}")
+    if ray_address is not None:
+        check_ray_address(ray_address)
+
+
+#: How long a Ray cluster's HOST:PORT may take to answer before it is taken for none (s).
+RAY_CONNECT_TIMEOUT_S = 10.0
+
+
+def check_ray_address(address: str) -> str:
+    """`address` as ``--ray`` takes it: "local", "auto" or [ray://]HOST:PORT, whose port
+    answers within `RAY_CONNECT_TIMEOUT_S` (Ray itself retries an address that does not
+    for ever).
+
+    Raises:
+        ValueError: another form, or an address where nothing answers, in one line.
+    """
+    import socket
+
+    if address in ("local", "auto"):
+        return address
+    host, colon, port = address.removeprefix("ray://").rpartition(":")
+    if not (colon and host and port.isdigit() and 0 < int(port) < 65536):
+        raise ValueError(f"--ray {address!r}: give local, auto or HOST:PORT")
+    try:
+        socket.create_connection((host.strip("[]"), int(port)), RAY_CONNECT_TIMEOUT_S).close()
+    except OSError as exc:
+        raise ValueError(f"--ray {address}: no Ray cluster answers there "
+                         f"({exc.strerror or exc}): start one with `ray start "
+                         "--head`, or give --ray local") from None
+    return address
+
+
 def _run_on_ray(jobs: Sequence[Job], on_result: Callable[[Job, Any], None], address: str
                 ) -> None:
     from lgmd_sim.core.extras import require
@@ -438,8 +479,11 @@ def _run_on_ray(jobs: Sequence[Job], on_result: Callable[[Job, Any], None], addr
     started = not ray.is_initialized()
     pending: dict[Any, Job] = {}
     if started:
-        ray.init(address=None if address == "local" else address, include_dashboard=False,
-                 log_to_driver=False, configure_logging=False)
+        try:
+            ray.init(address=None if address == "local" else check_ray_address(address),
+                     include_dashboard=False, log_to_driver=False, configure_logging=False)
+        except ConnectionError as exc:  # "auto" with no cluster to find
+            raise ValueError(f"--ray {address}: {exc}") from None
     try:
         task = ray.remote(num_cpus=1, max_retries=0)(_call_keeping)
         pending.update({task.remote(job.fn, job.kwargs): job for job in jobs})

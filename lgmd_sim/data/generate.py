@@ -47,7 +47,7 @@ from lgmd_sim.core.fileio import (
     write_files,
     write_text_atomic,
 )
-from lgmd_sim.core.parallel import Job, Pool, default_workers, run_jobs
+from lgmd_sim.core.parallel import Job, Pool, check_parallel, default_workers, run_jobs
 from lgmd_sim.core.runs import RunFolder
 from lgmd_sim.data import layout
 from lgmd_sim.data.manifest import write_manifest
@@ -454,6 +454,7 @@ def generate(config: GenerateConfig, out: str | Path, *, workers: int | None = N
     from lgmd_sim.models.check import preflight
 
     out = Path(out)
+    check_parallel(workers, ray_address)
     preflight(models.parse_spec(m) for m in config.models)
     start = time.monotonic()
     specs = config.specs()

@@ -16,30 +16,17 @@ calibration never writes into the package.
 
 from __future__ import annotations
 
-import contextlib
 import dataclasses
 import functools
 import json
 import os
 import sys
 import tempfile
-from collections.abc import Iterator, Mapping
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-from lgmd_sim.core.fileio import read_json, write_text_atomic
-
-if sys.platform == "win32":
-    import msvcrt
-
-    def _hold(fd: int, hold: bool) -> None:
-        # its first byte stands for the file; LK_LOCK tries for 10 s, then raises
-        msvcrt.locking(fd, msvcrt.LK_LOCK if hold else msvcrt.LK_UNLCK, 1)
-else:
-    import fcntl
-
-    def _hold(fd: int, hold: bool) -> None:
-        fcntl.flock(fd, fcntl.LOCK_EX if hold else fcntl.LOCK_UN)
+from lgmd_sim.core.fileio import held_lock, read_json, write_text_atomic
 
 __all__ = ["CALIBRATED", "DATA_DIR_VARIABLE", "PACKAGE", "check_presets_file", "check_target",
            "data_presets", "merge_presets", "preset_files", "user_data_dir", "user_presets_file"]
@@ -214,23 +201,6 @@ def preset_files(model: str) -> dict[str, Path]:
     return {name: path for name, (_entry, path) in _entries(model).items()}
 
 
-@contextlib.contextmanager
-def _locked(target: Path) -> Iterator[None]:
-    """Hold the lock of the presets file `target`: its lock file, ``.NAME.lock`` beside it,
-    made with its folder where absent. The lock file stays: one removed while another
-    process waits on it would let a third take a lock of its own at once."""
-    target.parent.mkdir(parents=True, exist_ok=True)
-    fd = os.open(target.with_name(f".{target.name}.lock"), os.O_RDWR | os.O_CREAT, 0o666)
-    try:
-        _hold(fd, True)
-        try:
-            yield
-        finally:
-            _hold(fd, False)
-    finally:
-        os.close(fd)
-
-
 def merge_presets(target: Path, calibration: Mapping[str, Any]) -> None:
     """Put the presets of `calibration` (a calibration's calibrated.json) into the presets
     file `target` (made if absent): those presets replace theirs, every other stays; each
@@ -243,7 +213,7 @@ def merge_presets(target: Path, calibration: Mapping[str, Any]) -> None:
     """
     target = Path(target)
     try:
-        with _locked(target):
+        with held_lock(target.with_name(f".{target.name}.lock")):
             # read afresh, not from the cache: another process may have merged since, and
             # within a clock tick a file of the same size would look unchanged
             current = _parse(target) if target.exists() else {}
