@@ -270,6 +270,37 @@ def test_preset_applies_to_every_model_that_has_it(tmp_path, clip, capsys):
     assert "has a preset 'nope'" in capsys.readouterr().err
 
 
+def test_models_take_model_slash_preset_as_everywhere(tmp_path, clip, capsys):
+    """docs/concepts.md's one spelling: `--models lgmd1/robot-image` runs lgmd1 at that
+    preset (it was refused: "a preset goes in --preset"); --preset goes to the models
+    listed without one, and naming it again for the same model is no conflict."""
+    video = _write_video(tmp_path / "a.mp4", clip.frames)
+    assert _detect(str(video), "--models", "lgmd1/robot-image,feedback", "--preset",
+                   "robot-image", "--json") == 0
+    record = json.loads(capsys.readouterr().out)
+    assert list(record["models"]) == ["lgmd1/robot-image", "feedback/robot-image"]
+    assert record["models"]["lgmd1/robot-image"]["stabilize"] == "image"
+    assert list(detect(clip.frames, 30.0, "lgmd1/robot-image").models) == ["lgmd1/robot-image"]
+
+
+@pytest.mark.parametrize(("args", "message"), [
+    (["--models", "lgmd1/robot", "--preset", "video"],
+     "detector 'lgmd1/robot' names preset 'robot', --preset 'video': give a model's preset "
+     "once, in --models or in --preset"),
+    (["--models", "lgmd1+imu"], "detector 'lgmd1+imu': a video has no pose or IMU, so its "
+                                "front ends are +image, +gain, not +imu"),
+    (["--models", "lgmd1/nope"], "unknown preset 'nope' for model 'lgmd1'"),
+])
+def test_models_with_a_preset_refuse_a_conflict_in_one_line(tmp_path, clip, capsys, args,
+                                                            message):
+    video = _write_video(tmp_path / "a.mp4", clip.frames)
+    out = tmp_path / "out"
+    assert _detect(str(video), *args, "--out", str(out)) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith(f"lgmd-sim detect: error: {message}") and len(err.splitlines()) == 1
+    assert not out.exists()
+
+
 @pytest.mark.slow
 def test_preset_video_alone_runs_every_model_with_the_front_end_footage_needs(
         tmp_path, clip, capsys):

@@ -16,8 +16,10 @@ import numpy as np
 import pytest
 
 from lgmd_sim import cli, controllers, models, options
+from lgmd_sim.benchmark import entries
 from lgmd_sim.calibration import search
 from lgmd_sim.calibration.run import CalibrateConfig
+from lgmd_sim.envs.wrappers import LGMDFeatures
 
 # The plug-in, tests/plugins/lgmd_plug.py, by its specs: a model with a search space, the
 # same without one ("Untuned"), and a controller.
@@ -180,8 +182,9 @@ def test_detect_runs_a_spec(approach, tmp_path):
 @pytest.mark.parametrize(("models_arg", "stabilize", "message"), [
     ("lgmd_plug:NoMaps", "image", "nomaps lists no state maps (state_maps), so it runs "
                                   "without front ends only: stabilize 'none', gain off"),
-    (f"lgmd1,{SPEC}/fast", "none", f"unknown model '{SPEC}/fast'"),
-    ("lgmd1/published", "none", "unknown model(s) 'lgmd1/published'"),
+    (f"lgmd1,{SPEC}/nope", "none", f"unknown preset 'nope' for model '{SPEC}'"),
+    (f"{SPEC}/fast+image", "gain", f"detector '{SPEC}/fast+image' names its front ends and "
+                                   "--stabilize gives every model its own"),
 ])
 def test_detect_refuses_in_one_line(approach, tmp_path, capsys, models_arg, stabilize,
                                     message):
@@ -189,7 +192,80 @@ def test_detect_refuses_in_one_line(approach, tmp_path, capsys, models_arg, stab
                      stabilize, "--out", str(tmp_path / "out"), "--no-progress"]) == 2
     err = capsys.readouterr().err
     assert message in err and len(err.strip().splitlines()) == 1
-    assert err.strip().endswith("(a preset goes in --preset)") == ("/" in models_arg)
+    assert not (tmp_path / "out").exists()
+
+
+def test_detect_takes_a_spec_with_its_preset_and_front_end(approach, tmp_path, capsys):
+    """MODEL/PRESET+FRONT in --models, as everywhere: the plug-in at preset fast with the
+    rotation fitted from the frames, at the camera's --fov."""
+    assert cli.main(["detect", str(approach[0]), "--models", f"lgmd1,{SPEC}/fast+image",
+                     "--fov", "40", "--json", "--no-progress"]) == 0
+    record = json.loads(capsys.readouterr().out)
+    assert list(record["models"]) == ["lgmd1", f"{SPEC}/fast+image"]
+    got = record["models"][f"{SPEC}/fast+image"]
+    assert (got["stabilize"], got["fovy"]) == ("image", 40.0)
+
+
+# --- a plug-in without an S layer, or without layers ---------------------------------------
+
+BARE = "lgmd_plug:Bare"
+
+
+def _brighter_left(features: LGMDFeatures) -> np.ndarray:
+    """The features' grid after a still frame, then one whose left third brightens."""
+    still = np.full((1, 24, 32, 3), 128, np.uint8)
+    features.step(still, np.array([True]))
+    moved = still.copy()
+    moved[:, :, :10] = 255
+    features.step(moved, np.array([False]))
+    return features.observation({})["lgmd_grid"][0]
+
+
+def test_the_features_grid_reads_a_plug_ins_last_layer_without_an_s_layer():
+    """Blink has a P layer and no S: the grid shares out its P, so a change on the left
+    is the left cell's (it was a KeyError 'S' at the first frame: lgmd-sim train)."""
+    grid = _brighter_left(LGMDFeatures(1, SPEC, grid=(1, 2), keep_frame=False))
+    assert grid[0] == pytest.approx(1.0) and grid[1] == pytest.approx(0.0)
+
+
+def test_the_features_refuse_a_model_without_layers_when_made_unless_without_a_grid():
+    with pytest.raises(ValueError) as exc:
+        LGMDFeatures(1, BARE, grid=(1, 3))
+    assert str(exc.value) == (
+        f"the grid shares out the activity of a layer of the model (S, or a plug-in's "
+        f"last), and {BARE} has none (layer_names is empty): grid=None observes its "
+        "potentials and alarm alone")
+    features = LGMDFeatures(1, BARE, grid=None, keep_frame=False)
+    assert set(features.spaces) == {"lgmd_potential", "lgmd_alarm"}
+
+
+def test_train_refuses_a_model_without_layers_before_its_run_folder(tmp_path, capsys):
+    pytest.importorskip("stable_baselines3")
+    out = tmp_path / "run"
+    assert cli.main(["train", "--model", BARE, "--out", str(out), "--no-progress"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and err.startswith(
+        "lgmd-sim train: error: --obs features observes a grid of the activity of a layer "
+        f"of the model (S, or a plug-in's last), and {BARE} has none")
+    assert "--obs pixels or privileged" in err and not out.exists()
+
+
+def test_benchmark_refuses_a_model_without_layers_at_the_default_side_before_any_entry(
+        tmp_path, capsys):
+    """The reference controller's default side reads a layer's halves: a model without
+    layers is refused with every entry checked, before straight runs, in the CLI's
+    spelling (@eyes), and no folder is made."""
+    out = tmp_path / "out"
+    assert cli.main(["benchmark", "straight", BARE, "--out", str(out), *QUIET]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err == (f"lgmd-sim benchmark: error: entry '{BARE}': the reference controller "
+                   "tells the threat's side by the left and right halves of a layer of the "
+                   f"model (S, or a plug-in's last), and {BARE} has none (layer_names is "
+                   f"empty): give it two LGMDs, {BARE}@eyes")
+    assert not out.exists()
+    eyes = entries.parse(f"{BARE}@eyes")  # what it says to give: two LGMDs need no layer
+    assert (eyes.kind, eyes.controller, eyes.side) == ("detector", "reactive", "eyes")
+    assert controllers.make("reactive", model=BARE, side="eyes") is not None
 
 
 def test_eval_refuses_the_policy_controller_by_spec_as_by_name():

@@ -65,6 +65,40 @@ def test_a_bad_spec_is_a_one_line_error_naming_it(spec, message):
     assert len(str(exc.value).splitlines()) == 1 and spec in str(exc.value)
 
 
+@pytest.mark.parametrize(("code", "message"), [
+    ("def broken(:\n", "importing it raised SyntaxError: invalid syntax ({module}.py, line 1)"),
+    ("raise RuntimeError('no GPU')\n",
+     "importing it raised RuntimeError: no GPU ({module}.py, line 1)"),
+    ("import sys\nsys.exit(3)\n", "importing it called sys.exit(3) ({module}.py, line 2)"),
+])
+@pytest.mark.parametrize("command", ["detect", "benchmark"])
+def test_a_plug_in_module_that_fails_at_import_is_one_line_in_every_command(
+        tmp_path, monkeypatch, capsys, approach, code, message, command):
+    """Not only ImportError: whatever the module raises (or exits with) at import is the
+    user's to fix, said in one line as `models --check` says it, with no folder made."""
+    module = f"lgmd_broken_{command}"
+    (tmp_path / f"{module}.py").write_text(code)
+    monkeypatch.syspath_prepend(str(tmp_path))
+    out, spec = tmp_path / "out", f"{module}:Mine"
+    args = ([str(approach[0]), "--models", spec] if command == "detect"
+            else [spec, "--workers", "1"])
+    assert cli.main([command, *args, "--out", str(out), "--no-progress"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and f"cannot import module {module!r}: " in err
+    assert err.endswith(message.format(module=module) + (")" if command == "benchmark"
+                                                          else ""))
+    assert not out.exists()
+
+
+def test_a_plug_in_module_not_found_says_to_put_its_folder_on_pythonpath():
+    with pytest.raises(ValueError) as exc:
+        models.model_class("lgmd_nowhere:Mine")
+    assert str(exc.value) == (
+        "model 'lgmd_nowhere:Mine': cannot import module 'lgmd_nowhere' (No module named "
+        "'lgmd_nowhere'): put the folder that holds lgmd_nowhere.py or lgmd_nowhere/ on "
+        "PYTHONPATH (as PYTHONPATH=examples does for examples/eta_lgmd.py)")
+
+
 @pytest.mark.parametrize("name", [f"{SPEC}/fast", f"{SPEC}+image", "lgmd_plug.:Blink",
                                   "lgmd_plug:Blink.x", "lgmd-plug:Blink"])
 def test_a_spec_with_more_than_a_module_and_a_class_is_an_unknown_model(name):

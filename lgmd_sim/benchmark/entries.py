@@ -14,6 +14,8 @@ from lgmd_sim.bench.episode import Cell
 
 __all__ = ["REFERENCE", "SIDES", "Entry", "driver", "parse"]
 
+#: The longest entry taken (a path of 4,096 characters is Linux's longest).
+MAX_SPEC = 4096
 #: The reference controller a detector drives (`lgmd_sim.controllers.avoid.ReactiveAvoid`
 #: with its constants as they ship), and the ways it reads a side from the detector.
 REFERENCE = "reactive"
@@ -130,15 +132,23 @@ def parse(spec: str) -> Entry:
     spec; "@eyes" after it for two LGMDs over the left and right of the view).
 
     Raises:
-        ValueError: none of those, in one line naming `spec`.
+        ValueError: none of those, or a detector without layers at the reference
+            controller's default side (the halves of a layer; "@eyes" needs none), in one
+            line naming `spec`.
     """
     from lgmd_sim import controllers, models, policies
 
     text = spec.strip()
     if not text:
         raise ValueError("an entry is a detector, a controller or a policy folder, got ''")
+    if len(text) > MAX_SPEC:
+        raise ValueError(f"entry {text[:40]!r}... is {len(text):,} characters: an entry is a "
+                         "detector, a controller or a policy folder")
     if text in ("shipped", *policies.available()) or (Path(text) / "policy.json").is_file():
         return Entry(spec, "policy", "policy", policy=policies.resolve(text).resolve())
+    if text.startswith((".", "/", "~")) or text.endswith("/"):  # a path, not a name
+        raise ValueError(f"entry {spec!r}: no policy folder there (no "
+                         f"{Path(text) / 'policy.json'})")
     if text == "policy":
         raise ValueError("entry 'policy': name the policy's folder (or 'shipped')")
     if text in controllers.available() and controllers.controller_class(text).uses_model:
@@ -160,4 +170,10 @@ def parse(spec: str) -> Entry:
             raise ValueError(f"entry {spec!r}: not a controller, a policy folder or a "
                              f"detector ({exc})") from None
         return Entry(spec, "controller", text)
+    if controller == REFERENCE and side == "halves":
+        # refused with the other entries, before any runs, not in its first episode
+        from lgmd_sim.models.layers import needed_layer
+
+        needed_layer(name, f"entry {spec!r}: the reference controller tells the threat's "
+                     "side by the left and right halves of", f"give it two LGMDs, {head}@eyes")
     return Entry(spec, "detector", controller, name, preset, side)

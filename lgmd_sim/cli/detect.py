@@ -33,14 +33,17 @@ def add(sub: argparse._SubParsersAction) -> None:
                    "episode N)")
     p.add_argument(
         "--models", default="all",
-        help="'all' (every model `lgmd-sim models` lists) or a "
-        "comma-separated list of model names (`lgmd-sim models`) or plug-ins' "
-        "'package.module:Class' specs (default: all)",
+        help="'all' (every model `lgmd-sim models` lists) or a comma-separated list of "
+        "MODEL[/PRESET][+FRONT...]: a model name (`lgmd-sim models`) or a plug-in's "
+        "'package.module:Class' spec, optionally with its preset and the front ends a "
+        "video can have, +image and +gain (e.g. lgmd1/robot-image,feedback+gain; "
+        "default: all)",
     )
     p.add_argument(
         "--preset", metavar="NAME",
-        help="run each model at this preset where it has one, e.g. calibrated (see "
-        "`lgmd-sim models`); the others at their default")
+        help="run each model listed without a preset at this one where it has it, e.g. "
+        "calibrated (see `lgmd-sim models`); the others at their default. A model listed "
+        "with another preset (MODEL/PRESET) is refused: give its preset once")
     p.add_argument(
         "--collision-frame", type=non_negative_int, metavar="N",
         help="labelled collision frame (0-based): marked in the figure, and used to score "
@@ -80,8 +83,9 @@ def add(sub: argparse._SubParsersAction) -> None:
                       help="ego-motion compensation before every model: 'image' removes "
                       "the camera's rotation between frames, fitted from the frames alone (it "
                       "needs the camera's field of view, --fov); 'gain' removes brightness "
-                      "changes between frames; 'image+gain' both (default: none). Recorded "
-                      "per model in the JSON summary")
+                      "changes between frames; 'image+gain' both (default: none); a model "
+                      "listed with front ends of its own (+image) is refused with it. "
+                      "Recorded per model in the JSON summary")
     more.add_argument("--fov", type=fov_degrees, default=55.0, metavar="DEG",
                       help="the camera's vertical field of view in degrees, for --stabilize "
                       "image (default: 55, the simulator's camera)")

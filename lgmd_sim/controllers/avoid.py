@@ -20,6 +20,7 @@ from lgmd_sim.controllers.straight import StraightParams
 from lgmd_sim.core.params import in_range, one_of, param
 from lgmd_sim.envs.wrappers.frames import check_frame_space
 from lgmd_sim.envs.zone import ORACLE_TUNED, TriggerZone, in_trigger_zone
+from lgmd_sim.models.layers import needed_layer
 from lgmd_sim.models.sectors import Sectors
 
 __all__ = [
@@ -140,13 +141,9 @@ class ReactiveAvoid(Avoider):
             self.model = eyes(p, p.eye_overlap)
         else:
             self.model = models.make(p.model, preset=p.preset, **dict(p.model_params))
-            names = type(self.model).layer_names
-            if not names:
-                raise ValueError(f"ReactiveAvoid side='halves' compares the left and right "
-                                 f"halves of a layer of the model, and {p.model} has none "
-                                 "(layer_names is empty): use side='eyes'")
-            # the S layer where there is one; a plug-in's last (nearest its potential)
-            self._side_layer = "S" if "S" in names else names[-1]
+            self._side_layer = needed_layer(
+                p.model, "ReactiveAvoid side='halves' compares the left and right halves of",
+                "use side='eyes'")
         super().__init__(**params)
 
     def wrap_env(self, env: gym.Env) -> gym.Env:

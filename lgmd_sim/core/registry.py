@@ -16,6 +16,7 @@ import dataclasses
 import warnings
 from collections.abc import Iterator, Mapping
 from importlib import import_module, metadata
+from pathlib import Path
 from typing import Any
 
 __all__ = ["Registry"]
@@ -36,6 +37,28 @@ def _is_spec(text: Any) -> bool:
     module, colon, attr = text.partition(":") if isinstance(text, str) else ("", "", "")
     return bool(colon and attr.isidentifier()
                 and all(part.isidentifier() for part in module.split(".")))
+
+
+def _import_fault(module: str, exc: BaseException) -> str:
+    """Why `module` did not import, in one line: not found (and where Python looks for a
+    module of a spec), or what its code raised on import, and where."""
+    text = " ".join(str(exc).split())[:300]
+    top = module.partition(".")[0]
+    if isinstance(exc, ModuleNotFoundError) and exc.name == top:
+        return (f"cannot import module {module!r} ({text}): put the folder that holds "
+                f"{top}.py or {top}/ on PYTHONPATH (as PYTHONPATH=examples does for "
+                "examples/eta_lgmd.py)")
+    if isinstance(exc, SystemExit):
+        raised = f"called sys.exit({exc.code!r})"
+    else:
+        raised = f"raised {type(exc).__name__}{': ' + text if text else ''}"
+    tb = exc.__traceback__
+    while tb is not None and tb.tb_next is not None:
+        tb = tb.tb_next
+    # where in the user's code; a SyntaxError's text names its file and line already
+    at = "" if tb is None or isinstance(exc, SyntaxError) else (
+        f" ({Path(tb.tb_frame.f_code.co_filename).name}, line {tb.tb_lineno})")
+    return f"cannot import module {module!r}: importing it {raised}{at}"
 
 
 @dataclasses.dataclass
@@ -142,9 +165,10 @@ class Registry:
         module, _, attr = spec.partition(":")
         try:
             imported = import_module(module)
-        except ImportError as exc:
-            raise ValueError(f"{self.what} {where!r}: cannot import module {module!r} "
-                             f"({exc})") from exc
+        except (Exception, SystemExit) as exc:
+            # a module's own fault (a SyntaxError, whatever it raises or exits with on
+            # import) is the user's to fix, said in one line as a missing module is
+            raise ValueError(f"{self.what} {where!r}: {_import_fault(module, exc)}") from exc
         if not hasattr(imported, attr):
             raise ValueError(f"{self.what} {where!r}: module {module!r} has no {attr!r}")
         return getattr(imported, attr)

@@ -12,12 +12,12 @@ from typing import Any
 
 import numpy as np
 
-from lgmd_sim import metrics, models
+from lgmd_sim import metrics
 from lgmd_sim import noise as noise_lib
 from lgmd_sim.core.frames import to_grey
 from lgmd_sim.detect.results import Detection, ModelTrace
+from lgmd_sim.detect.specs import detector_names, with_preset
 from lgmd_sim.models.base import LGMDModel
-from lgmd_sim.options import model_names
 from lgmd_sim.video import VideoReader
 
 __all__ = ["check_collision_frame", "detect", "detect_video"]
@@ -37,7 +37,7 @@ def _build(spec: str | Sequence[str] | Mapping[str, LGMDModel]) -> dict[str, LGM
         for m in spec.values():
             m.reset()
         return dict(spec)
-    return {name: models.make(name) for name in model_names(spec)}
+    return with_preset(detector_names(spec), None)
 
 
 def check_collision_frame(collision_frame: int, n_frames: int, name: str) -> None:
@@ -66,8 +66,9 @@ def detect(
     Args:
         frames: grey (H, W) or RGB (H, W, 3) frames, uint8 or float in 0..1.
         fps: frames per second of the clip.
-        model_spec: "all", model names (a list or a comma-separated string), or a mapping
-            of name -> built model (reset before use), e.g. for another preset.
+        model_spec: "all", detectors (a list or a comma-separated string), each
+            MODEL[/PRESET][+FRONT...] with video front ends (`lgmd_sim.detect.specs`), or
+            a mapping of name -> built model (reset before use).
         collision_frame: labelled collision frame (0-based); adds the event metrics.
         name: the clip's name, for the result and the progress bar.
         total: number of frames if known (for the progress bar).

@@ -13,7 +13,7 @@ from lgmd_sim import options
 from lgmd_sim.core.fileio import error_text
 from lgmd_sim.detect.clip import check_collision_frame, detect
 from lgmd_sim.detect.outputs import check_out_folder, output_names, write_outputs
-from lgmd_sim.detect.specs import front_end_params, with_preset
+from lgmd_sim.detect.specs import detector, detector_names, front_end_params, with_preset
 from lgmd_sim.video import VideoReader
 
 __all__ = ["DetectConfig", "Video", "run"]
@@ -36,8 +36,10 @@ class DetectConfig:
 
     Attributes:
         videos: the inputs: video files or image folders (a path), or `Video`s.
-        models: model names, or ("all",).
-        preset: run every model that has this preset at it (the others at their default).
+        models: detectors, each MODEL, MODEL/PRESET or either with video front ends
+            ("lgmd1/robot-image", "lgmd1+image+gain"), or ("all",): every model.
+        preset: run every model listed without a preset at this one where it has it (the
+            others at their default); a model listed with another preset is refused.
         collision_frame: the labelled collision frame of every video (over a `Video`'s own).
         window: a first alarm within this many seconds before the collision frame, that
             frame included, is a hit (`lgmd_sim.metrics.evaluate_clip`, as the benchmarks
@@ -69,15 +71,11 @@ class DetectConfig:
             raise ValueError("no videos given")
         object.__setattr__(self, "videos", tuple(
             v if isinstance(v, Video) else Video(str(v), str(v)) for v in self.videos))
-        try:
-            names = options.model_names(list(self.models))
-        except ValueError as exc:
-            if any("/" in m for m in self.models):
-                raise ValueError(f"{exc} (a preset goes in --preset)") from None
-            raise
-        object.__setattr__(self, "models", tuple(names))
+        object.__setattr__(self, "models", tuple(detector_names(self.models)))
         noise_lib.parse(self.noise)  # a bad spec fails before any video is read
-        front_end_params(self.stabilize, self.fov)
+        front = front_end_params(self.stabilize, self.fov)
+        for m in self.models:  # their presets and front ends, before any video is read
+            detector(m, self.preset, self.fov, **front)
         options.check_seed(self.noise_seed, "--noise-seed")
         if self.collision_frame is not None:
             options.check_seed(self.collision_frame, "--collision-frame")
@@ -90,7 +88,7 @@ class DetectConfig:
 
 def run(config: DetectConfig) -> int:
     """Every video of `config` in turn: 0 when all ran, 2 when one or more could not."""
-    built = with_preset(config.models, config.preset,
+    built = with_preset(config.models, config.preset, config.fov,
                         **front_end_params(config.stabilize, config.fov))
     noises = noise_lib.parse(config.noise)
     out = config.out_folder

@@ -39,7 +39,8 @@ class TrainConfig:
         model, preset: the LGMD model of "features", MODEL or MODEL/PRESET (with front
             ends), and its preset (None: the model's default); both None otherwise.
         grid: (rows, columns) of the S-layer grid of "features"
-            (`lgmd_sim.envs.wrappers.LGMDFeatures`).
+            (`lgmd_sim.envs.wrappers.LGMDFeatures`; a plug-in without an S layer: its
+            last layer's, and one without layers is refused: `lgmd_sim.models.layers`).
         grid_history: how many of the last grids "features" observes (1: the present).
         memory: frames the per-column memory of the excitation of "features" lasts, 0
             for none (`lgmd_sim.envs.wrappers.LGMDFeatures`).
@@ -112,6 +113,7 @@ class TrainConfig:
         import gymnasium as gym
 
         from lgmd_sim import models
+        from lgmd_sim.models.layers import needed_layer
 
         # options of the wrong type (a hand-edited run.json being resumed brings them too)
         for key in ("algo", "obs", "env"):
@@ -133,6 +135,11 @@ class TrainConfig:
         if self.obs == "features":
             model, preset = models.parse_spec(
                 str(self.model) if self.preset is None else f"{self.model}/{self.preset}")
+            # the grid is every features policy's: a model without layers is refused
+            # before the run folder, not with a KeyError at the first frame
+            needed_layer(model, "--obs features observes a grid of the activity of",
+                         "give it a layer (layer_names, filled by step_batch), or train "
+                         "on --obs pixels or privileged, which read no model")
         else:
             model = preset = None
         grid = tuple(self.grid) if isinstance(self.grid, list | tuple) else ()

@@ -1,6 +1,6 @@
 """A researcher's plug-in, as the tests use it by its specs ("lgmd_plug:Blink"), by
 `register` and by an entry point: a small but complete model with a search space, the
-same without one and without state maps, and a controller."""
+same without one, without state maps and without layers, and a controller."""
 
 from __future__ import annotations
 
@@ -60,6 +60,16 @@ class NoMaps(Untuned):
 
     name: ClassVar[str] = "nomaps"
     state_maps = LGMDModel.state_maps
+
+
+class Bare(Untuned):
+    """The same, declaring no layers (legal: ``layer_names = ()``)."""
+
+    name: ClassVar[str] = "bare"
+    layer_names: ClassVar[tuple[str, ...]] = ()
+
+    def step_batch(self, grey: np.ndarray, layers: dict[str, np.ndarray] | None) -> np.ndarray:
+        return super().step_batch(grey, None)
 
 
 @dataclass(frozen=True)

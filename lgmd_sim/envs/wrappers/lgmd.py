@@ -21,6 +21,7 @@ from gymnasium.vector.utils import batch_space
 
 from lgmd_sim import models
 from lgmd_sim.envs.wrappers.frames import check_frame_space, frame_size_of
+from lgmd_sim.models.layers import needed_layer
 
 __all__ = ["KEYS", "MAX_FEATURES", "LGMDFeatures", "LGMDObservation", "LGMDVectorObservation"]
 
@@ -61,7 +62,9 @@ class LGMDFeatures:
     - ``lgmd_grid`` (n_models * rows * cols,), without it when ``grid`` is None: where the
       threat is. The frame is cut into rows x cols cells (row-major: top row first, left
       to right); each cell holds the mean of the rectified S layer ([S]+, the excitation
-      on its way to the LGMD cell) over its pixels, normalised to sum to 1 over the grid:
+      on its way to the LGMD cell; a plug-in without one: its last layer, and one without
+      layers takes no grid: `lgmd_sim.models.layers`) over its pixels, normalised to sum
+      to 1 over the grid:
       the cell's share of the activity (1 / cells each where S is 0 everywhere, as on the
       first frame). Shares rather than raw means because the scale of S differs by orders
       of magnitude between models, presets and frame sizes, while a share is comparable
@@ -145,6 +148,11 @@ class LGMDFeatures:
             raise ValueError(f"grid {self.grid[0]}x{self.grid[1]} with grid_history="
                              f"{grid_history} is {int(grid_history) * cells} values, more than "
                              f"the {MAX_FEATURES} a model may observe (MAX_FEATURES)")
+        #: Per model, the layer its grid shares out (`lgmd_sim.models.layers`); None
+        #: without a grid. A model without layers is refused here, not at its first frame.
+        self.layers = {name: None if self.grid is None else needed_layer(
+            name, "the grid shares out the activity of", "grid=None observes its "
+            "potentials and alarm alone") for name in names}
         self.models = {name: models.make(name, preset=preset, n_streams=int(n_envs), **params)
                        for name in names}
         self.keep_frame = bool(keep_frame)
@@ -197,7 +205,7 @@ class LGMDFeatures:
         shares = np.empty_like(self._shares)
         fade = np.float32(1 / self.memory if self.memory else 0)
         memory = np.where(new[:, None, None], np.float32(0), (self._memory - fade).clip(0))
-        for k, model in enumerate(self.models.values()):
+        for k, (name, model) in enumerate(self.models.items()):
             if new.all():
                 model.reset()  # every stream anew: the frame size may change too
             else:
@@ -206,7 +214,7 @@ class LGMDFeatures:
                              rotation=None if infos is None else model.rotation_from(infos))
             potential[:, k], alarm[:, k] = out.potential, out.alarm
             if self.grid is not None:
-                newest = self._cell_shares(out.layers["S"])
+                newest = self._cell_shares(out.layers[self.layers[name]])
                 # a new stream's older grids are its first: no motion before it
                 older = np.where(new[:, None, None], newest[:, None], self._shares[:, k, 1:])
                 shares[:, k] = np.concatenate([older, newest[:, None]], axis=1)
