@@ -30,8 +30,13 @@ def test_every_detector_watches_the_same_episode(episode):
 
 
 def test_video_summary_and_still(episode, tmp_path):
-    demo.write_video(episode, tmp_path / "demo.mp4", tmp_path / "demo_frame.png")
-    demo.write_summary(episode, tmp_path / "demo.png", "test")
+    from lgmd_sim.core.pngtext import png_text, read_config
+
+    text = png_text("lgmd-sim demo --seed 0", {"seed": 0})
+    demo.write_video(episode, tmp_path / "demo.mp4", tmp_path / "demo_frame.png", text)
+    demo.write_summary(episode, tmp_path / "demo.png", "test", text)
+    for png in ("demo_frame.png", "demo.png"):  # each records what made it
+        assert read_config(tmp_path / png) == ("lgmd-sim demo --seed 0", {"seed": 0})
     cap = cv2.VideoCapture(str(tmp_path / "demo.mp4"))
     assert int(cap.get(cv2.CAP_PROP_FRAME_COUNT)) == len(episode.frames)
     cap.release()

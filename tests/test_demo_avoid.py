@@ -127,8 +127,8 @@ def test_a_failure_writing_the_avoiding_episode_leaves_no_file(tmp_path, monkeyp
     out = tmp_path / "d"
     written = demo_avoid.write
 
-    def fail(ep, video, summary):
-        written(ep, video, summary)
+    def fail(ep, video, summary, *text):
+        written(ep, video, summary, *text)
         raise OSError(28, "No space left on device", str(summary))
 
     monkeypatch.setattr(demo_avoid, "write", fail)

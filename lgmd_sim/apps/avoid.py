@@ -327,8 +327,10 @@ def _even(n: float) -> int:
     return max(2, 2 * round(n / 2))
 
 
-def write(ep: AvoidEpisode, video: Path, summary: Path) -> None:
-    """The episode's video and figure (`figure`)."""
+def write(ep: AvoidEpisode, video: Path, summary: Path,
+          text: dict[str, str] | None = None) -> None:
+    """The episode's video and figure (`figure`), the figure with the PNG text chunks
+    `text` (`lgmd_sim.core.pngtext`: what made it)."""
     from lgmd_sim.core.fileio import atomic_output
     from lgmd_sim.video import video_writer
 
@@ -338,4 +340,4 @@ def write(ep: AvoidEpisode, video: Path, summary: Path) -> None:
             write_frame(compose(t))
     fig = figure(ep)
     with atomic_output(summary) as tmp:
-        fig.savefig(tmp, format="png", dpi=100)
+        fig.savefig(tmp, format="png", dpi=100, metadata=text)

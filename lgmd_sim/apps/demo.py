@@ -22,6 +22,7 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import cv2
 import numpy as np
@@ -32,6 +33,7 @@ from lgmd_sim.apps.defaults import AVOID_SEED, DETECTORS, SEED
 from lgmd_sim.controllers import Straight, rollout
 from lgmd_sim.core.fileio import atomic_folder_outputs, atomic_output, write_files
 from lgmd_sim.core.plots import model_style
+from lgmd_sim.core.pngtext import add_text, png_text
 from lgmd_sim.video import video_writer
 
 SCENARIO = "lgmd_sim/RoughTerrainObstacles-v0"
@@ -206,25 +208,31 @@ class _Compositor:
                           _trace_panel(self.ep, t, self.size[1])])
 
 
-def write_video(ep: Episode, path: Path, still: Path | None = None) -> None:
-    """The episode as a video; with `still`, also its frame 0.5 s before the collision."""
+def write_video(ep: Episode, path: Path, still: Path | None = None,
+                text: dict[str, str] | None = None) -> None:
+    """The episode as a video; with `still`, also its frame 0.5 s before the collision
+    (a PNG with the text chunks `text`, `lgmd_sim.core.pngtext`: what made it)."""
     compose = _Compositor(ep)
     with video_writer(path, ep.fps, compose.size) as write:
         for t in range(len(ep.frames)):
             write(compose(t))
     if still is not None:
         image = cv2.cvtColor(compose(ep.before_collision), cv2.COLOR_RGB2BGR)
-        write_files({still: lambda tmp: _imwrite(tmp, image)})
+        write_files({still: lambda tmp: _write_png(tmp, image, text or {})})
 
 
-def _imwrite(path: Path, bgr: np.ndarray) -> None:
-    if not cv2.imwrite(str(path), bgr):
-        raise OSError(f"cannot write image {path}")
+def _write_png(path: Path, bgr: np.ndarray, text: dict[str, str]) -> None:
+    ok, png = cv2.imencode(".png", bgr)
+    if not ok:
+        raise OSError(f"cannot encode image {path}")
+    path.write_bytes(add_text(png.tobytes(), text))
 
 
-def write_summary(ep: Episode, path: Path, title: str) -> None:
+def write_summary(ep: Episode, path: Path, title: str,
+                  text: dict[str, str] | None = None) -> None:
     """Key frames in time order, the potentials against distance and time to collision of
-    the obstacle, and the camera's shake."""
+    the obstacle, and the camera's shake; the PNG with the text chunks `text`
+    (`lgmd_sim.core.pngtext`: what made it)."""
     from lgmd_sim.core.plots import COLLISION, THRESHOLD, figure
     from lgmd_sim.detect.figure import alarm_label
 
@@ -293,20 +301,40 @@ def write_summary(ep: Episode, path: Path, title: str) -> None:
     mpsi = ", ".join(f"{name} {metrics.mpsi(p):.3f}" for name, p in ep.potentials.items())
     fig.suptitle(f"{title}\nISI {isi:.3f}; MpSI: {mpsi}")
     with atomic_output(path) as tmp:
-        fig.savefig(tmp, format="png", dpi=100)
+        fig.savefig(tmp, format="png", dpi=100, metadata=text)
+
+
+def configuration(*, seed: int = SEED, jitter: float = 1.0,
+                  detectors: Sequence[str] = DETECTORS,
+                  resolution: str | Sequence[int] = "rl", avoider: str | None = None,
+                  avoid_seed: int = AVOID_SEED,
+                  avoid_resolution: str | Sequence[int] | None = None) -> dict[str, Any]:
+    """The episodes `run` shows, given its arguments (but `out`), JSON-ready: what every
+    figure it writes records of its making (`lgmd_sim.core.pngtext`), so that a figure can
+    be told from what the command makes today."""
+    def res(r: str | Sequence[int] | None) -> str | list[int] | None:
+        return r if r is None or isinstance(r, str) else [int(v) for v in r]
+
+    return {"seed": int(seed), "jitter": float(jitter), "detectors": list(detectors),
+            "resolution": res(resolution), "avoider": avoider,
+            "avoid_seed": None if avoider is None else int(avoid_seed),
+            "avoid_resolution": None if avoider is None else res(avoid_resolution)}
 
 
 def run(*, out: str | Path = "demo-out", seed: int = SEED, jitter: float = 1.0,
         detectors: Sequence[str] = DETECTORS,
         resolution: str | Sequence[int] = "rl", avoider: str | None = None,
-        avoid_seed: int = AVOID_SEED, avoid_resolution: str | Sequence[int] | None = None) -> int:
+        avoid_seed: int = AVOID_SEED, avoid_resolution: str | Sequence[int] | None = None,
+        command: str | None = None) -> int:
     """Drive one episode with `detectors` watching (the first one's S layer shown) at the
     camera `resolution`, and with `avoider` ("DETECTOR[,HOW]", `demo_avoid.parse_avoider`;
     None: not) one in which that detector drives the robot round the obstacles
     (`lgmd_sim.apps.avoid`), seeded `avoid_seed`, at `avoid_resolution` (None: the
     closed-loop benchmark's); write the videos, the summaries and the still into `out`,
     all of them or (on an error) none (without `avoider`, an earlier run's avoiding
-    episode there is removed); print where they are."""
+    episode there is removed), each PNG with the `command` that made it (the command line,
+    None: none) and the `configuration` (PNG text chunks, `lgmd_sim.core.pngtext`); print
+    where they are."""
     from lgmd_sim.apps import avoid as demo_avoid
 
     detectors = list(detectors)
@@ -319,14 +347,17 @@ def run(*, out: str | Path = "demo-out", seed: int = SEED, jitter: float = 1.0,
     ep = drive(seed, jitter, detectors, resolution)
     avoid = (None if closed is None
              else demo_avoid.drive(avoid_seed, jitter, *closed, resolution=avoid_resolution))
+    text = png_text(command, configuration(
+        seed=seed, jitter=jitter, detectors=detectors, resolution=resolution, avoider=avoider,
+        avoid_seed=avoid_seed, avoid_resolution=avoid_resolution))
     names = ["demo.mp4", "demo_frame.png", "demo.png"]
     names += [] if avoid is None else list(AVOID_FILES)
     with atomic_folder_outputs(out, names) as staging:
-        write_video(ep, staging / names[0], staging / names[1])
+        write_video(ep, staging / names[0], staging / names[1], text)
         write_summary(ep, staging / names[2],
-                      f"RoughTerrainObstacles, jitter {jitter:g}, seed {seed}")
+                      f"RoughTerrainObstacles, jitter {jitter:g}, seed {seed}", text)
         if avoid is not None:
-            demo_avoid.write(avoid, staging / names[3], staging / names[4])
+            demo_avoid.write(avoid, staging / names[3], staging / names[4], text)
     if avoid is None:  # an earlier run's would read as this one's: the folder is one set
         for name in AVOID_FILES:
             (out / name).unlink(missing_ok=True)

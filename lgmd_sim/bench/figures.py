@@ -77,9 +77,10 @@ _START = {"marker": "o", "ms": 4, "color": "#0072B2", "mec": "black", "mew": 0.5
 _GOAL = {"marker": "*", "ms": 11, "color": "gold", "mec": "black", "mew": 0.6, "ls": "none",
          "zorder": 4}
 #: The baselines' colours in the scatter (a detector's is its model's, lgmd_sim.core.plots'),
-#: and those of other models and policies: none an Okabe-Ito colour of a model's.
+#: and those of other models and policies: none an Okabe-Ito colour of a model's, each
+#: reading on white (contrast at least lgmd_sim.core.plots.MIN_CONTRAST).
 _BASELINE_COLOURS = {"oracle": "black", "straight": "0.6"}
-_EXTRA = ["#17BECF", "#F0E442", "#8C564B", "#9467BD", "#BCBD22", "#56B4E9"]
+_EXTRA = ["#17BECF", "#882255", "#8C564B", "#9467BD", "#999933", "#56B4E9"]
 #: Margin of the map panels around the paths, obstacles and goal (m).
 _PAD = 0.4
 

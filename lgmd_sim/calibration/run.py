@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import shlex
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -46,7 +47,8 @@ from lgmd_sim.calibration.search import (
     space,
 )
 from lgmd_sim.core.fileio import write_files, write_text_atomic
-from lgmd_sim.core.parallel import Job, run_jobs
+from lgmd_sim.core.parallel import Job, check_parallel, run_jobs
+from lgmd_sim.core.pngtext import png_text
 from lgmd_sim.core.runs import NULL, Fields, RunFolder, RunResult
 from lgmd_sim.metrics import PAPER_ALARM
 from lgmd_sim.models import presets
@@ -56,7 +58,7 @@ if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
 __all__ = ["TASKS", "CalibrateConfig", "Task", "calibrate", "calibration_figure", "choose",
-           "preset_name", "summary_markdown"]
+           "chosen_of", "preset_name", "redraw", "summary_markdown"]
 
 
 @dataclass(frozen=True)
@@ -303,6 +305,9 @@ def summary_markdown(chosen: Sequence[dict[str, Any]], objective: Objective = WA
 #: Inches: what each detector's pair of bars takes in a panel, and the least a panel is
 #: wide, so that its title and the legend fit with a single detector.
 _PER_DETECTOR, _MIN_PANEL = 0.6, 3.4
+#: The y axis of calibration.png: the objective and each part, a share of clips (frames
+#: for the robot's balanced accuracy) that went as the panel's title says.
+SCORE_LABEL = "score (0 to 1, 1 best)"
 
 
 def calibration_figure(chosen: Sequence[dict[str, Any]], objective: Objective = WALKER
@@ -341,6 +346,8 @@ def calibration_figure(chosen: Sequence[dict[str, Any]], objective: Objective = 
         ax.set_title(objective.titles[what], fontsize="medium")
         ax.set_ylim(0, 1.02)
         ax.grid(axis="y", alpha=0.3)
+    for ax in axes[::cols]:  # the first of each row (the others share its y axis)
+        ax.set_ylabel(SCORE_LABEL)
     # the key in grey: the bars' colours are the detectors', named below each pair
     handles = [Patch(facecolor="0.4", alpha=alphas[n], label=f"{_set_label(n)} seeds"
                      if n in ("search", "heldout") else f"{n}: held-out seeds in other looks",
@@ -354,6 +361,124 @@ def calibration_figure(chosen: Sequence[dict[str, Any]], objective: Objective = 
     return fig
 
 
+def _calibration_of(command: str) -> CalibrateConfig:
+    """The configuration of a recorded `lgmd-sim calibrate` command line (as
+    `lgmd_sim.cli.command_line` writes it, a PYTHONPATH before it or not)."""
+    from lgmd_sim.cli import build_parser
+    from lgmd_sim.cli.calibrate import config_from_args
+
+    words = shlex.split(command)
+    while words and "=" in words[0]:  # the PYTHONPATH a plug-in's command ran under
+        words.pop(0)
+    if words[:2] != ["lgmd-sim", "calibrate"]:
+        raise ValueError(f"not an lgmd-sim calibrate command: {command!r}")
+    try:
+        args = build_parser().parse_args(words[1:])
+    except SystemExit:  # argparse's way to refuse: name the command it refused
+        raise ValueError(f"not a command of today's lgmd-sim calibrate: {command!r}") from None
+    # where it merged its presets then is no part of what it calibrated, and checking
+    # that file now would read (or make) the user's data folder
+    args.save_presets, args.presets_file = False, None
+    return config_from_args(args)
+
+
+def _calibrations(presets_file: Path) -> dict[str, dict[str, dict[str, Any]]]:
+    """The presets of a presets file grouped by the command of the calibration that made
+    each: command -> {model: {preset: entry}} (a preset without a record of its own, as
+    in a run's calibrated.json, made by the file's)."""
+    data = json.loads(presets_file.read_text())
+    out: dict[str, dict[str, Any]] = {}
+    for model, entries in data["presets"].items():
+        for name, entry in entries.items():
+            command = entry.get("calibration", data).get("command")
+            if command:
+                out.setdefault(command, {}).setdefault(model, {})[name] = entry
+    return out
+
+
+def _source(source: Path, task: str | None
+            ) -> tuple[Sequence[str], str, Mapping[str, Any], dict[str, Any]]:
+    """What `chosen_of` reads of `source`: the calibration's detectors, its task, its
+    presets (model -> {preset: entry}) and what identifies it (what a figure records)."""
+    if source.is_dir():
+        config = json.loads((source / "run.json").read_text())["config"]
+        run_task = config.get("task", "walker")
+        if task not in (None, run_task):
+            raise ValueError(f"{source}: a calibration of the {run_task} task, not {task}")
+        presets_of = json.loads((source / "calibrated.json").read_text())["presets"]
+        return config["detectors"], run_task, presets_of, {"run": source.name}
+    if task is None:
+        raise ValueError(f"{source}: a presets file: name the calibration's task")
+    found: dict[str, tuple[Sequence[str], Mapping[str, Any]]] = {}
+    for command, presets_of in _calibrations(source).items():
+        config = _calibration_of(command)
+        if config.task == task:
+            found[command] = (config.detectors, presets_of)
+    if not found:
+        raise ValueError(f"{source}: holds no calibration of the {task} task")
+    if len(found) > 1:  # a file several merged into: --task names none alone
+        raise ValueError(f"{source}: {len(found)} calibrations of the {task} task, not one:"
+                         + "".join(f"\n  {c}" for c in found))
+    ((command, (detectors, presets_of)),) = found.items()
+    return detectors, task, presets_of, {"presets": source.name, "calibration": command}
+
+
+def _chosen(detectors: Sequence[str], task: str, presets_of: Mapping[str, Any],
+            source: Path) -> list[dict[str, Any]]:
+    chosen = []
+    for detector in detectors:
+        model, name = preset_name(detector, task)
+        entry = presets_of.get(model, {}).get(name)
+        if entry is None:
+            raise ValueError(f"{source}: no preset {model}/{name} of this calibration "
+                             f"(detector {detector})")
+        # a set's scores hold a number as their objective; a presets file's provenance
+        # ("calibration") holds the objective's text
+        chosen.append({"detector": detector, "threshold": entry["params"]["threshold"],
+                       **{k: v for k, v in entry.items() if isinstance(v, dict)
+                          and isinstance(v.get("objective"), (int, float))}})
+    return chosen
+
+
+def chosen_of(source: str | Path, task: str | None = None
+              ) -> tuple[list[dict[str, Any]], Objective]:
+    """The chosen candidates' scores of a calibration, as `calibrate` chose them, in the
+    order of its detectors, and its task's objective: what `calibration_figure` draws.
+
+    `source`: a finished run's folder (its run.json and calibrated.json, what a docs folder
+    keeps of a run), or a presets file (the shipped `lgmd_sim.models.presets.CALIBRATED`)
+    with the `task` of the calibration to take: the presets that one ``lgmd-sim
+    calibrate`` command of that task made (each preset records its command), in the order
+    of its ``--detectors``.
+
+    Raises:
+        ValueError: the file holds no calibration of `task`, or several, or lacks one of
+            its detectors' presets; a `task` given with a run of another task.
+    """
+    source = Path(source)
+    detectors, task, presets_of, _ = _source(source, task)
+    return _chosen(detectors, task, presets_of, source), TASKS[task].objective
+
+
+def redraw(source: str | Path, out: str | Path | None = None, command: str | None = None,
+           task: str | None = None) -> Path:
+    """calibration.png of a calibration drawn again from what `chosen_of` reads of
+    `source` (a run folder, or a presets file and the calibration's `task`), into `out`
+    (None: the run folder's own; a presets file has none), recording the `command` that
+    drew it and which calibration (`lgmd_sim.core.pngtext`); returns where."""
+    source = Path(source)
+    detectors, task, presets_of, identity = _source(source, task)
+    if out is None:
+        if "run" not in identity:
+            raise ValueError(f"{source}: a presets file keeps no figure: give out")
+        out = source / "calibration.png"
+    fig = calibration_figure(_chosen(detectors, task, presets_of, source), TASKS[task].objective)
+    text = png_text(command, identity)
+    write_files({Path(out): lambda tmp: fig.savefig(tmp, format="png", dpi=110,
+                                                    metadata=text)})
+    return Path(out)
+
+
 def calibrate(config: CalibrateConfig, out: str | Path, *, resume: bool = False,
               workers: int | None = None, ray_address: str | None = None,
               progress: bool | None = None, command: str = "") -> RunResult:
@@ -364,6 +489,7 @@ def calibrate(config: CalibrateConfig, out: str | Path, *, resume: bool = False,
 
     task = TASKS[config.task]
     objective = task.objective
+    check_parallel(workers, ray_address)
     preflight((s.model, f"{s.preset}+{s.front}" if s.front else s.preset)
               for s in map(space, config.detectors))
     folder = RunFolder(out, config.as_json(), command, resume=resume)
@@ -396,8 +522,9 @@ def calibrate(config: CalibrateConfig, out: str | Path, *, resume: bool = False,
               for d in config.detectors]
     write_text_atomic(folder.path / "summary.md", summary_markdown(chosen, objective))
     fig = calibration_figure(chosen, objective)
+    text = png_text(command or None, {"run": folder.path.name})
     write_files({folder.path / "calibration.png":
-                 lambda tmp: fig.savefig(tmp, format="png", dpi=110)})
+                 lambda tmp: fig.savefig(tmp, format="png", dpi=110, metadata=text)})
     calibration = {
         "command": command, "objective": objective.text,
         "search_seeds": [config.first_seed, config.seeds],

@@ -54,11 +54,19 @@ def add(sub: argparse._SubParsersAction) -> None:
                       "there)")
 
 
-def run(args: argparse.Namespace) -> int:
+def episodes(args: argparse.Namespace) -> dict:
+    """`lgmd_sim.apps.demo.run`'s arguments for the episodes (all but the output folder
+    and the command line)."""
     from lgmd_sim import options
+
+    return {"seed": args.seed, "jitter": args.jitter,
+            "detectors": options.comma_list(args.models), "resolution": args.resolution,
+            "avoider": None if args.no_avoid else args.avoider,
+            "avoid_seed": args.avoid_seed, "avoid_resolution": args.avoid_resolution}
+
+
+def run(args: argparse.Namespace) -> int:
     from lgmd_sim.apps import demo
 
-    return demo.run(out=args.out, seed=args.seed, jitter=args.jitter,
-                    detectors=options.comma_list(args.models), resolution=args.resolution,
-                    avoider=None if args.no_avoid else args.avoider,
-                    avoid_seed=args.avoid_seed, avoid_resolution=args.avoid_resolution)
+    return demo.run(out=args.out, command=getattr(args, "command_line", None),
+                    **episodes(args))

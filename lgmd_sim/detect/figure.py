@@ -1,10 +1,13 @@
 """A detection drawn: every model's membrane potential over a clip with its first alarm,
-the threshold and the labelled collision (`draw_potentials`), and a model's legend entry
-(`alarm_label`), in the figure conventions of `lgmd_sim.core.plots`."""
+the threshold and the labelled collision (`draw_potentials`), one panel per model
+(`draw_by_model`, `detection_figure`: what `lgmd-sim detect` writes), and a model's legend
+entry (`alarm_label`), in the figure conventions of `lgmd_sim.core.plots`."""
 
 from __future__ import annotations
 
-from collections.abc import Callable
+import dataclasses
+from collections.abc import Callable, Sequence
+from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -15,8 +18,13 @@ from lgmd_sim.detect.results import Detection
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
+    from matplotlib.figure import Figure
 
-__all__ = ["alarm_label", "draw_potentials", "draw_thresholds"]
+__all__ = ["alarm_label", "by_model", "detection_figure", "draw_by_model", "draw_potentials",
+           "draw_thresholds", "model_of"]
+
+#: Inches: the height of a model's panel, and of the SSIM's.
+PANEL_HEIGHT, SSIM_HEIGHT = 1.9, 1.5
 
 #: The dashes of a threshold line (dash, dot, dot: no model's own line style, so that it
 #: is not taken for a potential in the same colour), and their period (points).
@@ -78,10 +86,11 @@ def draw_thresholds(ax: Axes, thresholds: dict[str, float],
 
 
 def draw_potentials(ax: Axes, d: Detection, legend: bool = True,
-                    style_of: Callable[[str], dict[str, Any]] = model_style) -> None:
+                    style_of: Callable[[str], dict[str, Any]] = model_style,
+                    collision_text: bool = True) -> None:
     """Every model's membrane potential over the frames of a clip, its first alarm
-    marked, the threshold, and the labelled collision frame; each model's line in
-    `style_of` its name."""
+    marked, the threshold, and the labelled collision frame (named beside its line, or
+    without `collision_text` in the legend); each model's line in `style_of` its name."""
     frames = np.arange(d.frames)
     for name, tr in d.models.items():
         style = style_of(name)
@@ -101,7 +110,10 @@ def draw_potentials(ax: Axes, d: Detection, legend: bool = True,
             whose = "" if len(rules) == 1 else f"{', '.join(names)}: "
             ax.plot([], [], ls="none", label=f"{whose}an alarm is {rule} the threshold")
     ax.plot([], [], marker="v", color="white", mec="black", ls="none", label="first alarm")
-    if d.collision_frame is not None:
+    if d.collision_frame is not None and not collision_text:
+        ax.axvline(d.collision_frame, **COLLISION,
+                   label=f"collision (frame {d.collision_frame})")
+    elif d.collision_frame is not None:
         ax.axvline(d.collision_frame, **COLLISION)
         ax.text(d.collision_frame - 0.01 * d.frames, 0.03,
                 f"collision (frame {d.collision_frame})", transform=ax.get_xaxis_transform(),
@@ -114,3 +126,66 @@ def draw_potentials(ax: Axes, d: Detection, legend: bool = True,
         # clear of the thresholds' values beside the right edge
         ax.legend(loc="upper left", bbox_to_anchor=(1.07, 1.0), fontsize="small", title=title,
                   title_fontsize="small")
+
+
+def model_of(name: str) -> str:
+    """The model a detector's name is of ("lgmd1/video+image" -> "lgmd1"; a plug-in's
+    "package.module:Class/preset" -> "package.module:Class")."""
+    return name.split("+")[0].split("/")[0]
+
+
+def by_model(d: Detection) -> dict[str, Detection]:
+    """`d` split by model (`model_of`), in the order the models first come: per model,
+    the detection of its detectors alone (a model at several presets stays together)."""
+    groups: dict[str, dict[str, Any]] = {}
+    for name, trace in d.models.items():
+        groups.setdefault(model_of(name), {})[name] = trace
+    return {m: dataclasses.replace(d, models=traces) for m, traces in groups.items()}
+
+
+def draw_by_model(axes: Sequence[Axes], d: Detection) -> None:
+    """One panel per model (`by_model`; `axes` one per model, top to bottom): its
+    potentials with their first alarms, each threshold in its detector's colour, the
+    labelled collision; its legend beside it, off the data (the first's with a title)."""
+    panels = by_model(d)
+    if len(axes) != len(panels):
+        raise ValueError(f"{len(panels)} models ({', '.join(panels)}) need as many axes, "
+                         f"not {len(axes)}")
+    for k, (ax, (model, sub)) in enumerate(zip(axes, panels.items(), strict=True)):
+        # the collision named in the legend: a small panel has no room clear of the data
+        draw_potentials(ax, sub, legend=False, collision_text=False)
+        ax.set_title(model, fontsize="medium", loc="left")
+        if k < len(axes) - 1:
+            ax.set_xlabel("")  # shared with the panel below
+        title = (None if k else "model: first alarm"
+                 + (", outcome" if d.collision_frame is not None else ""))
+        # clear of the thresholds' values beside the right edge
+        ax.legend(loc="upper left", bbox_to_anchor=(1.07, 1.0), fontsize="x-small",
+                  title=title, title_fontsize="x-small")
+
+
+def detection_figure(d: Detection, title: str | None = None, ssim: bool = True,
+                     width: float = 10.0) -> Figure:
+    """`lgmd-sim detect`'s figure, `width` inches wide: one panel per model
+    (`draw_by_model`), and with `ssim` the SSIM of consecutive frames below them; `title`
+    over it all (None: the clip's file name)."""
+    from lgmd_sim.core.plots import figure
+
+    n = len(by_model(d))
+    heights = [PANEL_HEIGHT] * n + ([SSIM_HEIGHT] if ssim else [])
+    fig = figure(figsize=(width, sum(heights) + 0.7))
+    axes = np.atleast_1d(fig.subplots(len(heights), 1, sharex=True, height_ratios=heights))
+    draw_by_model(list(axes[:n]), d)
+    fig.suptitle(Path(d.video).name if title is None else title)
+    if ssim:
+        axes[n - 1].set_xlabel("")
+        bottom = axes[n]
+        if d.collision_frame is not None:
+            bottom.axvline(d.collision_frame, **COLLISION)
+        bottom.plot(np.arange(1, d.frames), d.ssim[1:], color="0.35", lw=1.2)
+        bottom.set_ylabel("SSIM")
+        bottom.set_xlabel("frame")
+        bottom.set_title(f"SSIM of consecutive frames (ISI {d.isi:.4f})", fontsize="medium",
+                         loc="left")
+        bottom.set_ylim(min(0.0, float(np.min(d.ssim[1:], initial=1.0))), 1.02)
+    return fig

@@ -10,8 +10,6 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
 from lgmd_sim.core.fileio import write_files
 from lgmd_sim.detect.results import Detection
 
@@ -33,24 +31,17 @@ def _write_csv(path: Path, d: Detection) -> None:
 
 
 def _write_figure(path: Path, d: Detection) -> None:
-    """The paper's layout: every model's potential with the threshold, each first alarm
-    and the collision marked; the SSIM of consecutive frames below."""
-    from lgmd_sim.core.plots import COLLISION, figure
-    from lgmd_sim.detect.figure import draw_potentials
+    """One panel per model: its potentials with their thresholds, each first alarm and the
+    collision marked; the SSIM of consecutive frames below (`detection_figure`). The PNG
+    records the detection's configuration (`lgmd_sim.core.pngtext`)."""
+    from lgmd_sim.core.pngtext import png_text
+    from lgmd_sim.detect.figure import detection_figure
 
-    fig = figure(figsize=(10, 5.8))
-    top, bottom = fig.subplots(2, 1, sharex=True, height_ratios=[2.2, 1])
-    draw_potentials(top, d)
-    top.set_xlabel("")  # shared with the SSIM panel below
-    top.set_title(Path(d.video).name)
-    if d.collision_frame is not None:
-        bottom.axvline(d.collision_frame, **COLLISION)
-    bottom.plot(np.arange(1, d.frames), d.ssim[1:], color="0.35", lw=1.2)
-    bottom.set_ylabel("SSIM")
-    bottom.set_xlabel("frame")
-    bottom.set_title(f"SSIM of consecutive frames (ISI {d.isi:.4f})", fontsize="medium")
-    bottom.set_ylim(min(0.0, float(np.min(d.ssim[1:]))), 1.02)
-    fig.savefig(path, format="png", dpi=120)
+    fig = detection_figure(d)
+    config = {"video": Path(d.video).name, "models": list(d.models),
+              "collision_frame": d.collision_frame, "noise": d.noise,
+              "noise_seed": d.noise_seed}
+    fig.savefig(path, format="png", dpi=120, metadata=png_text(None, config))
 
 
 def write_outputs(d: Detection, out_dir: str | os.PathLike, stem: str) -> dict[str, Path]:

@@ -5,7 +5,13 @@ replaces the one between the markers (or is appended), the rest of the page stay
 
     .venv/bin/python docs/experiments/tools/video_page.py runs/calibration-video runs/footage-check
 
-Writes, besides the section: docs/video/calibration.png (the run's), potentials.png (a
+or, for docs/video/detect.png alone (it needs no run: a clip of its own):
+
+    .venv/bin/python docs/experiments/tools/video_page.py --detect-figure-only
+
+Writes, besides the section: docs/video/calibration.png (the run's; drawn again, without
+the run, from what docs/results/calibration-video keeps of it by
+docs/experiments/tools/calibration_figure.py), potentials.png (a
 shaken synthetic approach in a look the calibration never saw, each video preset with and
 without each part of its front end) and detect.png (the README's: `lgmd-sim detect
 --preset video` against the published defaults on a clip recorded with a real camera's
@@ -51,6 +57,8 @@ FRONTS = {"none": {"stabilize": "none", "gain": False},
           "image": {"stabilize": "image", "gain": False},
           "image+gain": {}}
 DASHES = {"none": "-", "image": (0, (5, 2)), "image+gain": (0, (1, 1.2))}
+#: The option that draws the README's figure (docs/video/detect.png) alone, from no run.
+DETECT_ONLY = "--detect-figure-only"
 #: Where the footage targets (`footage_check.TARGETS`) come from.
 TARGETS_SOURCE = "issue 18's (detection that transfers to real footage)"
 
@@ -171,14 +179,17 @@ def potentials_figure(out: Path, names: Sequence[str]) -> None:
 
 
 def detect_figure(out: Path) -> tuple[str, int]:
-    """The README's figure: every model at ``--preset video`` and at its defaults on one
-    clip with a real camera's noise; returns the clip's description and collision frame."""
+    """The README's figure: one panel per model, each at its defaults and at ``--preset
+    video`` on one clip with a real camera's noise (`lgmd_sim.detect.figure.draw_by_model`);
+    returns the clip's description and collision frame."""
+    import dataclasses
+
     import gymnasium as gym
 
     from lgmd_sim.controllers import Straight, rollout
-    from lgmd_sim.core.plots import figure
+    from lgmd_sim.core.pngtext import png_text
     from lgmd_sim.detect import detect
-    from lgmd_sim.detect.figure import draw_potentials
+    from lgmd_sim.detect.figure import detection_figure
     from lgmd_sim.detect.specs import with_preset
     from lgmd_sim.envs.catalogue import scenario
 
@@ -193,21 +204,21 @@ def detect_figure(out: Path) -> tuple[str, int]:
     parsed = noise.parse(LOOKS.noise)
     frames = [noise.apply(f, parsed, seed, t) for t, f in enumerate(frames)]
     names = models.available()
-    runs = {"lgmd-sim detect CLIP (the published defaults)": with_preset(names, None),
-            "lgmd-sim detect CLIP --preset video": with_preset(names, "video")}
-    fig = figure(figsize=(13.0, 8.0))
-    axes = fig.subplots(2, 1, sharex=True)
-    for ax, (title, built) in zip(axes, runs.items(), strict=True):
-        d = detect(frames, fps, built, hit, name=name)
-        draw_potentials(ax, d, legend=False)
-        # beside the axes (inside, it covered the potentials), clear of the thresholds' values
-        ax.legend(fontsize="x-small", loc="upper left", bbox_to_anchor=(1.07, 1.0))
-        ax.set_title(title, fontsize="medium", loc="left")
+    # `lgmd-sim detect CLIP` and `lgmd-sim detect CLIP --preset video`, as one detection:
+    # each model's panel holds both
+    runs = [detect(frames, fps, with_preset(names, preset), hit, name=name)
+            for preset in (None, "video")]
+    both = dataclasses.replace(runs[0], models={k: v for d in runs for k, v in d.models.items()})
     described = (f"{name}, jitter {jitter:g}, seed {seed}, 270 x 480, a camera of {fovy:.0f} "
                  f"degrees (vertical), low sun, shade and flicker, with the noise "
                  f"{LOOKS.noise}")
-    fig.suptitle(described, fontsize="medium")
-    write_files({out: lambda tmp: fig.savefig(tmp, format="png", dpi=90)})
+    title = (f"{described}:\neach model at its published defaults (lgmd-sim detect CLIP) and "
+             "at --preset video (MODEL/video, the darker line)")
+    fig = detection_figure(both, title=title, ssim=False, width=13.0)
+    fig.suptitle(title, fontsize="medium")
+    text = png_text(f".venv/bin/python docs/experiments/tools/video_page.py {DETECT_ONLY}",
+                    {"clip": list(CLIP), "noise": LOOKS.noise, "models": list(both.models)})
+    write_files({out: lambda tmp: fig.savefig(tmp, format="png", dpi=90, metadata=text)})
     return described, hit
 
 
@@ -322,11 +333,19 @@ def section(run: Path, footage: Path) -> str:
 
 def main(argv: Sequence[str] | None = None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("run", type=Path, help="the video calibration's run folder")
-    ap.add_argument("footage", type=Path,
+    ap.add_argument("run", type=Path, nargs="?", help="the video calibration's run folder")
+    ap.add_argument("footage", type=Path, nargs="?",
                     help="docs/experiments/tools/footage_check.py's output folder (its "
                     "footage_check.json)")
+    ap.add_argument(DETECT_ONLY, action="store_true",
+                    help="draw docs/video/detect.png alone (no run needed), the page as it is")
     args = ap.parse_args(argv)
+    if args.detect_figure_only:
+        detect_figure(FIGURES / "detect.png")
+        print("wrote docs/video/detect.png")
+        return
+    if args.run is None or args.footage is None:
+        ap.error(f"give the run and the footage folders (or {DETECT_ONLY})")
     run = args.run.resolve()
     if json.loads((run / "run.json").read_text()).get("status") != "complete":
         sys.exit(f"video_page.py: {run} is not a complete run")
