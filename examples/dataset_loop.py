@@ -21,9 +21,12 @@ from pathlib import Path
 
 import numpy as np
 
-from lgmd_sim import data
+from lgmd_sim import data, options
+from lgmd_sim.core.extras import MissingExtra
+from lgmd_sim.core.fileio import error_text, write_text_atomic
 from lgmd_sim.data.export import ExportConfig, export
 from lgmd_sim.data.generate import GenerateConfig, generate
+from lgmd_sim.detect.outputs import check_out_folder
 
 #: The LGMD whose responses join the labels. With the defaults below, LGMD2 (published
 #: parameters) alarms shortly before the collision at jitter 0, and at jitter 1 within the
@@ -122,17 +125,19 @@ def main() -> None:
     parser.add_argument("--workers", type=int, default=1,
                         help="local worker processes (default 1)")
     args = parser.parse_args()
-    args.out.mkdir(parents=True, exist_ok=True)
-    try:
+    try:  # OUT is made by the dataset's generation, once every option has been checked
+        check_out_folder(args.out)
+        # generate() checks the workers only once it has made its folder
+        options.check_positive(args.workers, "--workers", integer=True)
         folder = make(args.out, args.scenarios.split(","),
-                      [float(j) for j in args.jitter.split(",")], args.episodes, args.workers)
-    except ValueError as exc:  # a bad option: one line, exit status 2
-        parser.error(str(exc))
+                      list(options.jitter_levels(args.jitter)), args.episodes, args.workers)
+    except (ValueError, OSError, MissingExtra) as exc:  # as lgmd-sim: one line, status 2
+        parser.exit(2, f"{parser.prog}: error: {error_text(exc)}\n")
     cache = args.out / "hf-cache"
     summary = {"lgmd_sim": loop_with_lgmd_sim(folder),
                "datasets": loop_with_hf_datasets(folder, cache),
                "lerobot": loop_as_lerobot(folder, args.out / "lerobot", cache)}
-    (args.out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
+    write_text_atomic(args.out / "summary.json", json.dumps(summary, indent=2) + "\n")
     print(f"wrote {args.out / 'summary.json'}")
 
 

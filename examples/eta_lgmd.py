@@ -42,7 +42,10 @@ frames of 128 pixels or more. The low-pass delays the peak by about ``tau`` fram
 
 from __future__ import annotations
 
+import argparse
+import os
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any, ClassVar
 
 import numpy as np
@@ -151,3 +154,25 @@ def _variance(mass: np.ndarray, at: np.ndarray, total: np.ndarray) -> np.ndarray
     safe = np.where(total > 0, total, 1.0)
     mean = (mass * at).sum(axis=1) / safe
     return np.maximum((mass * at**2).sum(axis=1) / safe - mean**2, 0.0)
+
+
+def main() -> None:
+    """`python eta_lgmd.py --help` says what this file is and how lgmd-sim uses it; run
+    without options it does nothing: a plug-in is imported, not run."""
+    # a copy under another name or in another folder (the guide's "Make it yours") is
+    # named as it is
+    spec = f"{Path(__file__).stem}:{EtaLGMD.__name__}"
+    folder = os.path.relpath(Path(__file__).parent)
+    parser = argparse.ArgumentParser(
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+        description=f"{__doc__.splitlines()[0]}\n\n"
+        "A detector plug-in: running this file does nothing. lgmd-sim imports it by its\n"
+        f"spec, {spec}, with its folder on PYTHONPATH. Check it, then name it\n"
+        "wherever a model goes:\n\n"
+        f"  PYTHONPATH={folder} lgmd-sim models --check {spec}\n"
+        f"  PYTHONPATH={folder} lgmd-sim detect clip.mkv --models {spec},lgmd1")
+    parser.parse_args()
+
+
+if __name__ == "__main__":
+    main()

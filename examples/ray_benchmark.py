@@ -20,6 +20,9 @@ from pathlib import Path
 
 from lgmd_sim.bench.closed_loop import ClosedLoopConfig, run
 from lgmd_sim.bench.summary import summary_markdown
+from lgmd_sim.core.extras import MissingExtra
+from lgmd_sim.core.fileio import error_text
+from lgmd_sim.detect.outputs import check_out_folder
 
 
 def main() -> None:
@@ -35,21 +38,28 @@ def main() -> None:
                         help="run the same benchmark in this process too, and check that "
                         "its rows are the Ray run's")
     args = parser.parse_args()
+    try:
+        benchmark(args.out, args.ray, args.seeds, args.compare)
+    except (ValueError, OSError, MissingExtra) as exc:  # as lgmd-sim: one line, status 2
+        parser.exit(2, f"{parser.prog}: error: {error_text(exc)}\n")
+
+
+def benchmark(out: Path, ray: str, seeds: int, compare: bool) -> None:
+    """Run the benchmark on Ray into OUT/ray and, with `compare`, in this process into
+    OUT/local, checking that both give the same rows."""
+    check_out_folder(out)
     # The robot driving at a box over rough ground (jitter 1), 64 x 64 frames: Straight,
     # the Oracle and ReactiveAvoid on the LGMD1 at its robot preset with the image front
     # end, one cell each.
-    try:
-        config = ClosedLoopConfig(scenarios=("RobotApproach",), jitter=(1.0,),
-                                  controllers=("straight", "oracle", "reactive"),
-                                  detectors=(("lgmd1", "robot-image"),), seeds=args.seeds,
-                                  resolution="small")
-    except ValueError as exc:  # a bad option: one line, exit status 2
-        parser.error(str(exc))
+    config = ClosedLoopConfig(scenarios=("RobotApproach",), jitter=(1.0,),
+                              controllers=("straight", "oracle", "reactive"),
+                              detectors=(("lgmd1", "robot-image"),), seeds=seeds,
+                              resolution="small")
     # resume=True: running the same command again completes an interrupted run
-    on_ray = run(config, args.out / "ray", ray_address=args.ray, resume=True, progress=False)
+    on_ray = run(config, out / "ray", ray_address=ray, resume=True, progress=False)
     print(summary_markdown(on_ray.rows))
-    if args.compare:
-        here = run(config, args.out / "local", workers=1, resume=True, progress=False)
+    if compare:
+        here = run(config, out / "local", workers=1, resume=True, progress=False)
         if here.rows != on_ray.rows:
             sys.exit("the local run's rows differ from the Ray run's")
         print(f"the same {len(here.rows)} rows in this process as on Ray")

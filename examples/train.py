@@ -17,6 +17,10 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from lgmd_sim import options
+from lgmd_sim.core.extras import MissingExtra
+from lgmd_sim.core.fileio import error_text
+from lgmd_sim.detect.outputs import check_out_folder
 from lgmd_sim.training.evaluate import EvalConfig, evaluate
 from lgmd_sim.training.run import TrainConfig, train
 
@@ -34,11 +38,17 @@ def main() -> None:
     args = parser.parse_args()
     try:
         run(args.out, args.scenario, args.steps, args.seeds)
-    except ValueError as exc:  # a bad option: one line, exit status 2
-        parser.error(str(exc))
+    except (ValueError, OSError, MissingExtra) as exc:  # as lgmd-sim: one line, status 2
+        parser.exit(2, f"{parser.prog}: error: {error_text(exc)}\n")
 
 
 def run(out: Path, scenario: str, steps: int, seeds: int) -> None:
+    """Train a policy into OUT/policy, then evaluate it into OUT/eval; every option is
+    checked before the training starts."""
+    check_out_folder(out)
+    # the evaluation's configuration can be made only once the policy exists: its seeds
+    # are checked now, not after the training
+    options.check_positive(seeds, "--seeds", integer=True)
     # PPO on the feedback LGMD's features (its potentials and where in the view its
     # excitation is), with the wheels' and IMU's readings and the goal, at 64 x 64.
     config = TrainConfig(

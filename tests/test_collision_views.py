@@ -97,3 +97,65 @@ def test_a_run_it_cannot_replay_is_refused_in_one_line(tmp_path, scenario, colli
                           text=True)
     assert (done.returncode, done.stderr) == (1, f"collision_views.py: {tmp_path} {says}\n")
     assert not (tmp_path / "views").exists()
+
+
+def _bad(folder: Path, case: str) -> tuple[list[str], Path, str]:
+    """A run folder in `folder` broken as `case` says: the tool's arguments, its output
+    folder and what its one line must name."""
+    import json
+
+    from lgmd_sim.bench.closed_loop import ClosedLoopConfig
+
+    run, out = folder / "run", folder / "views"
+    run.mkdir()
+    config = ClosedLoopConfig(scenarios=("RobotWallAhead",), jitter=(1.0,),
+                              controllers=("straight",), seeds=1).as_json()
+    if case == "plug-in not on the path":
+        config.update(controllers=["reactive"], detectors=[["no_such_plugin:Detector", "x"]])
+    record = {"config": config}
+    (run / "run.json").write_text({"run.json not JSON": "{",
+                                   "run.json of a training run": '{"config": {"algo": "ppo"}}',
+                                   }.get(case, json.dumps(record)))
+    (run / "episodes.csv").write_text(
+        "scenario,jitter,controller,model,preset,tag,side,seed,task,frames,collided\n"
+        "RobotWallAhead,1.0,straight,,,,,1000,goal,"
+        f"{'many' if case == 'episodes.csv corrupt' else '90'},True\n")
+    args, names = [str(run), str(out)], str(run / "run.json")
+    if case == "missing folder":
+        args[0] = names = str(folder / "nowhere")
+    elif case == "folder without run.json":
+        (run / "run.json").unlink()
+    elif case in ("--workers 0", "--workers -1"):
+        args += case.split()
+        names = "--workers must be a positive integer"
+    elif case == "--out a file":
+        out.write_text("kept")
+        names = f"output folder {out} is a file"
+    elif case == "--out inside a file":
+        (folder / "file").write_text("kept")
+        out = folder / "file" / "views"
+        args[1] = names = str(out)
+    elif case == "plug-in not on the path":
+        names = "no_such_plugin:Detector"
+    elif case == "episodes.csv missing":
+        (run / "episodes.csv").unlink()
+        names = str(run / "episodes.csv")
+    elif case == "episodes.csv corrupt":
+        names = f"{run / 'episodes.csv'}, line 2"
+    return args, out, names
+
+
+@pytest.mark.parametrize("case", [
+    "missing folder", "folder without run.json", "run.json not JSON",
+    "run.json of a training run", "--workers 0", "--workers -1", "--out a file",
+    "--out inside a file", "plug-in not on the path", "episodes.csv missing",
+    "episodes.csv corrupt"])
+def test_a_bad_input_is_one_line_naming_it_and_leaves_nothing(tmp_path, case):
+    args, out, names = _bad(tmp_path, case)
+    done = subprocess.run([sys.executable, str(TOOLS / "collision_views.py"), *args],
+                          capture_output=True, text=True, timeout=120)
+    assert done.returncode != 0 and done.stdout == ""
+    assert done.stderr.startswith("collision_views.py: ") and done.stderr.count("\n") == 1
+    assert names in done.stderr and "Traceback" not in done.stderr
+    # nothing written: no output folder, and a file in its place kept as it was
+    assert (out.read_text() == "kept") if out.is_file() else not out.exists()

@@ -38,6 +38,15 @@ def _example(script: str, *args: str) -> subprocess.CompletedProcess:
     return _run([sys.executable, f"examples/{script}", *args])
 
 
+def _refused(script: str, *args: str) -> str:
+    """The error `script` refuses `args` with: one line, exit status 2, no traceback."""
+    done = subprocess.run([sys.executable, f"examples/{script}", *args], cwd=ROOT,
+                          capture_output=True, text=True, timeout=300)
+    assert done.returncode == 2 and done.stdout == "", done.stderr
+    assert done.stderr.count("\n") == 1 and "Traceback" not in done.stderr, done.stderr
+    return done.stderr
+
+
 def _bash_blocks(page: Path) -> list[list[str]]:
     """The command lines of each ```bash block of a page."""
     return [block.strip().splitlines() for block in
@@ -50,6 +59,39 @@ def test_every_example_says_what_it_does_and_where_it_writes(script):
     assert out.startswith(f"usage: {script}") and "--out OUT" in out
     first = (ROOT / "examples" / script).read_text().split('"""')[1].split("\n\n")[0]
     assert " ".join(first.split())[:40] in " ".join(out.split())  # the docstring's summary
+
+
+def test_the_plug_in_example_has_a_help_that_says_how_to_use_it():
+    out = _example("eta_lgmd.py", "--help").stdout
+    assert out.startswith("usage: eta_lgmd.py") and "spec, eta_lgmd:EtaLGMD," in out
+    assert "PYTHONPATH=examples lgmd-sim models --check eta_lgmd:EtaLGMD\n" in out
+    done = _example("eta_lgmd.py")  # run without options it does nothing, as before
+    assert (done.stdout, done.stderr) == ("", "")
+
+
+@pytest.mark.parametrize("script", SCRIPTS)
+def test_an_out_that_is_a_file_is_one_line(tmp_path, script):
+    out = tmp_path / "out"
+    out.write_text("kept")
+    assert _refused(script, "--out", str(out)) == (
+        f"{script}: error: output folder {out} is a file, not a folder\n")
+    assert out.read_text() == "kept"
+
+
+@pytest.mark.parametrize("option, value", [("--episodes", "0"), ("--workers", "0"),
+                                           ("--jitter", "x")])
+def test_a_bad_option_of_the_dataset_loop_is_one_line_and_makes_no_folder(
+        tmp_path, option, value):
+    out = tmp_path / "out"
+    assert option in _refused("dataset_loop.py", "--out", str(out), option, value)
+    assert not out.exists()
+
+
+def test_the_training_example_refuses_its_seeds_before_training(tmp_path):
+    out = tmp_path / "out"
+    assert _refused("train.py", "--out", str(out), "--seeds", "0") == (
+        "train.py: error: --seeds must be a positive integer, got 0\n")
+    assert not out.exists()  # no policy trained first
 
 
 def test_the_plug_in_example_passes_the_checker():

@@ -29,7 +29,6 @@ from __future__ import annotations
 import argparse
 import csv
 import io
-import json
 import math
 import shlex
 import sys
@@ -39,13 +38,17 @@ from typing import Any
 
 import numpy as np
 
-from lgmd_sim import controllers
+from lgmd_sim import controllers, options
 from lgmd_sim.bench.closed_loop import ClosedLoopConfig
 from lgmd_sim.bench.episode import Cell, driven
 from lgmd_sim.bench.summary import cell_of
-from lgmd_sim.core.fileio import write_text_atomic
+from lgmd_sim.core.extras import MissingExtra
+from lgmd_sim.core.fileio import atomic_outputs, error_text, read_text
 from lgmd_sim.core.parallel import Job, run_jobs
+from lgmd_sim.core.runs import NULL, NUMBER, RECORD, Fields, Maybe, read_record
+from lgmd_sim.detect.outputs import check_out_folder
 from lgmd_sim.envs.catalogue import params_for
+from lgmd_sim.models.check import preflight
 from lgmd_sim.world.gl import mujoco  # mujoco with the GL backend chosen
 
 #: Seconds before the collision at which the obstacle hit is looked for in the frame.
@@ -54,6 +57,20 @@ LAGS = (0.25, 0.5, 1.0)
 WINDOW = 2.0
 #: How far (m) mj_geomDistance looks: beyond the arena's diagonal.
 FAR = 50.0
+#: What the replay reads of a closed-loop run's run.json (`ClosedLoopConfig.from_json`): a
+#: record holding something else is refused naming the file, not met as a traceback.
+CONFIG_FIELDS: Fields = {"config": {
+    "scenarios": [str], "jitter": [NUMBER], "controllers": [str], "detectors": [[str]],
+    "seeds": [int], "resolution": (str, [int]), "cruise": NUMBER, "horizon": NUMBER,
+    "extra": Maybe([{"scenario": str, "jitter": NUMBER, "controller": str,
+                     "model": Maybe(str), "preset": Maybe(str), "params": dict,
+                     "tag": (str, NULL)}]),
+    "sides": Maybe([str]), "top_views": Maybe(int)}}
+#: What a user whose folder is refused can do about it.
+REMEDY = "give the run folder of an lgmd-sim eval or lgmd-sim bench closed-loop run"
+#: The columns of episodes.csv the replay reads.
+COLUMNS = ("scenario", "jitter", "controller", "model", "preset", "seed", "frames",
+           "collided")
 
 
 def views(cell: Cell, seed: int, resolution: Any, cruise: float, frame: int
@@ -124,51 +141,94 @@ def at(record: dict[str, Any], lag: float) -> int:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("eval", type=Path, help="a closed-loop evaluation's run folder")
-    parser.add_argument("out", type=Path)
-    parser.add_argument("--workers", type=int, default=None)
+    parser.add_argument("out", type=Path, help="the folder to write the tables and figure into")
+    parser.add_argument("--workers", type=int, default=None,
+                        help="local worker processes (default: every core)")
     args = parser.parse_args()
-    config = _config(args.eval)
+    try:
+        replay(args.eval, args.out, args.workers)
+    except (ValueError, OSError, MissingExtra) as exc:  # a bad input: one line naming it
+        sys.exit(f"collision_views.py: {error_text(exc)}")
+
+
+def replay(folder: Path, out: Path, workers: int | None) -> None:
+    """Replay the collisions of the run in `folder` and write their tables and figure into
+    `out`: every input is checked before the first replay, and the outputs move into place
+    as a set, so that a refusal or a failure leaves `out` as it was."""
+    if workers is not None:
+        options.check_positive(workers, "--workers", integer=True)
+    check_out_folder(out)
+    config = _config(folder)
     cells = {cell.key(seed): cell for cell in config.cells() for seed in config.seed_list}
-    jobs = []
-    with (args.eval / "episodes.csv").open(newline="") as f:
-        for r in csv.DictReader(f):
-            record = {**{k: v or None for k, v in r.items()}, "jitter": float(r["jitter"])}
-            key = cell_of(record).key(int(r["seed"]))
-            if r["collided"] == "True" and not params_for(r["scenario"], {}
-                                                          ).terminate_on_collision:
-                sys.exit(f"collision_views.py: {args.eval} holds {r['scenario']}, whose "
-                         "episodes go on after a collision: only scenarios that end at one")
-            if r["collided"] == "True" and key in cells:
-                jobs.append(Job(key, views, {"cell": cells[key], "seed": int(r["seed"]),
-                                             "resolution": config.resolution,
-                                             "cruise": config.cruise,
-                                             "frame": int(r["frames"]) - 1}))
-    if not jobs:
-        sys.exit(f"collision_views.py: {args.eval} records no collision to replay")
+    jobs = _jobs(folder, config, cells)
+    # a plug-in (controller or detector) that cannot run is refused now, not in a replay
+    replayed = list(dict.fromkeys(job.kwargs["cell"] for job in jobs))
+    for cell in replayed:
+        controllers.controller_class(cell.controller)
+    preflight((cell.model, cell.preset) for cell in replayed if cell.model)
     results: dict[str, dict[str, Any]] = {}
-    run_jobs(jobs, lambda job, r: results.__setitem__(job.key, r), workers=args.workers,
-             progress=True, desc="collisions replayed")
+    run_jobs(jobs, lambda job, r: results.__setitem__(job.key, r), workers=workers,
+             progress=None, desc="collisions replayed")
     rows = sorted(((job.kwargs["cell"], job.kwargs["seed"], results[job.key]) for job in jobs),
                   key=lambda r: (r[0].jitter, r[0].label, r[1]))
-    args.out.mkdir(parents=True, exist_ok=True)
     command = shlex.join(["python", *sys.argv])
-    write_text_atomic(args.out / "collisions.csv", _csv(rows))
-    write_text_atomic(args.out / "collision_views.md",
-                      _markdown(list(dict.fromkeys(cells.values())), config.seeds, rows,
-                                command))
-    _figure(rows, args.out / "collision_views.png")
-    print((args.out / "collision_views.md").read_text())
+    table = _markdown(list(dict.fromkeys(cells.values())), config.seeds, rows, command)
+    figure = out / "collision_views.png"
+    drawn = [row for row in rows if row[2]["replayed"]]
+    with atomic_outputs([out / "collisions.csv", out / "collision_views.md",
+                         *([figure] if drawn else [])]) as temps:
+        temps[0].write_text(_csv(rows))
+        temps[1].write_text(table)
+        if drawn:
+            _figure(drawn, temps[2])
+    if not drawn:  # none replayed to its collision: an earlier figure would pass for this one
+        figure.unlink(missing_ok=True)
+    print(table)
 
 
 def _config(folder: Path) -> ClosedLoopConfig:
     """The closed-loop configuration of run folder `folder` (a policy folder that has
     moved since, the run's recorded path, is looked up by its name, as a shipped one)."""
-    config = json.loads((folder / "run.json").read_text())["config"]
+    file = folder / RECORD
+    config = read_record(file, CONFIG_FIELDS, REMEDY)["config"]
     for cell in config.get("extra", ()):
         path = cell["params"].get("path")
         if path is not None and not Path(path).exists():
             cell["params"]["path"] = cell["tag"]
-    return ClosedLoopConfig.from_json(config)
+    try:
+        return ClosedLoopConfig.from_json(config)
+    except ValueError as exc:  # a scenario or plug-in this installation lacks
+        raise ValueError(f"{file}: {exc}") from None
+
+
+def _jobs(folder: Path, config: ClosedLoopConfig, cells: dict[str, Cell]) -> list[Job]:
+    """A replay of each collided episode of `cells` that episodes.csv in `folder` records."""
+    file = folder / "episodes.csv"
+    reader = csv.DictReader(io.StringIO(read_text(file), newline=""))
+    missing = [c for c in COLUMNS if c not in (reader.fieldnames or ())]
+    if missing:
+        raise ValueError(f"{file} has no column {missing[0]!r}: {REMEDY}")
+    jobs = []
+    for line, r in enumerate(reader, 2):
+        if r["collided"] != "True":
+            continue
+        try:
+            record = {**{k: v or None for k, v in r.items()}, "jitter": float(r["jitter"])}
+            seed, frame = int(r["seed"]), int(r["frames"]) - 1
+            ends = params_for(r["scenario"], {}).terminate_on_collision
+        except ValueError as exc:
+            raise ValueError(f"{file}, line {line}: {exc}") from None
+        if not ends:
+            raise ValueError(f"{folder} holds {r['scenario']}, whose episodes go on after a "
+                             "collision: only scenarios that end at one")
+        key = cell_of(record).key(seed)
+        if key in cells:
+            jobs.append(Job(key, views, {"cell": cells[key], "seed": seed,
+                                         "resolution": config.resolution,
+                                         "cruise": config.cruise, "frame": frame}))
+    if not jobs:
+        raise ValueError(f"{folder} records no collision to replay")
+    return jobs
 
 
 Row = tuple[Cell, int, dict[str, Any]]
@@ -241,15 +301,12 @@ def _pct(n: int, total: int) -> str:
 
 
 def _figure(rows: list[Row], path: Path) -> None:
+    """Draw the collisions `rows` (each replayed to its collision) into `path` (PNG)."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    rows = [row for row in rows if row[2]["replayed"]]
-    if not rows:  # none replayed to its collision: nothing to draw
-        path.unlink(missing_ok=True)
-        return
     labels = sorted({cell.label for cell, _seed, _r in rows})
     jitters = sorted({cell.jitter for cell, _seed, _r in rows})
     has_excitation = any(r["excitation"] for _cell, _seed, r in rows)
@@ -296,10 +353,8 @@ def _figure(rows: list[Row], path: Path) -> None:
                     if has_excitation else ""),
                  fontsize=10)
     fig.tight_layout(rect=(0, 0.03, 1, 0.97))
-    tmp = path.with_suffix(".tmp.png")
-    fig.savefig(tmp, dpi=110)
+    fig.savefig(path, dpi=110)
     plt.close(fig)
-    tmp.replace(path)
 
 
 if __name__ == "__main__":
