@@ -104,6 +104,21 @@ def test_pyopengl_platform_disagreeing_with_the_backend_is_one_line(tmp_path):
     assert_one_line_naming(result, "PYOPENGL_PLATFORM=osmesa", "backend is egl (MUJOCO_GL)")
 
 
+@pytest.mark.parametrize("value", ["egl1", "vulkan"])
+def test_a_backend_mujoco_does_not_know_is_one_line_naming_the_valid_ones(tmp_path, value):
+    # MuJoCo's own refusal is a RuntimeError 47 lines deep in its import
+    result = record(tmp_path, MUJOCO_GL=value)
+    assert_one_line_naming(result, f"MUJOCO_GL={value}", "egl", "osmesa", "glfw")
+    assert not (tmp_path / "r.avi").exists()
+
+
+def test_the_backend_is_read_as_mujoco_reads_it(monkeypatch):
+    from lgmd_sim.world import gl
+
+    monkeypatch.setenv("MUJOCO_GL", " OSMesa ")
+    assert gl.choose_backend() == "osmesa"
+
+
 # --- item 12: actions Gymnasium would refuse, stepping past the end -----------------------
 
 

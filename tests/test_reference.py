@@ -1,7 +1,8 @@
 """`lgmd-sim reference`: the committed reference pages are what the code generates now, a
 key the environment returns undescribed stops the generator, the scene pictures show
-something, and a bad --out is refused in one line."""
+something, it prints each file it wrote, and a bad --out is refused in one line."""
 
+import io
 from pathlib import Path
 
 import numpy as np
@@ -14,12 +15,26 @@ DOCS = Path(__file__).resolve().parents[1] / "docs" / "reference"
 
 
 @pytest.fixture(scope="module")
-def generated(tmp_path_factory) -> Path:
-    """The pages as `lgmd-sim reference --no-pictures` writes them now."""
+def written(tmp_path_factory) -> tuple[Path, str]:
+    """The pages as `lgmd-sim reference --no-pictures` writes them now, and what it
+    printed."""
     out = tmp_path_factory.mktemp("reference")
-    assert cli.main(["reference", "--out", str(out), "--no-pictures"]) == 0
+    with pytest.MonkeyPatch.context() as mp:
+        printed = io.StringIO()
+        mp.setattr("sys.stdout", printed)
+        assert cli.main(["reference", "--out", str(out), "--no-pictures"]) == 0
     assert not (out / reference.SCENES).exists()  # --no-pictures: none rendered
-    return out
+    return out, printed.getvalue()
+
+
+@pytest.fixture(scope="module")
+def generated(written) -> Path:
+    return written[0]
+
+
+def test_it_prints_each_file_it_wrote(written):
+    out, printed = written
+    assert printed.splitlines() == [f"wrote {out / 'scenarios.md'}", f"wrote {out / 'cli.md'}"]
 
 
 def test_committed_scenarios_page_is_current(generated):

@@ -49,7 +49,8 @@ def run(args: argparse.Namespace) -> int:
             writers[out / reference.SCENES / f"{name}.png"] = (
                 lambda tmp, png=png: tmp.write_bytes(png))
     write_files(writers)
-    print(f"wrote {', '.join(map(str, writers))}")
+    for path in writers:  # one line a file, so that a long set of pictures stays readable
+        print(f"wrote {path}")
     return 0
 
 

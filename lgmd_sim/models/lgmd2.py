@@ -1,4 +1,4 @@
-"""LGMD2 (Fu, Hu, Peng, Yue 2018/2019): ON/OFF channels, adaptive delayed inhibition, SFA.
+"""LGMD2 (Fu et al., IEEE TCYB 2020): ON/OFF channels, adaptive delayed inhibition, SFA.
 
 Layers, per frame t (grey levels 0..255), with the switches that tell the published
 implementations apart (docs/reference/models.md, "Baselines"):

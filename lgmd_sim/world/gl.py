@@ -22,6 +22,7 @@ import ctypes
 import ctypes.util
 import multiprocessing
 import os
+import platform
 
 import cv2
 
@@ -30,6 +31,15 @@ import cv2
 _NEEDS = {"egl": (("EGL",), ("OpenGL", "GL")), "osmesa": (("OSMesa",),)}
 _PACKAGES = {"egl": "libegl1 libegl-mesa0 libgl1-mesa-dri libopengl0 libglx0",
              "osmesa": "libosmesa6"}
+
+#: The values of ``MUJOCO_GL`` MuJoCo accepts for a backend on each system (as
+#: mujoco.rendering.classic.gl_context lists them; case and spaces do not count). It
+#: raises a bare RuntimeError deep inside its import for any other.
+_BACKENDS = {"Linux": ("egl", "osmesa", "glfw", "glx"), "Windows": ("glfw", "wgl"),
+             "Darwin": ("glfw", "cgl")}
+#: Other values it accepts: the platform's default, or rendering off.
+_SWITCHES = ("enable", "enabled", "on", "true", "1", "disable", "disabled", "off", "false",
+             "0")
 
 
 def _loads(name: str) -> bool:
@@ -55,20 +65,29 @@ def _missing(backend: str) -> list[str]:
 def choose_backend() -> str:
     """The backend to use: the user's ``MUJOCO_GL`` if set, else the first of "egl" and
     "osmesa" whose libraries load (none: "egl", which `check_backend` refuses)."""
-    user = os.environ.get("MUJOCO_GL", "").strip()
+    user = os.environ.get("MUJOCO_GL", "").strip().lower()  # as MuJoCo reads it
     if user:
         return user
     return next((b for b in ("egl", "osmesa") if not _missing(b)), "egl")
 
 
 def check_backend(backend: str) -> None:
-    """Raise OSError (one line: the library, the packages) unless `backend` can load, and
+    """Raise ValueError (one line: the valid values) when `backend` is no value MuJoCo
+    accepts, OSError (one line: the library, the packages) unless it can load, and
     ValueError when ``PYOPENGL_PLATFORM`` names another one."""
     user = bool(os.environ.get("MUJOCO_GL", "").strip())
-    platform = os.environ.get("PYOPENGL_PLATFORM", "").strip()
-    if backend in _NEEDS and platform and platform.lower() != backend:
+    backends = _BACKENDS.get(platform.system(), ("glfw",))
+    if backend.strip().lower() not in backends + _SWITCHES:
+        headless = [b for b in backends if b in _NEEDS]
+        raise ValueError(f"MUJOCO_GL={backend} is not a MuJoCo rendering backend: use "
+                         + (f"{' or '.join(headless)} (offscreen, no display needed), or "
+                            if headless else "")
+                         + " or ".join(b for b in backends if b not in headless)
+                         + " (needs a display), or unset MUJOCO_GL to let lgmd-sim choose")
+    pyopengl = os.environ.get("PYOPENGL_PLATFORM", "").strip()
+    if backend in _NEEDS and pyopengl and pyopengl.lower() != backend:
         chosen = "MUJOCO_GL" if user else "the one whose libraries load here"
-        raise ValueError(f"PYOPENGL_PLATFORM={platform} but MuJoCo's GL backend is {backend} "
+        raise ValueError(f"PYOPENGL_PLATFORM={pyopengl} but MuJoCo's GL backend is {backend} "
                          f"({chosen}): unset PYOPENGL_PLATFORM or make the two agree")
     missing = _missing(backend)
     if not missing:
