@@ -20,6 +20,7 @@ from lgmd_sim.benchmark import entries, protocol, scores
 from lgmd_sim.benchmark.leaderboard import leaderboard
 
 SHIPPED = protocol.PROTOCOLS["v1"].read_text()
+ROOT = Path(__file__).resolve().parents[1]
 
 
 def _tiny(tmp_path: Path, **changes: str) -> Path:
@@ -419,3 +420,7 @@ def test_a_detector_that_always_alarms_scores_0_and_one_that_never_does_0_5(tmp_
                                       track.window_s) for c in clips]
         got[preset] = scores.detection_parts(records).score()
     assert got == {"always": 0.0, "never": 0.5}
+    guide = " ".join((ROOT / "docs" / "guides" / "benchmark.md").read_text().split())
+    assert ("never alarms scores 0.5; one that alarms from the first frame scores 0" in guide
+            and "never alarms scores 0.5, one that alarms from the first frame 0" in " ".join(
+                scores.__doc__.split()))
