@@ -22,6 +22,11 @@ Importing lgmd_sim registers every scenario of the catalogue as `lgmd_sim/<Name>
 
 __version__ = "0.1.0"
 
-from lgmd_sim.envs.catalogue import register_all as _register_all
+# first: the numeric mode is environment variables NumPy and Numba read when imported
+from lgmd_sim.core.numerics import pin as _pin
+
+_pin()
+
+from lgmd_sim.envs.catalogue import register_all as _register_all  # noqa: E402
 
 _register_all()  # entry-point strings only: no MuJoCo import until an env is made

@@ -12,6 +12,8 @@ from pathlib import Path
 
 import pytest
 
+import lgmd_sim  # noqa: F401  before NumPy: the suite runs in the default numeric mode
+
 ROOT = Path(__file__).resolve().parents[1]
 # The suite reads the shipped calibrated presets only, never a user's (lgmd_sim.models.presets).
 os.environ["LGMD_SIM_DATA_DIR"] = tempfile.mkdtemp(prefix="lgmd-sim-test-data-")

@@ -188,6 +188,7 @@ OPTIONS = {
             " | --first-seed --cruise --horizon --top-views --ray",
     "benchmark": "--out --calibrate --workers --no-progress | --protocol --ray",
     "leaderboard": "--out --protocol",
+    "verify": "--episodes --all --workers --no-progress | --protocol --seed",
     "reference": "--out --no-pictures",
 }
 

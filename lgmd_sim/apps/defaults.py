@@ -14,10 +14,9 @@ DETECTORS = (BEST, "feedback/paper")
 #: ("DETECTOR[,HOW]"): the best hand-made LGMD controller of the leaderboard, LoomSteer
 #: steered by LGMD1 at its robot preset with the rotation fitted from the frames.
 AVOIDER = "lgmd1/robot-image,loom-steer"
-#: An episode (a search seed of LoomSteer's, docs/experiments/loom-steer.md) in which, on
-#: the Intel Xeon that chose it, it avoids the 7 obstacles it meets and reaches the goal
-#: with six alarms; on an AMD EPYC the same seed collides at frame 399 (a last-bit
-#: difference between processors becomes another episode under a controller that steers
-#: by the potentials every frame: not yet replayable anywhere). The leaderboard gives the
-#: rates.
+#: An episode (a search seed of LoomSteer's, docs/experiments/loom-steer.md) in which it
+#: reaches the goal at frame 609 with five alarms, in the replay mode on any x86-64
+#: processor with AVX2 (`lgmd_sim.core.numerics`; recorded on an AMD EPYC, and checked by
+#: tests/test_replay.py's golden episodes there). Not every episode goes so: the
+#: leaderboard gives the rates.
 AVOID_SEED = 2002

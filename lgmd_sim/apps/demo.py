@@ -315,7 +315,10 @@ def configuration(*, seed: int = SEED, jitter: float = 1.0,
     def res(r: str | Sequence[int] | None) -> str | list[int] | None:
         return r if r is None or isinstance(r, str) else [int(v) for v in r]
 
-    return {"seed": int(seed), "jitter": float(jitter), "detectors": list(detectors),
+    from lgmd_sim.core.numerics import mode
+
+    return {"numerics": mode(), "seed": int(seed), "jitter": float(jitter),
+            "detectors": list(detectors),
             "resolution": res(resolution), "avoider": avoider,
             "avoid_seed": None if avoider is None else int(avoid_seed),
             "avoid_resolution": None if avoider is None else res(avoid_resolution)}

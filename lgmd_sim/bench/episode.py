@@ -27,6 +27,7 @@ import numpy as np
 
 from lgmd_sim import options
 from lgmd_sim.bench import encounters
+from lgmd_sim.bench.fingerprint import Fingerprint
 from lgmd_sim.controllers.avoid import ReactiveParams
 from lgmd_sim.core.runs import NULL, NUMBER, Maybe
 
@@ -132,8 +133,12 @@ def episode(cell: Cell, seed: int, *, resolution: Any, cruise: float, horizon: f
     from lgmd_sim import controllers
 
     infos, alarms, manoeuvring = [], [], []
+    trace = Fingerprint()
     with driven(cell, resolution=resolution, cruise=cruise) as (env, controller):
         for step in controllers.rollout(env, controller, seed=seed):
+            trace.add(step.obs, step.info, step.action,
+                      getattr(controller, "potential", None) if step.action is not None
+                      else None)
             infos.append(step.info)
             alarms.append(step.action is not None and controller.alarm)
             if step.action is not None:
@@ -169,6 +174,7 @@ def episode(cell: Cell, seed: int, *, resolution: Any, cruise: float, horizon: f
         # None where the controller cannot tell (a trained policy)
         "manoeuvring_share": (_finite(np.mean(manoeuvring))
                               if manoeuvring and None not in manoeuvring else None),
+        "fingerprint": trace.to_json(),
     }
     if "goal_distance" in first:  # a scenario with a goal
         start = first["goal_distance"]

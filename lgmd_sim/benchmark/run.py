@@ -136,6 +136,16 @@ def check_entries(entries: Sequence[Entry], protocol: Protocol) -> None:
     preflight((e.model, e.preset) for e in entries if e.kind == "detector")
 
 
+def _fingerprint(records: Sequence[Mapping[str, Any]]) -> str | None:
+    """One digest over a track's episodes (`lgmd_sim.bench.fingerprint`), in their keys'
+    order; None where an episode has none (recorded before fingerprints were)."""
+    from lgmd_sim.bench.fingerprint import combined
+
+    if not all("fingerprint" in r for r in records):
+        return None
+    return combined([r["fingerprint"]["sha256"] for r in records])
+
+
 def calibrated(entry: Entry, protocol: Protocol, out: str | Path, *,
                workers: int | None = None, ray_address: str | None = None,
                progress: bool | None = None, command: str = "") -> tuple[Entry, Path]:
@@ -234,11 +244,13 @@ def benchmark(entry: Entry, protocol: Protocol, out: str | Path, *,
     goal, rows = _closed_loop(entry, protocol, protocol.goal, folder / "goal", run_options)
     parts = {"goal": scores.parts_of(goal, scores.goal_score)}
     metrics = {"goal": _rows(goal, rows, _GOAL_COLUMNS, scores.goal_score)}
+    traces = {"goal": _fingerprint(goal)}
     if entry.kind != "policy":  # a policy observes the goal, which the arena has not
         arena, rows = _closed_loop(entry, protocol, protocol.arena, folder / "arena",
                                    run_options)
         parts["arena"] = scores.parts_of(arena, arena_score)
         metrics["arena"] = _rows(arena, rows, _ARENA_COLUMNS, arena_score)
+        traces["arena"] = _fingerprint(arena)
     if entry.kind == "detector":
         clips = _detection(entry, protocol, folder / "detection", run_options)
         parts["detection"] = scores.detection_parts(clips)
@@ -248,6 +260,6 @@ def benchmark(entry: Entry, protocol: Protocol, out: str | Path, *,
               "lgmd_sim": __version__, "machine": machine(), "command": command,
               "scores": summary.scores, "intervals": summary.intervals, "metrics": metrics,
               "parts": {t: p.to_json() for t, p in parts.items()},
-              "timing": {"wall_time_s": _wall_time(folder)}}
+              "fingerprints": traces, "timing": {"wall_time_s": _wall_time(folder)}}
     write_text_atomic(folder / RESULT, canonical_json(result))
     return result

@@ -20,6 +20,7 @@ from collections.abc import Sequence
 from importlib import import_module
 
 from lgmd_sim import __version__
+from lgmd_sim.core import numerics
 from lgmd_sim.core.extras import MissingExtra
 from lgmd_sim.core.fileio import error_text
 from lgmd_sim.core.parallel import WorkerDied
@@ -27,7 +28,7 @@ from lgmd_sim.core.stops import catch_swallowed_stops, stop_raised
 
 #: The subcommands, in the order `--help` lists them.
 COMMANDS = ("demo", "detect", "record", "models", "envs", "bench", "calibrate", "speed", "dataset",
-            "train", "eval", "benchmark", "leaderboard", "reference")
+            "train", "eval", "benchmark", "leaderboard", "verify", "reference")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -79,6 +80,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     previous_hook = catch_swallowed_stops({Terminated: signal.SIGTERM,
                                            KeyboardInterrupt: signal.SIGINT})
     try:
+        numerics.wanted()  # a bad LGMD_SIM_NUMERICS, taken for the default at import
         return int(import_module(f"lgmd_sim.cli.{args.command}").run(args) or 0)
     except BrokenPipeError:  # output piped into e.g. `head`, which stopped reading
         return 0

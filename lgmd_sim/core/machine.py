@@ -22,6 +22,9 @@ def cpu_name() -> str:
 
 
 def machine() -> dict[str, Any]:
-    """CPU, cores, Python and platform: what a run's record says it ran on."""
+    """CPU, cores, Python, platform and the numeric mode (`lgmd_sim.core.numerics`): what a
+    run's record says it ran on."""
+    from lgmd_sim.core.numerics import mode
+
     return {"cpu": cpu_name(), "cores": os.cpu_count(), "python": platform.python_version(),
-            "platform": platform.platform()}
+            "platform": platform.platform(), "numerics": mode()}

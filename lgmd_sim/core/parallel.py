@@ -474,14 +474,18 @@ def check_ray_address(address: str) -> str:
 def _run_on_ray(jobs: Sequence[Job], on_result: Callable[[Job, Any], None], address: str
                 ) -> None:
     from lgmd_sim.core.extras import require
+    from lgmd_sim.core.numerics import mode, pinned_environment
 
     ray = require("ray", "ray")
     started = not ray.is_initialized()
     pending: dict[Any, Job] = {}
     if started:
         try:
+            # the workers compute in this process's numeric mode (lgmd_sim.core.numerics)
+            env = pinned_environment() if mode() == "replay" else {}
             ray.init(address=None if address == "local" else check_ray_address(address),
-                     include_dashboard=False, log_to_driver=False, configure_logging=False)
+                     include_dashboard=False, log_to_driver=False, configure_logging=False,
+                     runtime_env={"env_vars": env} if env else None)
         except ConnectionError as exc:  # "auto" with no cluster to find
             raise ValueError(f"--ray {address}: {exc}") from None
     try:

@@ -18,7 +18,7 @@ from numba import njit
 
 from lgmd_sim.core.params import non_negative, one_of, param, positive, tuple_of
 from lgmd_sim.models.base import ModelParams
-from lgmd_sim.models.kernels import BORDERS, JIT_NO_FMA, REFLECT, TAP_FLOOR, fill_borders_as
+from lgmd_sim.models.kernels import BORDERS, JIT, REFLECT, TAP_FLOOR, fill_borders_as
 from lgmd_sim.models.search import SearchRange
 from lgmd_sim.models.sources import SOURCES
 
@@ -155,7 +155,7 @@ def take_first_frames(grey: np.ndarray, prev: np.ndarray, fresh: np.ndarray) -> 
 _NINTH = np.float32(1.0 / 9.0)
 
 
-@njit(**JIT_NO_FMA)
+@njit(**JIT)
 def g_row(s_above, s_row, s_below, vsum, q_row, ce_cols):
     """G layer, one row: q = S Ce with Ce the 3x3 mean of S (Yue & Rind 2006).
 
@@ -172,7 +172,7 @@ def g_row(s_above, s_row, s_below, vsum, q_row, ce_cols):
         ce_cols[x] = max(ce_cols[x], abs(ce))
 
 
-@njit(**JIT_NO_FMA)
+@njit(**JIT)
 def g_sum(q, ce_cols, delta_c, c_w, c_de, t_de, want, g_out):
     """Sum of G = q / w over the cells where G c_de >= t_de, w = delta_c + max|Ce| / c_w.
 
@@ -204,21 +204,21 @@ def g_sum(q, ce_cols, delta_c, c_w, c_de, t_de, want, g_out):
 # --- P and S rows -------------------------------------------------------------------------
 
 
-@njit(**JIT_NO_FMA)
+@njit(**JIT)
 def diff_row(fr, pr, out):
     """One row of P = L(t) - L(t-1)."""
     for x in range(out.shape[0]):
         out[x] = np.float32(fr[x]) - np.float32(pr[x])
 
 
-@njit(**JIT_NO_FMA)
+@njit(**JIT)
 def persist_row(fr, pr, p1, p2, c1, c2, out):
     """One row of P = L(t) - L(t-1) + c1 P(t-1) + c2 P(t-2) (luminance persistence)."""
     for x in range(out.shape[0]):
         out[x] = (np.float32(fr[x]) - np.float32(pr[x])) + (c1 * p1[x] + c2 * p2[x])
 
 
-@njit(**JIT_NO_FMA)
+@njit(**JIT)
 def finish_s_row(sr, y, height, width, interior, border):
     """Zero S on the frame's 1-pixel border (``interior``), then fill the row's padding."""
     zero = np.float32(0.0)

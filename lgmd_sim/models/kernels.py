@@ -29,7 +29,6 @@ from numba import njit
 __all__ = [
     "BORDERS",
     "JIT",
-    "JIT_NO_FMA",
     "REFLECT",
     "REPLICATE",
     "TAP_FLOOR",
@@ -46,18 +45,19 @@ __all__ = [
     "vconv",
 ]
 
-#: Options of every model kernel: compiled once per signature and cached on disk, float32
-#: maths vectorised freely (inputs are checked finite before they get here), GIL released
-#: so that threads can run streams side by side.
-JIT = {"cache": True, "fastmath": True, "nogil": True}
-
-#: `JIT` without fused multiply-add contraction: a loop LLVM vectorises falls back to
-#: scalar code when its runtime alias check fails, which depends on where the arrays lie;
-#: with contraction the two paths round differently, and a batched stream would then
-#: differ from a lone one. Kernels that must give a stream the same bits in any batch use
-#: it, and take their sums in read-only loops (no alias check, so always the same path
-#: and order) for the same reason.
-JIT_NO_FMA = {**JIT, "fastmath": {"nnan", "ninf", "nsz", "arcp", "afn", "reassoc"}}
+#: Options of every model kernel: compiled once per signature and cached on disk, GIL
+#: released so that threads can run streams side by side, and no fast-maths that reorders
+#: or fuses arithmetic (reassociation, contraction into fused multiply-adds, reciprocals,
+#: approximate functions): a loop LLVM vectorises falls back to scalar code when its runtime
+#: alias check fails, which depends on where the arrays lie, and the two paths then round
+#: differently; so did the code compiled for two processors, and a kernel compiled afresh
+#: and its cached copy (measured: the demo's LoomSteer episode, lgmd1's kernel, parted at
+#: frame 7). Without them every path computes the same operations in the same order: a
+#: stream gets the same bits in any batch, on any processor, compiled or cached
+#: (`lgmd_sim.core.numerics`). It costs lgmd1 about half its frames per second, lgmd2, F(ONn)
+#: and F(OFFp) about a third (docs/experiments/replay.md). nnan, ninf: inputs are checked
+#: finite before they get here.
+JIT = {"cache": True, "fastmath": {"nnan", "ninf", "nsz"}, "nogil": True}
 
 #: Relative size below which a filter tap is dropped: float32's unit roundoff, 2^-24.
 TAP_FLOOR = 2.0**-24

@@ -52,7 +52,7 @@ from lgmd_sim.models.baseline import (
     sigmoid_potential,
     take_first_frames,
 )
-from lgmd_sim.models.kernels import JIT_NO_FMA, fill_borders_as, row_index, staggered_arrays
+from lgmd_sim.models.kernels import JIT, fill_borders_as, row_index, staggered_arrays
 from lgmd_sim.models.search import SearchRange
 from lgmd_sim.models.sources import SOURCES
 
@@ -104,7 +104,7 @@ NO_THRESHOLD = np.float32(np.finfo(np.float32).min)
 # --- LGMD1 --------------------------------------------------------------------------------
 
 
-@njit(**JIT_NO_FMA)
+@njit(**JIT)
 def _lgmd1_frames(frames, prev, e_prev, p_older, persist_w, persist_on, w_i, k_near, k_diag,
                   t_s, ts_sign, coincidence, g_layer, border, interior, delta_c, c_w, c_de,
                   t_de, s_ring, p_ring, vsum, q, ce_cols, want, l_p, l_s, l_g, g_total,

@@ -60,7 +60,7 @@ from lgmd_sim.models.baseline import (
     sigmoid_potential,
     take_first_frames,
 )
-from lgmd_sim.models.kernels import JIT_NO_FMA, fill_borders_as, row_index, staggered_arrays
+from lgmd_sim.models.kernels import JIT, fill_borders_as, row_index, staggered_arrays
 from lgmd_sim.models.search import SearchRange
 from lgmd_sim.models.sources import SOURCES
 
@@ -332,7 +332,7 @@ class LGMD2(LGMDModel):
 # --- kernels ------------------------------------------------------------------------------
 
 
-@njit(**JIT_NO_FMA)
+@njit(**JIT)
 def _p_row(frames, prev, p_hist, n, y, c1, c2, persist, out):
     """Row y of stream n's P into ``out`` (P(t-1), P(t-2) from ``p_hist`` where persisting)."""
     if persist:
@@ -341,7 +341,7 @@ def _p_row(frames, prev, p_hist, n, y, c1, c2, persist, out):
         diff_row(frames[n, y], prev[n, y], out)
 
 
-@njit(**JIT_NO_FMA)
+@njit(**JIT)
 def _rectified_sums(frames, prev, p_hist, persist_w, persist_on, line, out):
     """out[n] = (sum [P]+, sum [-P]+) of stream n's P (nothing is written back)."""
     n_streams, height, width = frames.shape
@@ -363,7 +363,7 @@ def _rectified_sums(frames, prev, p_hist, persist_w, persist_on, line, out):
         out[n, 1] = neg
 
 
-@njit(**JIT_NO_FMA)
+@njit(**JIT)
 def _inhibition(c1, n0, n1, n2, d0, d2, wc, wn, wd, x):
     """I at column x: the 3x3 kernel over the centre (c), near (n) and diagonal (d)
     delayed copies, given as padded rows (index 0, 1, 2: rows y-1, y, y+1)."""
@@ -378,7 +378,7 @@ def _inhibition(c1, n0, n1, n2, d0, d2, wc, wn, wd, x):
 _FLUSH = np.float32(1e-6)
 
 
-@njit(**JIT_NO_FMA)
+@njit(**JIT)
 def _low_pass_row(lp_row, source, alpha, gain, border):
     """One padded row of a first-order low-pass: lp += alpha (gain source - lp)."""
     width = source.shape[0]
@@ -389,7 +389,7 @@ def _low_pass_row(lp_row, source, alpha, gain, border):
     fill_borders_as(lp_row, 1, width, border)
 
 
-@njit(**JIT_NO_FMA)
+@njit(**JIT)
 def _channel_row(p, channel, carry, sign):
     """One row of ON = [P]+ + carry ON(t-1) (sign 1) or OFF = [-P]+ + carry OFF(t-1) (-1).
 
@@ -401,7 +401,7 @@ def _channel_row(p, channel, carry, sign):
         channel[x] = v if v >= _FLUSH else zero
 
 
-@njit(**JIT_NO_FMA)
+@njit(**JIT)
 def _mix_row(out, current, previous, a, b, border):
     """One padded row of a two-frame delayed copy: out = a X(t) + b X(t-1)."""
     width = current.shape[0]
@@ -410,7 +410,7 @@ def _mix_row(out, current, previous, a, b, border):
     fill_borders_as(out, 1, width, border)
 
 
-@njit(**JIT_NO_FMA)
+@njit(**JIT)
 def _onoff_frames(frames, prev, on, off, lp, mix, p_hist, persist_w, persist_on, w_on, w_off,
                   gates, hist_now, hist_prev, carry, weights, alphas, two_frame, onoff, border,
                   interior, delta_c, c_w, c_de, t_de, s_ring, lines, vsum, q, ce_cols,
@@ -506,7 +506,7 @@ def _onoff_frames(frames, prev, on, off, lp, mix, p_hist, persist_w, persist_on,
                            l_g[n] if want else q)
 
 
-@njit(**JIT_NO_FMA)
+@njit(**JIT)
 def _advance_low_passes(lp, on, off, alphas, hist_now, n, row, border):
     """Row ``row`` of stream n's six low-passes takes in ON(t) / OFF(t) (their E)."""
     for k in range(3):

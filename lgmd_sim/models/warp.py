@@ -20,11 +20,11 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
-from lgmd_sim.models.kernels import JIT_NO_FMA, REFLECT, ZERO
+from lgmd_sim.models.kernels import JIT, REFLECT, ZERO
 
 __all__ = ["Motion", "Plan", "apply_plan", "fill_pad_columns", "homography_plan"]
 
-# The kernels compile with `JIT_NO_FMA`, so that a stream is warped to the same bits in
+# The kernels compile with `JIT`, so that a stream is warped to the same bits in
 # any batch.
 
 
@@ -121,7 +121,7 @@ def homography_plan(h: np.ndarray, plan: Plan, horizon: np.ndarray | None = None
     _plan(hinv, line, below, ground is not None, plan.offset, plan.weights, plan.uncovered)
 
 
-@njit(**JIT_NO_FMA)
+@njit(**JIT)
 def _plan(hinv_above, line, hinv_below, ground, offset, weights, uncovered):
     """Each row in at most two spans, above and below the horizon (the line is straight,
     so each side of it is a run of the row), each in two branch-free loops that LLVM
@@ -148,7 +148,7 @@ def _plan(hinv_above, line, hinv_below, ground, offset, weights, uncovered):
               weights, uncovered)
 
 
-@njit(**JIT_NO_FMA)
+@njit(**JIT)
 def _span(hinv_above, hinv_below, ground, is_below, y, lo, hi, sx, sy, offset, weights,
           uncovered):
     """The plan of pixels lo..hi-1 of row y, all on one side of the horizon."""
@@ -163,7 +163,7 @@ def _span(hinv_above, hinv_below, ground, is_below, y, lo, hi, sx, sy, offset, w
                   weights[2, y], weights[3, y], uncovered[y])
 
 
-@njit(**JIT_NO_FMA)
+@njit(**JIT)
 def _source_span(hinv, y, lo, hi, sx, sy):
     """Where pixels lo..hi-1 of row y come from (previous frame's pixel coordinates)."""
     c0 = hinv[0, 1] * y + hinv[0, 2]
@@ -176,7 +176,7 @@ def _source_span(hinv, y, lo, hi, sx, sy):
         sy[x] = (hinv[1, 0] * x + c1) * inv
 
 
-@njit(**JIT_NO_FMA)
+@njit(**JIT)
 def _weights_span(sx, sy, height, lo, hi, off, w00, w01, w10, w11, unc):
     """Source cells and bilinear weights of a span from its source coordinates."""
     width = off.shape[0]
@@ -203,7 +203,7 @@ def _weights_span(sx, sy, height, lo, hi, off, w00, w01, w10, w11, unc):
         unc[x] = one - on
 
 
-@njit(**JIT_NO_FMA)
+@njit(**JIT)
 def _uncovered_span(y, lo, hi, offset, weights, uncovered):
     for x in range(lo, hi):
         offset[y, x] = 0
@@ -226,7 +226,7 @@ def apply_plan(plan: Plan, values: np.ndarray, fill: np.ndarray | None,
            values if gain is None else gain, gain is not None)
 
 
-@njit(**JIT_NO_FMA)
+@njit(**JIT)
 def _apply(offset, weights, uncovered, src, dst, fill, use_fill, gain, use_gain):
     height, width = dst.shape
     below = width + 1  # the source's row stride

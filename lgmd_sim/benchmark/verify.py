@@ -1,0 +1,156 @@
+"""Checking a published row: replay a sample of its episodes on this machine and compare
+each with its record, fingerprint and fields (`lgmd_sim.bench.fingerprint`), so that a
+reader can tell whether a row replays here, and where it parts if not.
+
+`verify` reads an entry's folder as `lgmd-sim benchmark` leaves it (``result.json`` beside
+``goal/`` and ``arena/``, each a closed-loop run folder of one record per episode); it
+also checks that the result's per-seed parts are what the records give.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from lgmd_sim.bench.episode import RECORD_FIELDS, episode
+from lgmd_sim.bench.fingerprint import first_difference
+from lgmd_sim.benchmark.protocol import Protocol
+
+__all__ = ["Replayed", "verify"]
+
+#: The fields a replay leaves out of the comparison: the top view is drawn for the first
+#: seeds only, where the bench asks for it.
+_NOT_COMPARED = ("top_view",)
+
+
+@dataclass(frozen=True)
+class Replayed:
+    """One episode replayed: its track and record key, and None where it gave the same bits
+    and fields as recorded, else what differed first."""
+
+    track: str
+    key: str
+    difference: str | None
+
+
+def _replay(cell: Any, seed: int, options: Mapping[str, Any]) -> dict[str, Any]:
+    """One episode again (a job: runs in a worker)."""
+    return episode(cell, seed, **options)
+
+
+def _compare(recorded: Mapping[str, Any], replayed: Mapping[str, Any]) -> str | None:
+    """What first differs between an episode's record and its replay, in words."""
+    if "fingerprint" not in recorded:
+        return "its record has no fingerprint (recorded before fingerprints were)"
+    step = first_difference(recorded["fingerprint"], replayed["fingerprint"])
+    if step is not None:
+        shown = {k: replayed[k] for k in ("frames", "collided", "goal_reached")}
+        was = {k: recorded.get(k) for k in shown}
+        return (f"diverged at step {step} or in the {recorded['fingerprint']['every']} after "
+                f"it (recorded {was}, replayed {shown})")
+    for key in sorted(set(recorded) | set(replayed)):
+        if key in _NOT_COMPARED or key == "fingerprint":
+            continue
+        if recorded.get(key) != replayed.get(key):
+            return (f"the same trajectory, but its record's {key} is {recorded.get(key)!r}, "
+                    f"the replay's {replayed.get(key)!r}: the record was changed")
+    return None
+
+
+def _sample(keys: Sequence[str], n: int | None, seed: int) -> list[str]:
+    """`n` of `keys` (all: None), drawn by `seed`, in the keys' order."""
+    if n is None or n >= len(keys):
+        return list(keys)
+    picked = np.random.default_rng(seed).choice(len(keys), n, replace=False)
+    return [keys[i] for i in sorted(picked)]
+
+
+def verify(result: str | Path, protocol: Protocol, episodes: int | None = None, *,
+           seed: int = 0, workers: int | None = None, progress: bool | None = None,
+           on_episode: Callable[[Replayed], None] | None = None) -> list[Replayed]:
+    """Replay `episodes` of each closed-loop track of the entry whose ``result.json`` (or
+    folder) is `result`, of `protocol` (None: every episode; a sample drawn by `seed`
+    otherwise), and compare each with its record; `on_episode` is told of each as it is
+    checked.
+
+    Raises:
+        ValueError: no result of `protocol` there, a track's run folder missing or
+            unreadable, or the result's parts not what its records give (one line naming
+            it).
+    """
+    from lgmd_sim.benchmark import scores
+    from lgmd_sim.benchmark.leaderboard import load_result, parts
+    from lgmd_sim.benchmark.run import user_presets
+    from lgmd_sim.core.parallel import check_parallel
+
+    path = Path(result)
+    file = path / "result.json" if path.is_dir() else path
+    claimed = load_result(file, protocol)
+    if episodes is not None and episodes < 1:
+        raise ValueError(f"--episodes must be a positive integer, got {episodes}")
+    check_parallel(workers)
+    presets = file.parent / "presets"  # a calibrated entry's
+    out: list[Replayed] = []
+    with user_presets(presets if presets.is_dir() else None):
+        for track, part in parts(claimed).items():
+            if track in scores.CLOSED_LOOP:
+                out += _track(file, track, part, protocol, (episodes, seed),
+                              {"workers": workers, "progress": progress}, on_episode)
+    return out
+
+
+def _track(file: Path, track: str, part: Any, protocol: Protocol,
+           sample: tuple[int | None, int], run_options: Mapping[str, Any],
+           on_episode: Callable[[Replayed], None] | None) -> list[Replayed]:
+    """`verify` of one closed-loop track: its run folder beside `file`, the episodes
+    `sample` (how many, the draw's seed) of it."""
+    from lgmd_sim.bench.closed_loop import ClosedLoopConfig
+    from lgmd_sim.core.parallel import Job, run_jobs
+    from lgmd_sim.core.runs import RunFolder, read_record
+
+    run = file.parent / track
+    recorded = read_record(run / "run.json", {"config": dict},
+                           f"the folder of {file} holds no {track} run")
+    if not (run / "records").is_dir():
+        raise ValueError(f"{run}: no records/ of its episodes to replay (a row's records "
+                         "stay on the machine that ran it unless they are published with it)")
+    config = ClosedLoopConfig.from_json(recorded["config"])
+    cells = {c.key(s): (c, s) for c in config.cells() for s in config.seed_list}
+    keys = list(cells)
+    records = dict(zip(keys, RunFolder(run, config.as_json(), "", resume=True, start=False)
+                       .records(keys, RECORD_FIELDS), strict=True))
+    _check_parts(file, track, part, list(records.values()), protocol)
+    options = {"resolution": config.resolution, "cruise": config.cruise,
+               "horizon": config.horizon, "top_view": False}
+    out: list[Replayed] = []
+
+    def store(job: Job, replayed: dict[str, Any]) -> None:
+        checked = Replayed(track, job.key, _compare(records[job.key], replayed))
+        out.append(checked)
+        if on_episode is not None:
+            on_episode(checked)
+
+    jobs = [Job(k, _replay, {"cell": cells[k][0], "seed": cells[k][1], "options": options})
+            for k in _sample(keys, *sample)]
+    run_jobs(jobs, store, **run_options, desc=f"verify {track}", unit="episode")
+    return out
+
+
+def _check_parts(file: Path, track: str, part: Any, records: Sequence[Mapping[str, Any]],
+                 protocol: Protocol) -> None:
+    """Refuse a result whose `track` parts are not what its episodes' records give."""
+    from lgmd_sim.benchmark import scores
+
+    if track == "goal":
+        made = scores.parts_of(records, scores.goal_score)
+    else:
+        reference = dict(zip(protocol.arena.jitter, protocol.arena.reference_distance_m,
+                             strict=True))
+        made = scores.parts_of(records, lambda r: scores.arena_score(r, reference[r["jitter"]]))
+    if not (made.seeds == part.seeds and np.array_equal(made.sums, part.sums)):
+        raise ValueError(f"{file}: its {track} parts are not what the episodes' records in "
+                         f"{file.parent / track} give: the result or a record was changed")
