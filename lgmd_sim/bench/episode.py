@@ -200,6 +200,8 @@ RECORD_FIELDS = {
     "first_alarm_ttc_s": (NUMBER, NULL), "lead_time_s": (NUMBER, NULL),
     "collisions": Maybe(int), "encounters": Maybe(int), "avoided": Maybe(int),
     "manoeuvring_share": Maybe((NUMBER, NULL)),
+    # recorded since fingerprints were (lgmd_sim.bench.fingerprint)
+    "fingerprint": Maybe({"steps": int, "every": int, "chain": [str], "sha256": str}),
 }
 
 

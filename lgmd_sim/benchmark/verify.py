@@ -37,11 +37,6 @@ class Replayed:
     difference: str | None
 
 
-def _replay(cell: Any, seed: int, options: Mapping[str, Any]) -> dict[str, Any]:
-    """One episode again (a job: runs in a worker)."""
-    return episode(cell, seed, **options)
-
-
 def _compare(recorded: Mapping[str, Any], replayed: Mapping[str, Any]) -> str | None:
     """What first differs between an episode's record and its replay, in words."""
     if "fingerprint" not in recorded:
@@ -118,7 +113,11 @@ def _track(file: Path, track: str, part: Any, protocol: Protocol,
     if not (run / "records").is_dir():
         raise ValueError(f"{run}: no records/ of its episodes to replay (a row's records "
                          "stay on the machine that ran it unless they are published with it)")
-    config = ClosedLoopConfig.from_json(recorded["config"])
+    try:
+        config = ClosedLoopConfig.from_json(recorded["config"])
+    except (KeyError, TypeError) as exc:  # a hand-edited run.json
+        raise ValueError(f"{run / 'run.json'}: not a closed-loop run's configuration "
+                         f"({type(exc).__name__}: {exc})") from None
     cells = {c.key(s): (c, s) for c in config.cells() for s in config.seed_list}
     keys = list(cells)
     records = dict(zip(keys, RunFolder(run, config.as_json(), "", resume=True, start=False)
@@ -134,7 +133,7 @@ def _track(file: Path, track: str, part: Any, protocol: Protocol,
         if on_episode is not None:
             on_episode(checked)
 
-    jobs = [Job(k, _replay, {"cell": cells[k][0], "seed": cells[k][1], "options": options})
+    jobs = [Job(k, episode, {"cell": cells[k][0], "seed": cells[k][1], **options})
             for k in _sample(keys, *sample)]
     run_jobs(jobs, store, **run_options, desc=f"verify {track}", unit="episode")
     return out

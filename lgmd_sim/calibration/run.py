@@ -362,24 +362,26 @@ def calibration_figure(chosen: Sequence[dict[str, Any]], objective: Objective = 
 
 
 def _calibration_of(command: str) -> CalibrateConfig:
-    """The configuration of a recorded `lgmd-sim calibrate` command line (as
-    `lgmd_sim.cli.command_line` writes it, a PYTHONPATH before it or not)."""
-    from lgmd_sim.cli import build_parser
-    from lgmd_sim.cli.calibrate import config_from_args
-
+    """The task and detectors of a recorded `lgmd-sim calibrate` command line (as
+    `lgmd_sim.cli.command_line` writes it, a PYTHONPATH before it or not), as the
+    configuration it ran: read from its words, not by the command line's parser (a job
+    does not import the commands)."""
     words = shlex.split(command)
-    while words and "=" in words[0]:  # the PYTHONPATH a plug-in's command ran under
-        words.pop(0)
-    if words[:2] != ["lgmd-sim", "calibrate"]:
+    if "calibrate" not in words:
         raise ValueError(f"not an lgmd-sim calibrate command: {command!r}")
-    try:
-        args = build_parser().parse_args(words[1:])
-    except SystemExit:  # argparse's way to refuse: name the command it refused
-        raise ValueError(f"not a command of today's lgmd-sim calibrate: {command!r}") from None
-    # where it merged its presets then is no part of what it calibrated, and checking
-    # that file now would read (or make) the user's data folder
-    args.save_presets, args.presets_file = False, None
-    return config_from_args(args)
+
+    def option(name: str) -> str | None:
+        for i, word in enumerate(words):
+            if word == name and i + 1 < len(words):
+                return words[i + 1]
+            if word.startswith(f"{name}="):
+                return word.partition("=")[2]
+        return None
+
+    detectors = option("--detectors")
+    return CalibrateConfig(task=option("--task") or "walker",
+                           detectors=None if detectors in (None, "all")
+                           else tuple(detectors.split(",")))
 
 
 def _calibrations(presets_file: Path) -> dict[str, dict[str, dict[str, Any]]]:

@@ -52,7 +52,7 @@ def wanted() -> str:
 
 def pinned_environment() -> dict[str, str]:
     """The environment variables of the replay mode (on x86-64; none elsewhere), as a
-    process that runs episodes must have them before it imports NumPy or Numba."""
+    process that runs episodes must have them before it imports NumPy."""
     if platform.machine().lower() not in ("x86_64", "amd64"):
         return {}
     disabled = os.environ.get("NPY_DISABLE_CPU_FEATURES", "").replace(",", " ").split()
