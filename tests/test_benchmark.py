@@ -424,3 +424,52 @@ def test_a_detector_that_always_alarms_scores_0_and_one_that_never_does_0_5(tmp_
     assert ("never alarms scores 0.5; one that alarms from the first frame scores 0" in guide
             and "never alarms scores 0.5, one that alarms from the first frame 0" in " ".join(
                 scores.__doc__.split()))
+
+
+# --- smoke runs and protocols of one's own (issue 50) -------------------------------------
+
+
+def test_a_smoke_run_is_every_track_on_a_handful_of_seeds_and_says_so():
+    full = protocol.load()
+    smoke = full.smoke()
+    assert (smoke.goal.episodes, smoke.arena.episodes, smoke.detection.clips) == (
+        protocol.SMOKE_SEEDS, protocol.SMOKE_SEEDS, 1)
+    assert (smoke.goal.jitter, smoke.arena.jitter, smoke.detection.jitter) == (
+        full.goal.jitter, full.arena.jitter, full.detection.jitter)  # every level still
+    assert (smoke.calibration.budget, smoke.calibration.seeds) == (protocol.SMOKE_SEEDS, 1)
+    assert smoke.identity() == {**full.identity(), "smoke": True}
+    assert smoke.name == "v1, smoke run"
+
+
+def test_the_leaderboard_refuses_a_smoke_result_in_one_line(tmp_path, capsys):
+    result = json.loads((ROOT / "docs/benchmark/runs/straight/result.json").read_text())
+    result["protocol"]["smoke"] = True
+    (tmp_path / "straight").mkdir()
+    (tmp_path / "straight" / "result.json").write_text(json.dumps(result))
+    assert cli.main(["leaderboard", str(tmp_path / "straight"), "--out",
+                     str(tmp_path / "b.md")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "a smoke result" in err and "not ranked" in err
+
+
+def test_a_protocol_of_one_s_own_is_never_taken_for_a_shipped_version(tmp_path):
+    assert protocol.load().name == "v1"
+    same = tmp_path / "copy.toml"
+    same.write_bytes(protocol.PROTOCOLS["v1"].read_bytes())
+    assert protocol.load(same).name == "v1"  # the shipped file, to the byte
+    mine = tmp_path / "v1.toml"  # a shipped name and version, other contents
+    mine.write_text(SHIPPED.replace("bootstrap = 2000", "bootstrap = 200"))
+    name = protocol.load(mine).name
+    assert name.startswith("v1.toml (a protocol of one's own, version 1") and name != "v1"
+
+
+@pytest.mark.slow  # a smoke run of a tiny protocol: about 15 s
+def test_benchmark_smoke_writes_a_smoke_result(tmp_path, capsys):
+    tiny = _tiny(tmp_path, episodes="episodes = 5")
+    out = tmp_path / "out"
+    assert cli.main(["benchmark", "straight", "--smoke", "--protocol", str(tiny), "--out",
+                     str(out), "--workers", "1", "--no-progress"]) == 0
+    assert "(a smoke result: not a row)" in capsys.readouterr().out
+    result = json.loads((out / "straight" / "result.json").read_text())
+    assert result["protocol"]["smoke"] is True
+    assert len(result["parts"]["goal"]["seeds"]) == protocol.SMOKE_SEEDS  # of the file's 5

@@ -186,7 +186,7 @@ OPTIONS = {
     "eval": "--controllers --models --presets --jitter --seeds --out --resume --workers"
             " --no-progress"
             " | --first-seed --cruise --horizon --top-views --ray",
-    "benchmark": "--out --calibrate --workers --no-progress | --protocol --ray",
+    "benchmark": "--out --smoke --calibrate --workers --no-progress | --protocol --ray",
     "leaderboard": "--out --protocol",
     "verify": "--episodes --all --workers --no-progress | --protocol --seed",
     "reference": "--out --no-pictures",

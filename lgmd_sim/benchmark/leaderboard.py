@@ -55,12 +55,15 @@ def load_result(path: str | Path, protocol: Protocol | None = None) -> dict[str,
                          "benchmark writes (OUT/ENTRY/result.json)")
     if protocol is None:
         return result
+    if result["protocol"].get("smoke"):
+        raise ValueError(f"{file}: a smoke result (lgmd-sim benchmark --smoke, a handful of "
+                         "seeds), not ranked beside full rows")
     identity = protocol.identity()
     if result["protocol"] != identity:
-        raise ValueError(f"{file}: a result of protocol v{result['protocol']['version']} "
-                         f"({result['protocol']['sha256'][:12]}), not of {protocol.path} "
-                         f"(v{identity['version']}, {identity['sha256'][:12]}): a "
-                         "leaderboard merges one protocol's results")
+        raise ValueError(f"{file}: a result of another protocol (version "
+                         f"{result['protocol']['version']}, {result['protocol']['sha256'][:12]}) "
+                         f"than {protocol.name} ({identity['sha256'][:12]}): a leaderboard "
+                         "merges one protocol's results")
     try:
         audit.check(result, protocol)
     except ValueError as exc:
@@ -232,7 +235,7 @@ def leaderboard(paths: Sequence[str | Path], out: str | Path, protocol: Protocol
         raise ValueError(f"two results of entry {twice[0]!r}: give each entry once")
     figure_file = out.with_suffix(".png")
     resamples, seed = protocol.bootstrap, protocol.bootstrap_seed
-    header = (f"# Leaderboard\n\nProtocol v{first['version']} (sha256 {first['sha256'][:12]}); "
+    header = (f"# Leaderboard\n\nProtocol {protocol.name} (sha256 {first['sha256'][:12]}); "
               f"95% intervals over {resamples} bootstrap resamples of the seeds; '=' marks "
               "an entry not separable from the one above it (paired on the seeds).\n\n"
               f"![Score by entry, track and jitter level]({figure_file.name})\n\n")

@@ -6,6 +6,7 @@ key by key, so that a bad file is one line naming it and the key.
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import tomllib
 from collections.abc import Mapping
@@ -16,7 +17,7 @@ from typing import Any
 from lgmd_sim.core.fileio import read_text
 from lgmd_sim.core.params import finite
 
-__all__ = ["CURRENT", "PROTOCOLS", "ArenaTrack", "Calibration", "ClosedLoopTrack",
+__all__ = ["CURRENT", "PROTOCOLS", "SMOKE_SEEDS", "ArenaTrack", "Calibration", "ClosedLoopTrack",
            "DetectionTrack", "Protocol", "load"]
 
 _HERE = Path(__file__).resolve().parent
@@ -24,6 +25,8 @@ _HERE = Path(__file__).resolve().parent
 PROTOCOLS = {p.stem: p for p in sorted(_HERE.glob("v*.toml"))}
 #: The protocol `lgmd-sim benchmark` runs by default.
 CURRENT = "v1"
+#: Seeds a track of a smoke run (`Protocol.smoke`).
+SMOKE_SEEDS = 2
 #: The most bootstrap resamples a protocol may ask: its draws are resamples x seeds
 #: integers per track (100,000 x 40 seeds: 32 MB), computed again for every comparison.
 MAX_BOOTSTRAP = 100_000
@@ -98,14 +101,36 @@ class Protocol:
     #: The file it was read from, and the SHA-256 of its bytes (what a result records).
     path: Path
     digest: str
+    #: A smoke run's protocol (`smoke`): a handful of seeds, never ranked.
+    smoke_run: bool = False
 
     @property
     def name(self) -> str:
-        return f"v{self.version}"
+        """A shipped protocol's name ("v1") where the file is that one to the byte, else
+        the file's own, saying so: a protocol of one's own is never taken for a shipped
+        version, whatever its `version` key says."""
+        shipped = next((name for name, path in PROTOCOLS.items()
+                        if hashlib.sha256(path.read_bytes()).hexdigest() == self.digest), None)
+        own = shipped or f"{self.path.name} (a protocol of one's own, version {self.version})"
+        return f"{own}, smoke run" if self.smoke_run else own
 
     def identity(self) -> dict[str, Any]:
         """What a result records of the protocol it ran."""
-        return {"version": self.version, "sha256": self.digest}
+        return {"version": self.version, "sha256": self.digest,
+                **({"smoke": True} if self.smoke_run else {})}
+
+    def smoke(self) -> Protocol:
+        """This protocol on `SMOKE_SEEDS` seeds a track (one clip a stimulus and level) and
+        a calibration of `SMOKE_SEEDS` settings on one seed: every track and every part of
+        an entry run, to see its errors and its output in a few minutes. Its results are
+        marked, and no leaderboard ranks them."""
+        few = dataclasses.replace
+        return few(self, goal=few(self.goal, episodes=min(SMOKE_SEEDS, self.goal.episodes)),
+                   arena=few(self.arena, episodes=min(SMOKE_SEEDS, self.arena.episodes)),
+                   detection=few(self.detection, clips=1),
+                   calibration=few(self.calibration, seeds=1,
+                                   budget=min(SMOKE_SEEDS, self.calibration.budget)),
+                   smoke_run=True)
 
 
 def _is(value: Any, kind: type) -> bool:

@@ -39,8 +39,14 @@ completes an interrupted benchmark. Then:
 lgmd-sim leaderboard OUT/*/result.json --out leaderboard.md""")
     p.add_argument("entries", nargs="+", metavar="ENTRY",
                    help="detectors, controllers or policy folders (see above)")
-    p.add_argument("--out", default="benchmark-out", metavar="DIR",
-                   help="output folder, one subfolder per entry (default ./benchmark-out)")
+    p.add_argument("--out", default=None, metavar="DIR",
+                   help="output folder, one subfolder per entry (default ./benchmark-out; "
+                   "with --smoke ./benchmark-smoke)")
+    p.add_argument("--smoke", action="store_true",
+                   help="every track and the calibration on a handful of seeds (2 episodes "
+                   "a track and level, 1 clip a stimulus and level, 2 calibration settings): "
+                   "a plug-in's errors and its output in a few minutes; the result is "
+                   "marked as a smoke result, which no leaderboard ranks")
     p.add_argument("--calibrate", action="store_true",
                    help="first tune each detector by the protocol's calibration rule (the "
                    "robot task, budget 16, search seeds 0-5, held-out 100-105, as the shipped "
@@ -59,6 +65,9 @@ def run(args: argparse.Namespace) -> int:
     from lgmd_sim.core.fileio import held_lock
 
     proto = protocol.load(args.protocol)
+    if args.smoke:
+        proto = proto.smoke()
+    out = args.out or ("benchmark-smoke" if args.smoke else "benchmark-out")
     parsed = [entries.parse(e) for e in args.entries]  # every entry checked before any runs
     check_entries(parsed, proto)
     if args.calibrate and any(e.kind != "detector" for e in parsed):
@@ -68,15 +77,16 @@ def run(args: argparse.Namespace) -> int:
     for entry in parsed:
         # two runs of one entry into one folder would both compute everything, and one's
         # record of its sessions would lose the other's
-        busy = (f"{args.out}/{entry.key}: another lgmd-sim benchmark is running this entry "
+        busy = (f"{out}/{entry.key}: another lgmd-sim benchmark is running this entry "
                 "into this folder now: wait for it, or choose another --out")
-        with held_lock(Path(args.out) / f".{entry.key}.lock", busy):
+        with held_lock(Path(out) / f".{entry.key}.lock", busy):
             presets = None
             if args.calibrate:
-                entry, presets = calibrated(entry, proto, args.out, **options)
+                entry, presets = calibrated(entry, proto, out, **options)
             with user_presets(presets):
-                result = benchmark(entry, proto, args.out, **options)
+                result = benchmark(entry, proto, out, **options)
         s = result["scores"]
         shown = ", ".join(f"{k} {v:.2f}" for k, v in s.items())
-        print(f"{entry.label}: {shown}; wrote {args.out}/{entry.key}/{RESULT}")
+        smoke = " (a smoke result: not a row)" if args.smoke else ""
+        print(f"{entry.label}: {shown}{smoke}; wrote {out}/{entry.key}/{RESULT}")
     return 0
