@@ -127,8 +127,7 @@ def main() -> None:
     args = parser.parse_args()
     try:  # OUT is made by the dataset's generation, once every option has been checked
         check_out_folder(args.out)
-        # generate() checks the workers only once it has made its folder
-        options.check_positive(args.workers, "--workers", integer=True)
+        options.check_positive(args.workers, "--workers", integer=True)  # named as typed
         folder = make(args.out, args.scenarios.split(","),
                       list(options.jitter_levels(args.jitter)), args.episodes, args.workers)
     except (ValueError, OSError, MissingExtra) as exc:  # as lgmd-sim: one line, status 2
