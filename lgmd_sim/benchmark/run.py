@@ -25,8 +25,8 @@ from lgmd_sim.core.fileio import canonical_json, write_text_atomic
 from lgmd_sim.core.machine import machine
 from lgmd_sim.core.runs import RunFolder
 
-__all__ = ["RESULT", "benchmark", "calibrated", "check_entries", "track_config",
-           "user_presets"]
+__all__ = ["RESULT", "benchmark", "calibrated", "check_entries", "episode_score",
+           "track_config", "user_presets"]
 
 #: An entry's result, in its folder.
 RESULT = "result.json"
@@ -127,13 +127,23 @@ def check_entries(entries: Sequence[Entry], protocol: Protocol) -> None:
                              "into two --out folders")
         folders[entry.key] = entry.spec
         if entry.kind == "policy":
-            _, config, _ = load_config(entry.policy)
-            trained, run = frame_size(config.resolution), frame_size(protocol.resolution)
-            if trained != run and config.obs != "privileged":
+            trained = load_config(entry.policy)[1].trained_frames()
+            run = frame_size(protocol.resolution)
+            if trained not in (None, run):
                 raise ValueError(f"entry {entry.spec!r}: the policy was trained on "
                                  f"{trained[0]}x{trained[1]} frames, the protocol runs "
                                  f"{run[0]}x{run[1]} ({protocol.resolution})")
     preflight((e.model, e.preset) for e in entries if e.kind == "detector")
+
+
+def episode_score(track: str, protocol: Protocol) -> Callable[[Mapping[str, Any]], float]:
+    """The score of one episode's record of closed-loop `track` ("goal" or "arena": the
+    latter weighs the distance by the protocol's reference at the episode's level)."""
+    if track == "goal":
+        return scores.goal_score
+    reference = dict(zip(protocol.arena.jitter, protocol.arena.reference_distance_m,
+                         strict=True))
+    return lambda r: scores.arena_score(r, reference[r["jitter"]])
 
 
 def _fingerprint(records: Sequence[Mapping[str, Any]]) -> str | None:
@@ -236,11 +246,7 @@ def benchmark(entry: Entry, protocol: Protocol, out: str | Path, *,
     folder.mkdir(parents=True, exist_ok=True)
     run_options = {"workers": workers, "ray_address": ray_address, "progress": progress,
                    "command": command}
-    reference = protocol.arena.reference_distance_m
-
-    def arena_score(r: Mapping[str, Any]) -> float:
-        return scores.arena_score(r, reference[protocol.arena.jitter.index(r["jitter"])])
-
+    arena_score = episode_score("arena", protocol)
     goal, rows = _closed_loop(entry, protocol, protocol.goal, folder / "goal", run_options)
     parts = {"goal": scores.parts_of(goal, scores.goal_score)}
     metrics = {"goal": _rows(goal, rows, _GOAL_COLUMNS, scores.goal_score)}

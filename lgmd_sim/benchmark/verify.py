@@ -143,13 +143,9 @@ def _check_parts(file: Path, track: str, part: Any, records: Sequence[Mapping[st
                  protocol: Protocol) -> None:
     """Refuse a result whose `track` parts are not what its episodes' records give."""
     from lgmd_sim.benchmark import scores
+    from lgmd_sim.benchmark.run import episode_score
 
-    if track == "goal":
-        made = scores.parts_of(records, scores.goal_score)
-    else:
-        reference = dict(zip(protocol.arena.jitter, protocol.arena.reference_distance_m,
-                             strict=True))
-        made = scores.parts_of(records, lambda r: scores.arena_score(r, reference[r["jitter"]]))
+    made = scores.parts_of(records, episode_score(track, protocol))
     if not (made.seeds == part.seeds and np.array_equal(made.sums, part.sums)):
         raise ValueError(f"{file}: its {track} parts are not what the episodes' records in "
                          f"{file.parent / track} give: the result or a record was changed")

@@ -84,15 +84,8 @@ def add_run_folder_options(p: Options, default: str) -> None:
 def run_folder_kwargs(args: argparse.Namespace) -> dict[str, Any]:
     """How a job given the options of `add_run_folder_options` and `add_parallel_options`
     runs: the keyword arguments of its ``run(config, out, ...)``."""
-    return {"resume": args.resume, "workers": args.workers, "ray_address": ray_address(args),
+    return {"resume": args.resume, "workers": args.workers, "ray_address": args.ray,
             "progress": False if args.no_progress else None, "command": args.command_line}
-
-
-def ray_address(args: argparse.Namespace) -> str | None:
-    """--ray, checked before any work (`lgmd_sim.core.parallel.check_ray_address`)."""
-    from lgmd_sim.core.parallel import check_ray_address
-
-    return None if args.ray is None else check_ray_address(args.ray)
 
 
 def print_result(table: str, result: Any) -> int:

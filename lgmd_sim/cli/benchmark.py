@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from lgmd_sim.cli.args import add_parallel_options, advanced, ray_address
+from lgmd_sim.cli.args import add_parallel_options, advanced
 
 
 def add(sub: argparse._SubParsersAction) -> None:
@@ -63,6 +63,7 @@ def run(args: argparse.Namespace) -> int:
     from lgmd_sim.benchmark import entries, protocol
     from lgmd_sim.benchmark.run import RESULT, benchmark, calibrated, check_entries, user_presets
     from lgmd_sim.core.fileio import held_lock
+    from lgmd_sim.core.parallel import check_parallel
 
     proto = protocol.load(args.protocol)
     if args.smoke:
@@ -70,9 +71,11 @@ def run(args: argparse.Namespace) -> int:
     out = args.out or ("benchmark-smoke" if args.smoke else "benchmark-out")
     parsed = [entries.parse(e) for e in args.entries]  # every entry checked before any runs
     check_entries(parsed, proto)
+    # the jobs check these before their run folders, the entries' folders come first
+    check_parallel(args.workers, args.ray)
     if args.calibrate and any(e.kind != "detector" for e in parsed):
         raise ValueError("--calibrate tunes detectors: give detectors only")
-    options = {"workers": args.workers, "ray_address": ray_address(args),
+    options = {"workers": args.workers, "ray_address": args.ray,
                "progress": False if args.no_progress else None, "command": args.command_line}
     for entry in parsed:
         # two runs of one entry into one folder would both compute everything, and one's

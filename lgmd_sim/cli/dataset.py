@@ -13,7 +13,6 @@ from lgmd_sim.cli.args import (
     advanced,
     non_negative_int,
     positive_int,
-    ray_address,
     resolution,
 )
 
@@ -137,7 +136,7 @@ def run(args: argparse.Namespace) -> int:
 
     try:
         s = generate(config_from_args(args), args.out, workers=args.workers,
-                     ray_address=ray_address(args), progress=False if args.no_progress else None,
+                     ray_address=args.ray, progress=False if args.no_progress else None,
                      command=args.command_line)
     except WorkerDied as exc:
         print(f"lgmd-sim dataset: error: {exc}; the complete episodes are kept in {args.out}: "

@@ -71,15 +71,14 @@ class Policy(Controller):
 
     def wrap_env(self, env: gym.Env) -> gym.Env:
         from lgmd_sim.policies.observe import observe
-        from lgmd_sim.world.params import frame_size
 
-        res = self.policy.config.resolution
-        trained = frame_size(res)
+        trained = self.policy.config.trained_frames()
         size = tuple(env.unwrapped.params.size)
-        if size != trained and self.policy.config.obs != "privileged":
+        if trained not in (None, size):
             raise ValueError(f"policy {self.policy.name} was trained on {trained[0]}x"
                              f"{trained[1]} frames, this environment renders {size[0]}x"
-                             f"{size[1]}: run it at resolution {res}")
+                             f"{size[1]}: run it at resolution "
+                             f"{self.policy.config.resolution}")
         wrapped = observe(env, self.policy.config)
         seen, trained = (_shapes(wrapped.observation_space),
                          _shapes(self.policy.network.observation_space))

@@ -15,13 +15,14 @@ import numpy as np
 from lgmd_sim import metrics
 from lgmd_sim.core.plots import COLLISION, THRESHOLD, model_style
 from lgmd_sim.detect.results import Detection
+from lgmd_sim.detect.specs import model_of
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
     from matplotlib.figure import Figure
 
 __all__ = ["alarm_label", "by_model", "detection_figure", "draw_by_model", "draw_potentials",
-           "draw_thresholds", "model_of"]
+           "draw_thresholds"]
 
 #: Inches: the height of a model's panel, and of the SSIM's.
 PANEL_HEIGHT, SSIM_HEIGHT = 1.9, 1.5
@@ -126,12 +127,6 @@ def draw_potentials(ax: Axes, d: Detection, legend: bool = True,
         # clear of the thresholds' values beside the right edge
         ax.legend(loc="upper left", bbox_to_anchor=(1.07, 1.0), fontsize="small", title=title,
                   title_fontsize="small")
-
-
-def model_of(name: str) -> str:
-    """The model a detector's name is of ("lgmd1/video+image" -> "lgmd1"; a plug-in's
-    "package.module:Class/preset" -> "package.module:Class")."""
-    return name.split("+")[0].split("/")[0]
 
 
 def by_model(d: Detection) -> dict[str, Detection]:

@@ -9,7 +9,14 @@ from typing import Any
 from lgmd_sim import models
 from lgmd_sim.models.base import LGMDModel
 
-__all__ = ["VIDEO_FRONT_ENDS", "detector", "detector_names", "front_end_params", "with_preset"]
+__all__ = ["VIDEO_FRONT_ENDS", "detector", "detector_names", "front_end_params", "model_of",
+           "with_preset"]
+
+
+def model_of(name: str) -> str:
+    """The model a detector's name is of ("lgmd1/video+image" -> "lgmd1"; a plug-in's
+    "package.module:Class/preset" -> "package.module:Class")."""
+    return name.split("+")[0].partition("/")[0]
 
 
 def detector_names(spec: str | Sequence[str]) -> list[str]:
@@ -20,7 +27,7 @@ def detector_names(spec: str | Sequence[str]) -> list[str]:
 
     given = options.comma_list(spec) if isinstance(spec, str) else [
         str(t).strip() for t in spec if str(t).strip()]
-    names = options.model_names([t.split("+")[0].partition("/")[0] for t in given])
+    names = options.model_names([model_of(t) for t in given])
     return names if given == ["all"] else list(dict.fromkeys(given))
 
 

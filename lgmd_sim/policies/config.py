@@ -54,6 +54,13 @@ class PolicyConfig:
     def to_json(self) -> dict[str, Any]:
         return json.loads(json.dumps(asdict(self)))
 
+    def trained_frames(self) -> tuple[int, int] | None:
+        """The (height, width) of the frames the policy was trained on, which it must run
+        on; None for a privileged policy, which observes no frame."""
+        from lgmd_sim.world.params import frame_size
+
+        return None if self.obs == "privileged" else frame_size(self.resolution)
+
     @classmethod
     def from_json(cls, data: Mapping[str, Any]) -> PolicyConfig:
         def pair(v: Any) -> Any:
