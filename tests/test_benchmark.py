@@ -42,15 +42,18 @@ def _tiny(tmp_path: Path, **changes: str) -> Path:
 # --- the protocol ------------------------------------------------------------------------
 
 
-def test_the_shipped_protocol_reads_as_it_says():
-    p = protocol.load()
+@pytest.mark.parametrize("name", ["v1", "v2"])
+def test_the_shipped_protocols_read_as_they_say(name):
+    p = protocol.load(name)
     assert (p.version, p.resolution, p.goal.scenario, p.arena.scenario) == (
-        1, "rl", "RoughTerrainObstacles", "ArenaRoam")
+        int(name[1]), "rl", "RoughTerrainObstacles", "ArenaRoam")
     assert p.goal.seeds[0] == 20000 and len(p.goal.seeds) == p.goal.episodes
     assert len(p.arena.reference_distance_m) == len(p.arena.jitter)
     # disjoint from every seed a calibration, training, validation or evaluation uses
-    for seeds in (p.goal.seeds, p.arena.seeds, p.detection.seeds):
-        assert min(seeds) > 7103
+    tracks = (p.goal, p.arena, p.detection, *([p.stimuli] if p.stimuli else []))
+    for track in tracks:
+        assert min(track.seeds) > 7103
+    assert protocol.load().name == protocol.CURRENT == "v2"
 
 
 @pytest.mark.parametrize(("change", "message"), [
@@ -249,7 +252,7 @@ def test_the_leaderboard_ranks_the_entries_and_refuses_another_protocol(tiny_run
     table = md.read_text()
     assert "`lgmd1/published`" in table and "`straight`" in table
     assert (tmp_path / "board.png").stat().st_size > 0
-    other = _tiny(tmp_path, version="version = 2")
+    other = _tiny(tmp_path, bootstrap="bootstrap = 300")
     assert cli.main(["leaderboard", str(out / "straight"), "--protocol", str(other),
                      "--out", str(tmp_path / "x.md")]) == 2
     err = capsys.readouterr().err.strip()
@@ -432,13 +435,13 @@ def test_a_detector_that_always_alarms_scores_0_and_one_that_never_does_0_5(tmp_
 def test_a_smoke_run_is_every_track_on_a_handful_of_seeds_and_says_so():
     full = protocol.load()
     smoke = full.smoke()
-    assert (smoke.goal.episodes, smoke.arena.episodes, smoke.detection.clips) == (
-        protocol.SMOKE_SEEDS, protocol.SMOKE_SEEDS, 1)
+    assert (smoke.goal.episodes, smoke.arena.episodes, smoke.detection.clips,
+            smoke.stimuli.clips) == (protocol.SMOKE_SEEDS, protocol.SMOKE_SEEDS, 1, 1)
     assert (smoke.goal.jitter, smoke.arena.jitter, smoke.detection.jitter) == (
         full.goal.jitter, full.arena.jitter, full.detection.jitter)  # every level still
     assert (smoke.calibration.budget, smoke.calibration.seeds) == (protocol.SMOKE_SEEDS, 1)
     assert smoke.identity() == {**full.identity(), "smoke": True}
-    assert smoke.name == "v1, smoke run"
+    assert smoke.name == "v2, smoke run"
 
 
 def test_the_leaderboard_refuses_a_smoke_result_in_one_line(tmp_path, capsys):
@@ -453,7 +456,7 @@ def test_the_leaderboard_refuses_a_smoke_result_in_one_line(tmp_path, capsys):
 
 
 def test_a_protocol_of_one_s_own_is_never_taken_for_a_shipped_version(tmp_path):
-    assert protocol.load().name == "v1"
+    assert protocol.load("v1").name == "v1"
     same = tmp_path / "copy.toml"
     same.write_bytes(protocol.PROTOCOLS["v1"].read_bytes())
     assert protocol.load(same).name == "v1"  # the shipped file, to the byte

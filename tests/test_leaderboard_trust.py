@@ -36,10 +36,11 @@ def _copy(tmp_path: Path, name: str, edit: Callable[[dict], None] | None = None,
 
 def _board(tmp_path: Path, capsys, *results: Path | str, out: str | None = None
            ) -> tuple[int, str, Path]:
-    """`lgmd-sim leaderboard` over `results` into tmp_path/board/board.md (or `out`):
-    its exit code, its stderr, the table's path."""
+    """`lgmd-sim leaderboard` over `results` (v1 rows) into tmp_path/board/board.md (or
+    `out`): its exit code, its stderr, the table's path."""
     table = tmp_path / "board" / "board.md" if out is None else Path(out)
-    code = cli.main(["leaderboard", *map(str, results), "--out", str(table)])
+    code = cli.main(["leaderboard", *map(str, results), "--out", str(table), "--protocol",
+                     "v1"])
     return code, capsys.readouterr().err.strip(), table
 
 

@@ -39,6 +39,11 @@ GOLDEN = {
 }
 
 
+#: The shipped policy (its actions computed by lgmd_sim.policies.forward) on the same episode,
+#: at the frames it was trained on: 120 x 160 ("rl"; it refuses 64 x 64).
+POLICY_GOLDEN = "46d1d18dc2e2532614151617d9ab6c829859c3b43e19becb8d0153bbaceac04c"
+
+
 def _fingerprint(cell: Cell) -> dict:
     return episode(cell, 20000, resolution="small", cruise=0.6, horizon=2.0)["fingerprint"]
 
@@ -55,6 +60,16 @@ def test_a_short_episode_gives_its_golden_fingerprint(name, monkeypatch):
     assert _fingerprint(cell)["sha256"] == golden, (
         f"{name}: this processor computes another episode than the one recorded (AMD EPYC, "
         "replay mode)")
+
+
+@pytest.mark.skipif(not X86, reason="the golden fingerprints are x86-64's")
+def test_the_shipped_policy_s_short_episode_gives_its_golden_fingerprint():
+    pytest.importorskip("stable_baselines3")
+    record = episode(Cell("RoughTerrainObstacles", 1.0, "policy"), 20000, resolution="rl",
+                     cruise=0.6, horizon=2.0)
+    assert record["fingerprint"]["sha256"] == POLICY_GOLDEN, (
+        "the shipped policy: this processor computes another episode than the one recorded "
+        "(AMD EPYC, replay mode)")
 
 
 def _in_a_process(code: str, **env: str) -> str:

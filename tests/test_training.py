@@ -172,18 +172,20 @@ def test_resume_continues_the_step_count(run, tmp_path):
 
 
 @pytest.mark.slow
-def test_validation_plays_the_episodes_eval_plays_on_its_seeds(tmp_path):
+@pytest.mark.parametrize("obs", ["pixels", "privileged"])
+def test_validation_plays_the_episodes_eval_plays_on_its_seeds(tmp_path, obs):
     """Two validation environments play seeds 900 and 901 as the policy's controller does
     alone (`lgmd-sim eval`): the same distance travelled, to the last digit (a batch of
-    observations rounds the CNN's actions differently, and the robot drives on them)."""
+    observations rounds the CNN's actions differently, and the robot drives on them; a
+    vector policy's actions come from `lgmd_sim.policies.forward` on both sides)."""
     from stable_baselines3 import PPO
     from stable_baselines3.common.vec_env import VecNormalize
 
     from lgmd_sim.training.callbacks import run_episodes
     from lgmd_sim.training.envs import normalized_keys
 
-    out = tmp_path / "pixels"
-    assert _train(out, "--obs", "pixels", "--env", "lgmd_sim/RoughTerrainObstacles-v0",
+    out = tmp_path / obs
+    assert _train(out, "--obs", obs, "--env", "lgmd_sim/RoughTerrainObstacles-v0",
                   "--steps", "64", "--envs", "1", "--eval-seeds", "1") == 0
     policy = controllers.make("policy", path=str(out))
     config = policy.policy.config
@@ -199,7 +201,7 @@ def test_validation_plays_the_episodes_eval_plays_on_its_seeds(tmp_path):
     envs = make_vec_env(config, 2, short)
     stats = VecNormalize.load(str(out / "checkpoints" / "vecnormalize.pkl"), envs.venv)
     envs.venv = VecNormalize(envs.venv, training=False, norm_reward=False,
-                             norm_obs_keys=normalized_keys(envs.venv, "pixels"))
+                             norm_obs_keys=normalized_keys(envs.venv, obs))
     envs.venv.obs_rms = stats.obs_rms
     model = PPO.load(out / "checkpoints" / "model.zip", device="cpu")
     try:

@@ -20,11 +20,12 @@ from typing import Any
 import numpy as np
 
 from lgmd_sim.benchmark import scores
-from lgmd_sim.benchmark.protocol import Protocol
+from lgmd_sim.benchmark.protocol import CameraTrack, DetectionTrack, Protocol
 
 __all__ = ["TRACKS_BY_KIND", "check"]
 
-#: The tracks an entry runs, by its kind (`lgmd_sim.benchmark.run.benchmark`).
+#: The tracks an entry runs, by its kind (`lgmd_sim.benchmark.run.benchmark`); a detector
+#: also runs the stimuli track of a protocol that has one.
 TRACKS_BY_KIND = {"detector": ("goal", "arena", "detection"), "controller": ("goal", "arena"),
                   "policy": ("goal",)}
 #: How close a stored number must be to the one recomputed (bits may differ across
@@ -48,13 +49,25 @@ def _same(stored: Any, made: float, where: str) -> None:
         raise ValueError(f"{where} is {stored:.6g}, but its parts give {made:.6g}")
 
 
-def _counts(protocol: Protocol, track: str) -> list[int]:
-    """Per seed, the denominators of a track's parts: the episodes (one per jitter level),
-    or the approaching and the non-approaching clips."""
-    if track == "detection":
-        d = protocol.detection
-        return [len(d.approaching) * len(d.jitter), len(d.non_approach) * len(d.jitter)]
-    return [len(getattr(protocol, track).jitter)]
+def _counts(protocol: Protocol, track: str) -> list[int | None]:
+    """Per seed, the denominators of a track's parts, in order (None: a count of frames,
+    which the protocol does not fix): one episode per jitter level; the approaching and
+    the non-approaching clips; per level, the camera's approach and clear clips and
+    frames."""
+    t = getattr(protocol, track)
+    if isinstance(t, CameraTrack):
+        return [len(t.approaching), len(t.clear), None, None] * len(t.jitter)
+    if isinstance(t, DetectionTrack):
+        return [len(t.approaching) * len(t.jitter), len(t.non_approach) * len(t.jitter)]
+    return [1] * len(t.jitter) if protocol.version >= 2 else [len(t.jitter)]
+
+
+def _levels(protocol: Protocol, track: str) -> list[float] | None:
+    """The jitter levels a track's parts hold apart (version 2), or None."""
+    t = getattr(protocol, track)
+    if protocol.version < 2 or isinstance(t, DetectionTrack):
+        return None
+    return list(t.jitter)
 
 
 def _parts(result: Mapping[str, Any], protocol: Protocol, tracks: tuple[str, ...]
@@ -70,6 +83,8 @@ def _parts(result: Mapping[str, Any], protocol: Protocol, tracks: tuple[str, ...
         if stored[track]["seeds"] != seeds:
             raise ValueError(f"{where}.seeds are not the protocol's {track} seeds "
                              f"({seeds[0]}-{seeds[-1]})")
+        if stored[track].get("levels") != _levels(protocol, track):
+            raise ValueError(f"{where}.levels are not the protocol's {track} jitter levels")
         counts = _counts(protocol, track)
         sums = stored[track]["sums"]
         if [len(row) for row in sums] != [2 * len(counts)] * len(seeds):
@@ -77,10 +92,11 @@ def _parts(result: Mapping[str, Any], protocol: Protocol, tracks: tuple[str, ...
         for i, row in enumerate(sums):
             for k, count in enumerate(counts):
                 at = f"{where}.sums[{i}]"
-                if _number(row[2 * k + 1], at) != count:
+                total = _number(row[2 * k + 1], at, 0.0)
+                if count is not None and total != count:
                     raise ValueError(f"{at}: {row[2 * k + 1]} episodes or clips, the "
                                      f"protocol runs {count}")
-                _number(row[2 * k], at, 0.0, count)
+                _number(row[2 * k], at, 0.0, total)
         out[track] = scores.Parts.from_json(stored[track])
     return out
 
@@ -94,13 +110,17 @@ def _metrics(result: Mapping[str, Any], protocol: Protocol,
         rows = metrics.get(track)
         if not isinstance(rows, dict):
             raise ValueError(f"metrics.{track} is missing")
-        if track == "detection":
-            hits, approaching, silent, other = part.sums.sum(axis=0)
-            _same(rows.get("hit_rate"), hits / approaching, "metrics.detection.hit_rate")
+        if track in ("detection", "stimuli"):
+            hits, approaching = part.sums[:, 0].sum(), part.sums[:, 1].sum()
+            silent, other = part.sums[:, 2].sum(), part.sums[:, 3].sum()
+            if isinstance(getattr(protocol, track), CameraTrack):  # every level's, summed
+                level = part.sums.sum(axis=0).reshape(-1, 8)
+                hits, approaching, silent, other = level[:, :4].sum(axis=0)
+            _same(rows.get("hit_rate"), hits / approaching, f"metrics.{track}.hit_rate")
             _same(rows.get("false_alarm_rate"), 1 - silent / other,
-                  "metrics.detection.false_alarm_rate")
+                  f"metrics.{track}.false_alarm_rate")
             if rows.get("auc") is not None:
-                _number(rows["auc"], "metrics.detection.auc", 0.0, 1.0)
+                _number(rows["auc"], f"metrics.{track}.auc", 0.0, 1.0)
             continue
         levels = [f"{j:g}" for j in getattr(protocol, track).jitter]
         if sorted(rows) != sorted(levels):
@@ -138,6 +158,8 @@ def check(result: Mapping[str, Any], protocol: Protocol) -> None:
     tracks = TRACKS_BY_KIND.get(entry["kind"])
     if tracks is None:
         raise ValueError(f"entry.kind is {entry['kind']!r}, none of {', '.join(TRACKS_BY_KIND)}")
+    if entry["kind"] == "detector" and protocol.stimuli is not None:
+        tracks = (*tracks, "stimuli")
     policy = entry.get("policy")
     label = Entry(entry["spec"], entry["kind"], entry.get("controller") or "",
                   entry.get("model"), entry.get("preset"), entry.get("side") or "halves",

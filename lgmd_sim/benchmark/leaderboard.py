@@ -1,9 +1,13 @@
 """The leaderboard: results of one protocol version (`lgmd_sim.benchmark.run`'s
-``result.json``) merged into one ranked Markdown table and one figure.
+``result.json``) merged into one ranked Markdown table and its figures.
 
 Entries rank by their overall score; each is compared with the one ranked above it,
 paired on the seeds (`lgmd_sim.benchmark.scores.compare`), and marked "=" where the
-interval of the difference holds 0: the two are not separable on these seeds.
+interval of the difference holds 0: the two are not separable on these seeds. Under
+protocol 2 the table also gives each entry's J50 (the jitter level at which its score
+halves) and, over the detector rows, how well the detection score ranks them as their
+driving does (Spearman's rank correlation); a second figure draws every entry's score
+against jitter, and the synthetic stimuli get a table of their own.
 """
 
 from __future__ import annotations
@@ -21,7 +25,7 @@ from lgmd_sim.benchmark.protocol import Protocol
 from lgmd_sim.core.fileio import atomic_outputs
 from lgmd_sim.core.runs import NUMBER, Maybe, read_record
 
-__all__ = ["RESULT_FIELDS", "leaderboard", "load_result", "markdown", "parts"]
+__all__ = ["RESULT_FIELDS", "leaderboard", "load_result", "markdown", "parts", "spearman"]
 
 #: What the leaderboard reads of a result.
 RESULT_FIELDS = {
@@ -30,10 +34,12 @@ RESULT_FIELDS = {
               "model": Maybe(str), "preset": Maybe(str), "side": Maybe(str),
               "policy": Maybe(str)},
     "scores": {"goal": NUMBER, "arena": Maybe(NUMBER), "overall": Maybe(NUMBER),
-               "detection": Maybe(NUMBER)},
+               "detection": Maybe(NUMBER), "stimuli": Maybe(NUMBER)},
     "intervals": dict,
-    "metrics": {"goal": dict, "arena": Maybe(dict), "detection": Maybe(dict)},
-    "parts": {t: Maybe({"seeds": [int], "sums": [[NUMBER]]}) for t in scores.TRACKS},
+    "metrics": {"goal": dict, "arena": Maybe(dict), "detection": Maybe(dict),
+                "stimuli": Maybe(dict)},
+    "parts": {t: Maybe({"seeds": [int], "sums": [[NUMBER]], "levels": Maybe([NUMBER])})
+              for t in scores.TRACKS},
     "command": str,
     "machine": dict,
     "timing": {"wall_time_s": NUMBER},
@@ -63,7 +69,7 @@ def load_result(path: str | Path, protocol: Protocol | None = None) -> dict[str,
         raise ValueError(f"{file}: a result of another protocol (version "
                          f"{result['protocol']['version']}, {result['protocol']['sha256'][:12]}) "
                          f"than {protocol.name} ({identity['sha256'][:12]}): a leaderboard "
-                         "merges one protocol's results")
+                         "merges one protocol's results (--protocol names theirs)")
     try:
         audit.check(result, protocol)
     except ValueError as exc:
@@ -126,14 +132,78 @@ def _pooled(result: Mapping[str, Any], track: str, column: str) -> str:
     return f"{100 * float(np.mean(values)):.0f}" if values else "-"
 
 
+def _level(value: float, levels: Sequence[float]) -> str:
+    """A J50 or an end of its interval: beyond the last level is "> last"."""
+    return f">{levels[-1]:g}" if np.isinf(value) else f"{value:.1f}"
+
+
+def _j50(result: Mapping[str, Any], resamples: int, seed: int) -> str:
+    """An entry's J50 with its interval, "-" where its jitter-0 score is 0 or its parts do
+    not hold the levels apart."""
+    dose = scores.dose_response(parts(result), resamples, seed)
+    if dose is None or np.isnan(dose["j50"]):
+        return "-"
+    low, high = dose["j50_interval"]
+    shown = [_level(v, dose["levels"]) for v in (dose["j50"], low, high)]
+    return f"{shown[0]} [{shown[1]}, {shown[2]}]"
+
+
+def spearman(x: Sequence[float], y: Sequence[float]) -> float:
+    """Spearman's rank correlation of `x` and `y` (ties take their mean rank)."""
+    def ranks(v: Sequence[float]) -> np.ndarray:
+        v = np.asarray(v, float)
+        order = np.argsort(v, kind="stable")
+        r = np.empty(len(v))
+        r[order] = np.arange(len(v), dtype=float)
+        for value in np.unique(v):  # ties: their mean rank
+            r[v == value] = r[v == value].mean()
+        return r
+
+    return float(np.corrcoef(ranks(x), ranks(y))[0, 1])
+
+
+def _prediction(results: Sequence[Mapping[str, Any]]) -> str:
+    """How the detection track ranks the detector rows against their driving."""
+    rows = [r for r in results if r["scores"].get("detection") is not None
+            and r["scores"].get("overall") is not None]
+    if len(rows) < 3:
+        return ""
+    rho = spearman([r["scores"]["detection"] for r in rows],
+                   [r["scores"]["overall"] for r in rows])
+    return (f"Detection against driving: over the {len(rows)} detector rows, the detection "
+            f"score ranks them as the overall score does with a Spearman correlation of "
+            f"{rho:.2f}.\n\n")
+
+
+def _stimuli_table(results: Sequence[Mapping[str, Any]], order: Sequence[int]) -> list[str]:
+    """The synthetic stimuli's table (protocol 2), outside the overall score."""
+    rows = [results[i] for i in order if results[i]["scores"].get("stimuli") is not None]
+    if not rows:
+        return []
+    lines = ["", "Synthetic stimuli (the paper's kind of clips, version 1's detection track; "
+             "outside the overall score):", "",
+             "| entry | stimuli | hits % | false alarms % | AUC |", "|---|---|---:|---:|---:|"]
+    for r in rows:
+        m = r["metrics"]["stimuli"]
+        auc = "-" if m.get("auc") is None else f"{m['auc']:.2f}"
+        lines.append(f"| {_code(r['entry']['label'])} | {_cell(r, 'stimuli')} "
+                     f"| {100 * m['hit_rate']:.0f} | {100 * m['false_alarm_rate']:.0f} "
+                     f"| {auc} |")
+    return lines
+
+
 def markdown(results: Sequence[Mapping[str, Any]], names: Sequence[str],
              resamples: int, seed: int) -> str:
     """The ranked table of `results` (their files' `names`, for the commands' list); those
     without an overall score (a policy: no arena) unranked, after the others."""
     order = _order(results)
-    lines = ["| rank | entry | overall | goal | arena | detection | success % | "
-             "collisions % | avoided % | false alarms / min | AUC |",
-             "|---:|---|---|---|---|---|---:|---:|---:|---:|---:|"]
+    dose = any(p.get("levels") for r in results for p in r["parts"].values() if p)
+    camera = dose  # protocol 2's detection is the robot camera's
+    lines = ["| rank | entry | overall | goal | arena | detection | "
+             + ("J50 | " if dose else "")
+             + "success % | collisions % | avoided % | false alarms / min | AUC |",
+             "|---:|---|---|---|---|---|" + ("---|" if dose else "")
+             + "---:|---:|---:|---:|---:|"]
     above: list[Mapping[str, Any]] = []
     rank = 1
     for i in order:
@@ -152,20 +222,29 @@ def markdown(results: Sequence[Mapping[str, Any]], names: Sequence[str],
         lines.append(
             f"| {shown} | {_code(r['entry']['label'])} | {_cell(r, 'overall')} "
             f"| {_cell(r, 'goal')} | {_cell(r, 'arena')} | {_cell(r, 'detection')} "
-            f"| {_pooled(r, 'goal', 'success_rate')} | {_pooled(r, 'goal', 'collision_rate')} "
+            + (f"| {_j50(r, resamples, seed)} " if dose else "")
+            + f"| {_pooled(r, 'goal', 'success_rate')} | {_pooled(r, 'goal', 'collision_rate')} "
             f"| {_pooled(r, 'arena', 'avoidance_rate')} "
             f"| {'-' if np.isnan(alarms) else f'{alarms:.1f}'} "
             f"| {'-' if auc is None else f'{auc:.2f}'} |")
         if ranked:
             above.append(r)
+    detection = ("detection (on the robot's camera: the mean of approach clips alarmed in "
+                 "the manoeuvre's window, clear clips silent, window frames alarmed and "
+                 "clear frames silent)" if camera else
+                 "detection (balanced accuracy on looming and non-looming clips)")
     lines += ["", "_Rank: 1 + the entries above that are better beyond their interval (paired "
               "on the seeds); '=': not separable from the entry just above. Scores in [0, 1] "
               "with 95% intervals: goal (SPL), arena (encounters avoided "
-              "x distance over the Oracle's), detection (balanced accuracy on looming and "
-              "non-looming clips), overall (mean of goal and arena). Success, collisions and "
-              "false alarms: the goal track's, averaged over its jitter levels; avoided: the "
-              "arena's encounters; AUC: the detection clips' frames. Unranked (-): no arena "
-              "(a policy observes a goal)._", "", "Rows' commands, wall time and machine:", ""]
+              f"x distance over the Oracle's), {detection}, overall (mean of goal and arena). "
+              + ("J50: the jitter level at which the overall score (a policy's: the goal's) "
+                 "falls to half its jitter-0 score, linear between levels ('>3': not within "
+                 "them; '-': a jitter-0 score of 0). " if dose else "")
+              + "Success, collisions and false alarms: the goal track's, averaged over its "
+              "jitter levels; avoided: the arena's encounters; AUC: the detection clips' "
+              "frames. Unranked (-): no arena (a policy observes a goal)._",
+              *_stimuli_table(results, order),
+              "", "Rows' commands, wall time and machine:", ""]
     for i in order:
         r = results[i]
         cpu = str(r["machine"].get("cpu", "?"))
@@ -212,6 +291,57 @@ def _figure(results: Sequence[Mapping[str, Any]], file: Path) -> None:
     fig.savefig(file, dpi=120)
 
 
+#: The dose-response figure's panels: which entries each draws.
+_PANELS = ("references and baselines", "detectors driving the reference controller",
+           "other controllers and policies")
+
+
+def _panel(result: Mapping[str, Any]) -> int:
+    entry = result["entry"]
+    if entry["kind"] == "controller" or str(entry.get("model") or "").startswith(
+            "lgmd_sim.benchmark.baselines"):
+        return 0
+    if entry["kind"] == "detector" and entry.get("controller") in (None, "reactive") and (
+            entry.get("side") or "halves") == "halves":
+        return 1
+    return 2
+
+
+def _dose_figure(results: Sequence[Mapping[str, Any]], doses: Sequence[Any], file: Path
+                 ) -> None:
+    """Every entry's overall score (a policy's: its goal score) against jitter, one panel a
+    kind of entry, each entry's J50 marked where the curve halves."""
+    from matplotlib import colormaps
+
+    from lgmd_sim.core.plots import figure
+
+    panels: list[list[int]] = [[] for _ in _PANELS]
+    for i in _order(results):
+        if doses[i] is not None:
+            panels[_panel(results[i])].append(i)
+    used = [k for k, members in enumerate(panels) if members]
+    fig = figure(figsize=(5.2 * len(used), 4.6))
+    axes = fig.subplots(1, len(used), sharey=True, squeeze=False)[0]
+    for ax, k in zip(axes, used, strict=True):
+        n = len(panels[k])  # no colour twice in a panel
+        colours = colormaps["tab10" if n <= 10 else "tab20"].colors[:n]
+        for colour, i in zip(colours, panels[k], strict=True):
+            d = doses[i]
+            ax.plot(d["levels"], d["scores"], marker="o", ms=3, color=colour,
+                    label=results[i]["entry"]["label"])
+            if np.isfinite(d["j50"]):
+                ax.plot(d["j50"], d["scores"][0] / 2, marker="x", ms=7, color=colour)
+        ax.set_title(_PANELS[k], fontsize=9)
+        ax.set_xlabel("jitter level")
+        ax.set_ylim(0, 1)
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.16), ncol=2,
+                  frameon=False)
+    axes[0].set_ylabel("overall score (policies: goal)")
+    fig.suptitle("Score against jitter (x: J50, where the score halves)", fontsize=10)
+    fig.savefig(file, dpi=120, bbox_inches="tight")
+
+
 def leaderboard(paths: Sequence[str | Path], out: str | Path, protocol: Protocol
                 ) -> list[Path]:
     """Merge the results at `paths`, each of `protocol`, into the Markdown table `out` and
@@ -235,12 +365,20 @@ def leaderboard(paths: Sequence[str | Path], out: str | Path, protocol: Protocol
         raise ValueError(f"two results of entry {twice[0]!r}: give each entry once")
     figure_file = out.with_suffix(".png")
     resamples, seed = protocol.bootstrap, protocol.bootstrap_seed
+    doses = [scores.dose_response(parts(r), resamples, seed) for r in results]
+    dose_file = out.with_name(f"{out.stem}-jitter.png") if any(doses) else None
     header = (f"# Leaderboard\n\nProtocol {protocol.name} (sha256 {first['sha256'][:12]}); "
               f"95% intervals over {resamples} bootstrap resamples of the seeds; '=' marks "
               "an entry not separable from the one above it (paired on the seeds).\n\n"
-              f"![Score by entry, track and jitter level]({figure_file.name})\n\n")
+              f"![Score by entry, track and jitter level]({figure_file.name})\n\n"
+              + (f"![Score against jitter, every entry]({dose_file.name})\n\n"
+                 if dose_file else "")
+              + _prediction(results))
     table = markdown(results, [str(p) for p in paths], resamples, seed)
-    with atomic_outputs([out, figure_file]) as (md, png):
-        md.write_text(header + table)
-        _figure(results, png)
-    return [out, figure_file]
+    files = [out, figure_file, *([dose_file] if dose_file else [])]
+    with atomic_outputs(files) as made:
+        made[0].write_text(header + table)
+        _figure(results, made[1])
+        if dose_file:
+            _dose_figure(results, doses, made[2])
+    return files

@@ -1,7 +1,11 @@
 """The benchmark's protocol as data: its tracks, their scenarios, jitter levels and seeds,
 the frame size, the reference controller's cruise, the calibration rule and the bootstrap,
-read from a versioned TOML file (`PROTOCOLS`: ``v1.toml`` beside this module) and checked
-key by key, so that a bad file is one line naming it and the key.
+read from a versioned TOML file (`PROTOCOLS`: ``v1.toml``, ``v2.toml`` beside this module)
+and checked key by key, so that a bad file is one line naming it and the key.
+
+Version 1 scores detection on synthetic clips (`DetectionTrack`); version 2 on the robot's
+own camera (`CameraTrack`), keeps the synthetic clips as the "stimuli" track, and runs the
+closed-loop tracks at more jitter levels. A file's ``version`` key says which it is.
 """
 
 from __future__ import annotations
@@ -17,14 +21,14 @@ from typing import Any
 from lgmd_sim.core.fileio import read_text
 from lgmd_sim.core.params import finite
 
-__all__ = ["CURRENT", "PROTOCOLS", "SMOKE_SEEDS", "ArenaTrack", "Calibration", "ClosedLoopTrack",
-           "DetectionTrack", "Protocol", "load"]
+__all__ = ["CURRENT", "PROTOCOLS", "SMOKE_SEEDS", "ArenaTrack", "Calibration", "CameraTrack",
+           "ClosedLoopTrack", "DetectionTrack", "Protocol", "load"]
 
 _HERE = Path(__file__).resolve().parent
 #: The shipped protocols, by name.
 PROTOCOLS = {p.stem: p for p in sorted(_HERE.glob("v*.toml"))}
 #: The protocol `lgmd-sim benchmark` runs by default.
-CURRENT = "v1"
+CURRENT = "v2"
 #: Seeds a track of a smoke run (`Protocol.smoke`).
 SMOKE_SEEDS = 2
 #: The most bootstrap resamples a protocol may ask: its draws are resamples x seeds
@@ -73,6 +77,31 @@ class DetectionTrack:
 
 
 @dataclass(frozen=True)
+class CameraTrack:
+    """The detection track of version 2 (`lgmd_sim.benchmark.camera`): `clips` clips
+    (seeds `first_seed` on) of every robot scenario, `approaching` (driving at an obstacle)
+    and `clear`, at each jitter level; clip i drives at forward action ``cruise[i %
+    len(cruise)]``. An alarm must come while the threat's time to collision is within
+    `window_s` (low, high); none while no threat is within the protocol's horizon."""
+
+    approaching: tuple[str, ...]
+    clear: tuple[str, ...]
+    jitter: tuple[float, ...]
+    cruise: tuple[float, ...]
+    first_seed: int
+    clips: int
+    window_s: tuple[float, ...]
+
+    @property
+    def seeds(self) -> list[int]:
+        return list(range(self.first_seed, self.first_seed + self.clips))
+
+    def cruise_of(self, seed: int) -> float:
+        """The forward action of the clips of `seed`."""
+        return self.cruise[(seed - self.first_seed) % len(self.cruise)]
+
+
+@dataclass(frozen=True)
 class Calibration:
     """The calibration `lgmd-sim benchmark --calibrate` runs (`lgmd-sim calibrate`'s
     options of those names)."""
@@ -96,11 +125,14 @@ class Protocol:
     bootstrap_seed: int
     goal: ClosedLoopTrack
     arena: ArenaTrack
-    detection: DetectionTrack
+    #: Version 1: synthetic clips; version 2: the robot's camera.
+    detection: DetectionTrack | CameraTrack
     calibration: Calibration
     #: The file it was read from, and the SHA-256 of its bytes (what a result records).
     path: Path
     digest: str
+    #: Version 2: the synthetic clips, a table of their own outside the overall score.
+    stimuli: DetectionTrack | None = None
     #: A smoke run's protocol (`smoke`): a handful of seeds, never ranked.
     smoke_run: bool = False
 
@@ -128,6 +160,7 @@ class Protocol:
         return few(self, goal=few(self.goal, episodes=min(SMOKE_SEEDS, self.goal.episodes)),
                    arena=few(self.arena, episodes=min(SMOKE_SEEDS, self.arena.episodes)),
                    detection=few(self.detection, clips=1),
+                   stimuli=None if self.stimuli is None else few(self.stimuli, clips=1),
                    calibration=few(self.calibration, seeds=1,
                                    budget=min(SMOKE_SEEDS, self.calibration.budget)),
                    smoke_run=True)
@@ -148,12 +181,16 @@ _SHAPES: dict[type, dict[str, Any]] = {
                  "reference_distance_m": (float,)},
     DetectionTrack: {"approaching": (str,), "non_approach": (str,), "jitter": (float,),
                      "first_seed": int, "clips": int, "window_s": float},
+    CameraTrack: {"approaching": (str,), "clear": (str,), "jitter": (float,),
+                  "cruise": (float,), "first_seed": int, "clips": int, "window_s": (float,)},
     Calibration: {"task": str, "budget": int, "seeds": int, "first_seed": int,
                   "heldout_seed": int},
 }
-_TOP = {"version": int, "resolution": str, "cruise": float, "horizon": float,
-        "bootstrap": int, "bootstrap_seed": int, "goal": ClosedLoopTrack,
-        "arena": ArenaTrack, "detection": DetectionTrack, "calibration": Calibration}
+_V1 = {"version": int, "resolution": str, "cruise": float, "horizon": float,
+       "bootstrap": int, "bootstrap_seed": int, "goal": ClosedLoopTrack,
+       "arena": ArenaTrack, "detection": DetectionTrack, "calibration": Calibration}
+#: Each version's keys.
+_TOP = {1: _V1, 2: {**_V1, "detection": CameraTrack, "stimuli": DetectionTrack}}
 
 
 def _table(data: Any, shape: Mapping[str, Any], where: str) -> dict[str, Any]:
@@ -188,7 +225,6 @@ def _table(data: Any, shape: Mapping[str, Any], where: str) -> dict[str, Any]:
 def _check(p: Protocol) -> None:
     """The values a well-formed protocol may not hold: one line naming the key."""
     from lgmd_sim import options
-    from lgmd_sim.calibration.clips import STIMULI
     from lgmd_sim.calibration.run import TASKS
     from lgmd_sim.envs.catalogue import scenarios
 
@@ -209,25 +245,24 @@ def _check(p: Protocol) -> None:
         options.check_jitter(track.jitter, f"{name}.jitter")
         options.check_positive(track.episodes, f"{name}.episodes", integer=True)
         options.check_seed(track.first_seed, f"{name}.first_seed")
+    if p.version >= 2:  # each track's dose-response: J50 reads a jitter-0 score, then more
+        for name in ("goal", "detection"):
+            levels = getattr(p, name).jitter
+            if levels[0] != 0 or list(levels) != sorted(levels):
+                raise ValueError(f"{name}.jitter must rise from 0 (J50 halves the jitter-0 "
+                                 f"score), got {list(levels)}")
+        if p.arena.jitter != p.goal.jitter:
+            raise ValueError("arena.jitter must be goal.jitter: the overall score at a level "
+                             "is the mean of the two tracks' there")
     reference = p.arena.reference_distance_m
     if len(reference) != len(p.arena.jitter) or min(reference) <= 0:
         raise ValueError("arena.reference_distance_m must hold a distance > 0 per jitter level")
-    d = p.detection
-    seen: dict[str, str] = {}
-    for key in ("approaching", "non_approach"):
-        for name in getattr(d, key):
-            if name not in STIMULI:
-                raise ValueError(f"detection.{key}: stimulus {name!r} is none of "
-                                 f"{', '.join(STIMULI)}")
-            if name in seen:
-                raise ValueError(f"detection.{key}: stimulus {name!r} is in "
-                                 f"detection.{seen[name]} already: give each stimulus once")
-            seen[name] = key
-    options.check_jitter(d.jitter, "detection.jitter")
-    options.check_positive(d.clips, "detection.clips", integer=True)
-    options.check_seed(d.first_seed, "detection.first_seed")
+    if isinstance(p.detection, CameraTrack):
+        _check_camera(p.detection, known)
+    for key, track in (("detection", p.detection), ("stimuli", p.stimuli)):
+        if isinstance(track, DetectionTrack):
+            _check_stimuli(track, key)
     options.check_positive(p.horizon, "horizon")
-    options.check_positive(d.window_s, "detection.window_s")
     c = p.calibration
     if c.task not in TASKS:
         raise ValueError(f"calibration.task {c.task!r} is none of {', '.join(TASKS)}")
@@ -238,6 +273,55 @@ def _check(p: Protocol) -> None:
     if abs(c.first_seed - c.heldout_seed) < c.seeds:
         raise ValueError("calibration: the search seeds (first_seed on) and the held-out ones "
                          f"(heldout_seed on) overlap, {c.seeds} of each")
+
+
+def _check_stimuli(d: DetectionTrack, name: str) -> None:
+    from lgmd_sim import options
+    from lgmd_sim.calibration.clips import STIMULI
+
+    seen: dict[str, str] = {}
+    for key in ("approaching", "non_approach"):
+        for stimulus in getattr(d, key):
+            if stimulus not in STIMULI:
+                raise ValueError(f"{name}.{key}: stimulus {stimulus!r} is none of "
+                                 f"{', '.join(STIMULI)}")
+            if stimulus in seen:
+                raise ValueError(f"{name}.{key}: stimulus {stimulus!r} is in "
+                                 f"{name}.{seen[stimulus]} already: give each stimulus once")
+            seen[stimulus] = key
+    options.check_jitter(d.jitter, f"{name}.jitter")
+    options.check_positive(d.clips, f"{name}.clips", integer=True)
+    options.check_seed(d.first_seed, f"{name}.first_seed")
+    options.check_positive(d.window_s, f"{name}.window_s")
+
+
+def _check_camera(d: CameraTrack, known: Any) -> None:
+    from lgmd_sim import options
+    from lgmd_sim.envs.catalogue import params_for
+
+    seen: dict[str, str] = {}
+    for key in ("approaching", "clear"):
+        for scenario in getattr(d, key):
+            if scenario not in known:
+                raise ValueError(f"detection.{key}: {scenario!r} is not a scenario "
+                                 "(lgmd-sim envs lists them)")
+            if params_for(scenario, {}).carrier != "robot":
+                raise ValueError(f"detection.{key}: {scenario!r} does not carry the camera "
+                                 "on the robot")
+            if scenario in seen:
+                raise ValueError(f"detection.{key}: {scenario!r} is in detection."
+                                 f"{seen[scenario]} already: give each scenario once")
+            seen[scenario] = key
+    options.check_jitter(d.jitter, "detection.jitter")
+    for speed in d.cruise:
+        if not 0 < speed <= 1:
+            raise ValueError(f"detection.cruise: {speed:g} is not a forward action in (0, 1]")
+    options.check_positive(d.clips, "detection.clips", integer=True)
+    options.check_seed(d.first_seed, "detection.first_seed")
+    low, *high = d.window_s
+    if len(d.window_s) != 2 or not 0 <= low < high[0]:
+        raise ValueError("detection.window_s must be [low, high], 0 <= low < high (s to "
+                         f"collision), got {list(d.window_s)}")
 
 
 def load(spec: str | Path = CURRENT) -> Protocol:
@@ -254,7 +338,12 @@ def load(spec: str | Path = CURRENT) -> Protocol:
                          f"({', '.join(PROTOCOLS)}) or a .toml file")
     text = read_text(path)
     try:
-        values = _table(tomllib.loads(text), _TOP, "")
+        data = tomllib.loads(text)
+        version = data.get("version")
+        if version not in _TOP:
+            raise ValueError(f"version is {version!r}: a protocol is of version "
+                             f"{' or '.join(map(str, _TOP))} (its keys differ)")
+        values = _table(data, _TOP[version], "")
         protocol = Protocol(**values, path=path,
                             digest=hashlib.sha256(text.encode()).hexdigest())
         _check(protocol)

@@ -18,18 +18,23 @@ from pathlib import Path
 from typing import Any
 
 from lgmd_sim import __version__
-from lgmd_sim.benchmark import detection, scores
+from lgmd_sim.benchmark import camera, detection, scores
 from lgmd_sim.benchmark.entries import Entry
-from lgmd_sim.benchmark.protocol import ClosedLoopTrack, Protocol
+from lgmd_sim.benchmark.protocol import CameraTrack, ClosedLoopTrack, DetectionTrack, Protocol
 from lgmd_sim.core.fileio import canonical_json, write_text_atomic
 from lgmd_sim.core.machine import machine
 from lgmd_sim.core.runs import RunFolder
 
-__all__ = ["RESULT", "benchmark", "calibrated", "check_entries", "episode_score",
+__all__ = ["EPISODES", "RESULT", "benchmark", "calibrated", "check_entries", "episode_score",
            "track_config", "user_presets"]
 
 #: An entry's result, in its folder.
 RESULT = "result.json"
+#: Its closed-loop episodes' records without their drawings, by track: what `lgmd-sim
+#: verify` replays a published row against (the run folders' records/ stay where it ran).
+EPISODES = "episodes.json"
+#: What `EPISODES` leaves out of a record: the top view, drawn for the first seeds.
+UNPUBLISHED = ("top_view",)
 #: What `calibrated` adds to the preset a built-in's calibration makes, whose name the
 #: model ships already.
 RECALIBRATED = "recalibrated"
@@ -67,31 +72,48 @@ def _closed_loop(entry: Entry, protocol: Protocol, track: ClosedLoopTrack, out: 
     return records, result.rows
 
 
-def _detection(entry: Entry, protocol: Protocol, out: Path, run_options: Mapping[str, Any]
-               ) -> list[dict[str, Any]]:
-    """Run the detection track's clips through the entry's detector (a run folder in
-    `out`); one record per clip."""
+def _clip_track(entry: Entry, protocol: Protocol, name: str, out: Path,
+                jobs: Mapping[str, tuple[Callable[..., dict[str, Any]], dict[str, Any]]],
+                run_options: Mapping[str, Any]) -> list[dict[str, Any]]:
+    """Run an open-loop track's clips through the entry's detector (a run folder in `out`,
+    `jobs`: record name -> (job function, its arguments)); one record per clip."""
     from lgmd_sim.core.parallel import Job, run_jobs
 
-    track = protocol.detection
-    config = {"detection": protocol.identity(), "model": entry.model, "preset": entry.preset,
+    config = {name: protocol.identity(), "model": entry.model, "preset": entry.preset,
               "detector_params": entry.to_json()["params"]}
     folder = RunFolder(out, config, run_options.get("command", ""), resume=True,
-                       what="benchmark detection track")
+                       what=f"benchmark {name} track")
     done = folder.done()
-    approaching = set(track.approaching)
-    jobs = [Job(detection.key(c), detection.clip_job, {
-        "clip": c, "model": entry.model, "preset": entry.preset,
-        "resolution": protocol.resolution, "approaching": c[0] in approaching,
-        "window_s": track.window_s}) for c in detection.clips(track)
-        if detection.key(c) not in done]
-    run_jobs(jobs, lambda job, record: folder.store(job.key, record),
+    run_jobs([Job(k, fn, {**args, "model": entry.model, "preset": entry.preset,
+                          "resolution": protocol.resolution})
+              for k, (fn, args) in jobs.items() if k not in done],
+             lambda job, record: folder.store(job.key, record),
              workers=run_options.get("workers"), ray_address=run_options.get("ray_address"),
-             progress=run_options.get("progress"), desc=f"{entry.label}: detection",
-             unit="clip")
-    records = folder.records([detection.key(c) for c in detection.clips(track)])
+             progress=run_options.get("progress"), desc=f"{entry.label}: {name}", unit="clip")
+    records = folder.records(list(jobs))
     folder.finish(clips=len(records))
     return records
+
+
+def _stimuli(entry: Entry, protocol: Protocol, track: DetectionTrack, name: str, out: Path,
+             run_options: Mapping[str, Any]) -> list[dict[str, Any]]:
+    """The synthetic clips' track (`lgmd_sim.benchmark.detection`): version 1's detection,
+    version 2's stimuli."""
+    approaching = set(track.approaching)
+    jobs = {detection.key(c): (detection.clip_job, {
+        "clip": c, "approaching": c[0] in approaching, "window_s": track.window_s})
+        for c in detection.clips(track)}
+    return _clip_track(entry, protocol, name, out, jobs, run_options)
+
+
+def _camera(entry: Entry, protocol: Protocol, track: CameraTrack, out: Path,
+            run_options: Mapping[str, Any]) -> list[dict[str, Any]]:
+    """The robot camera's detection track (`lgmd_sim.benchmark.camera`)."""
+    window = (track.window_s[0], track.window_s[1])
+    jobs = {camera.key(c): (camera.clip_job, {
+        "clip": c, "cruise": track.cruise_of(c[3]), "window_s": window,
+        "horizon": protocol.horizon}) for c in camera.clips(track)}
+    return _clip_track(entry, protocol, "detection", out, jobs, run_options)
 
 
 def _rows(records: list[dict[str, Any]], rows: list[dict[str, Any]], columns: tuple[str, ...],
@@ -246,21 +268,39 @@ def benchmark(entry: Entry, protocol: Protocol, out: str | Path, *,
     folder.mkdir(parents=True, exist_ok=True)
     run_options = {"workers": workers, "ray_address": ray_address, "progress": progress,
                    "command": command}
+    # version 2 keeps each jitter level's episodes apart: the dose-response, J50
+    levels = protocol.goal.jitter if protocol.version >= 2 else None
     arena_score = episode_score("arena", protocol)
     goal, rows = _closed_loop(entry, protocol, protocol.goal, folder / "goal", run_options)
-    parts = {"goal": scores.parts_of(goal, scores.goal_score)}
+    parts = {"goal": scores.parts_of(goal, scores.goal_score, levels)}
     metrics = {"goal": _rows(goal, rows, _GOAL_COLUMNS, scores.goal_score)}
     traces = {"goal": _fingerprint(goal)}
     if entry.kind != "policy":  # a policy observes the goal, which the arena has not
         arena, rows = _closed_loop(entry, protocol, protocol.arena, folder / "arena",
                                    run_options)
-        parts["arena"] = scores.parts_of(arena, arena_score)
+        parts["arena"] = scores.parts_of(arena, arena_score, levels)
         metrics["arena"] = _rows(arena, rows, _ARENA_COLUMNS, arena_score)
         traces["arena"] = _fingerprint(arena)
     if entry.kind == "detector":
-        clips = _detection(entry, protocol, folder / "detection", run_options)
-        parts["detection"] = scores.detection_parts(clips)
-        metrics["detection"] = detection.metrics(clips)
+        if isinstance(protocol.detection, CameraTrack):
+            clips = _camera(entry, protocol, protocol.detection, folder / "detection",
+                            run_options)
+            parts["detection"] = camera.parts(clips, protocol.detection.jitter)
+            metrics["detection"] = camera.metrics(clips)
+        else:
+            clips = _stimuli(entry, protocol, protocol.detection, "detection",
+                             folder / "detection", run_options)
+            parts["detection"] = scores.detection_parts(clips)
+            metrics["detection"] = detection.metrics(clips)
+        if protocol.stimuli is not None:
+            clips = _stimuli(entry, protocol, protocol.stimuli, "stimuli", folder / "stimuli",
+                             run_options)
+            parts["stimuli"] = scores.detection_parts(clips)
+            metrics["stimuli"] = detection.metrics(clips)
+    episodes = {"goal": goal, **({"arena": arena} if entry.kind != "policy" else {})}
+    write_text_atomic(folder / EPISODES, canonical_json({
+        track: [{k: v for k, v in r.items() if k not in UNPUBLISHED} for r in records]
+        for track, records in episodes.items()}))
     summary = scores.summarise(parts, protocol.bootstrap, protocol.bootstrap_seed)
     result = {"protocol": protocol.identity(), "entry": entry.to_json(),
               "lgmd_sim": __version__, "machine": machine(), "command": command,

@@ -3,7 +3,8 @@ each with its record, fingerprint and fields (`lgmd_sim.bench.fingerprint`), so 
 reader can tell whether a row replays here, and where it parts if not.
 
 `verify` reads an entry's folder as `lgmd-sim benchmark` leaves it (``result.json`` beside
-``goal/`` and ``arena/``, each a closed-loop run folder of one record per episode); it
+``goal/`` and ``arena/``, each a closed-loop run folder of one record per episode), or as
+a row is published: ``episodes.json`` holds the same records, the drawings left out; it
 also checks that the result's per-seed parts are what the records give.
 """
 
@@ -18,12 +19,14 @@ import numpy as np
 
 from lgmd_sim.bench.episode import RECORD_FIELDS, episode
 from lgmd_sim.bench.fingerprint import first_difference
+from lgmd_sim.benchmark.entries import Entry, parse
 from lgmd_sim.benchmark.protocol import Protocol
+from lgmd_sim.benchmark.run import EPISODES, track_config
 
 __all__ = ["Replayed", "verify"]
 
 #: The fields a replay leaves out of the comparison: the top view is drawn for the first
-#: seeds only, where the bench asks for it.
+#: seeds only, where the bench asks for it (and a published row leaves it out).
 _NOT_COMPARED = ("top_view",)
 
 
@@ -94,34 +97,49 @@ def verify(result: str | Path, protocol: Protocol, episodes: int | None = None, 
         for track, part in parts(claimed).items():
             if track in scores.CLOSED_LOOP:
                 out += _track(file, track, part, protocol, (episodes, seed),
-                              {"workers": workers, "progress": progress}, on_episode)
+                              {"workers": workers, "progress": progress}, on_episode, claimed)
     return out
+
+
+def _entry(entry: Mapping[str, Any]) -> Entry:
+    """A result's entry: a policy's again from its spec (the folder where this checkout
+    has it), the others from their recorded fields (a calibrated preset's name too)."""
+    if entry["kind"] == "policy":
+        return parse(entry["spec"])
+    return Entry(entry["spec"], entry["kind"], entry["controller"], entry.get("model"),
+                 entry.get("preset"), entry.get("side") or "halves")
 
 
 def _track(file: Path, track: str, part: Any, protocol: Protocol,
            sample: tuple[int | None, int], run_options: Mapping[str, Any],
-           on_episode: Callable[[Replayed], None] | None) -> list[Replayed]:
-    """`verify` of one closed-loop track: its run folder beside `file`, the episodes
-    `sample` (how many, the draw's seed) of it."""
+           on_episode: Callable[[Replayed], None] | None, claimed: Mapping[str, Any]
+           ) -> list[Replayed]:
+    """`verify` of one closed-loop track: its run folder beside `file` (a published row's:
+    the protocol's for the result's entry, its records from ``episodes.json``), the
+    episodes `sample` (how many, the draw's seed) of it."""
     from lgmd_sim.bench.closed_loop import ClosedLoopConfig
     from lgmd_sim.core.parallel import Job, run_jobs
     from lgmd_sim.core.runs import RunFolder, read_record
 
     run = file.parent / track
-    recorded = read_record(run / "run.json", {"config": dict},
-                           f"the folder of {file} holds no {track} run")
-    if not (run / "records").is_dir():
-        raise ValueError(f"{run}: no records/ of its episodes to replay (a row's records "
-                         "stay on the machine that ran it unless they are published with it)")
-    try:
-        config = ClosedLoopConfig.from_json(recorded["config"])
-    except (KeyError, TypeError) as exc:  # a hand-edited run.json
-        raise ValueError(f"{run / 'run.json'}: not a closed-loop run's configuration "
-                         f"({type(exc).__name__}: {exc})") from None
+    if (run / "run.json").is_file():
+        recorded = read_record(run / "run.json", {"config": dict},
+                               f"the folder of {file} holds no {track} run")
+        try:
+            config = ClosedLoopConfig.from_json(recorded["config"])
+        except (KeyError, TypeError) as exc:  # a hand-edited run.json
+            raise ValueError(f"{run / 'run.json'}: not a closed-loop run's configuration "
+                             f"({type(exc).__name__}: {exc})") from None
+    else:  # a published row: its run is the protocol's, for its entry
+        config = track_config(_entry(claimed["entry"]), protocol, getattr(protocol, track))
     cells = {c.key(s): (c, s) for c in config.cells() for s in config.seed_list}
     keys = list(cells)
-    records = dict(zip(keys, RunFolder(run, config.as_json(), "", resume=True, start=False)
-                       .records(keys, RECORD_FIELDS), strict=True))
+    if (run / "records").is_dir():
+        listed = RunFolder(run, config.as_json(), "", resume=True, start=False).records(
+            keys, RECORD_FIELDS)
+    else:
+        listed = _published(file.parent / EPISODES, track, len(keys))
+    records = dict(zip(keys, listed, strict=True))
     _check_parts(file, track, part, list(records.values()), protocol)
     options = {"resolution": config.resolution, "cruise": config.cruise,
                "horizon": config.horizon, "top_view": False}
@@ -139,13 +157,30 @@ def _track(file: Path, track: str, part: Any, protocol: Protocol,
     return out
 
 
+def _published(file: Path, track: str, count: int) -> list[dict[str, Any]]:
+    """A published row's records of `track` (its ``episodes.json``), each checked."""
+    from lgmd_sim.core.runs import read_record
+
+    remedy = ("a row is replayed against the records/ of its run folders or the "
+              f"{EPISODES} that lgmd-sim benchmark writes beside its result")
+    published = read_record(file, {track: [RECORD_FIELDS]}, remedy) if file.is_file() else None
+    if published is None:
+        raise ValueError(f"{file.parent / track}: no records/ of its episodes, nor {file}: "
+                         f"{remedy}")
+    if len(published[track]) != count:
+        raise ValueError(f"{file}: {len(published[track])} {track} episodes, its run holds "
+                         f"{count}: {remedy}")
+    return published[track]
+
+
 def _check_parts(file: Path, track: str, part: Any, records: Sequence[Mapping[str, Any]],
                  protocol: Protocol) -> None:
     """Refuse a result whose `track` parts are not what its episodes' records give."""
     from lgmd_sim.benchmark import scores
     from lgmd_sim.benchmark.run import episode_score
 
-    made = scores.parts_of(records, episode_score(track, protocol))
+    made = scores.parts_of(records, episode_score(track, protocol),
+                           part.levels)
     if not (made.seeds == part.seeds and np.array_equal(made.sums, part.sums)):
         raise ValueError(f"{file}: its {track} parts are not what the episodes' records in "
                          f"{file.parent / track} give: the result or a record was changed")

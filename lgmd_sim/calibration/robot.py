@@ -85,13 +85,17 @@ class FrameLabel:
     clear: np.ndarray
 
 
-def frame_label(kind: str, ttc: np.ndarray, bearing: np.ndarray) -> FrameLabel:
-    """A clip's label from its threat's time to collision (s) and bearing (rad) per frame."""
+def frame_label(kind: str, ttc: np.ndarray, bearing: np.ndarray,
+                window_s: tuple[float, float] = (TTC_LO, TTC_HI), horizon: float = HORIZON
+                ) -> FrameLabel:
+    """A clip's label from its threat's time to collision (s) and bearing (rad) per frame,
+    with the window's times to collision and the horizon (the benchmark's detection track
+    gives its protocol's; they are this module's by default)."""
     ttc = np.asarray(ttc, np.float64)
     ahead = np.abs(np.degrees(np.asarray(bearing, np.float64))) <= AHEAD
-    window = ahead & (ttc >= TTC_LO) & (ttc <= TTC_HI)
+    window = ahead & (ttc >= window_s[0]) & (ttc <= window_s[1])
     # a clear clip's threat is passed, not met, whatever its time to collision says
-    return FrameLabel(kind, window & (kind == "approach"), ttc > HORIZON)
+    return FrameLabel(kind, window & (kind == "approach"), ttc > horizon)
 
 
 def hits(labels: Sequence[FrameLabel], potentials: Sequence[np.ndarray],

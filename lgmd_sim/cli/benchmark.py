@@ -14,26 +14,30 @@ def add(sub: argparse._SubParsersAction) -> None:
         "protocol: one comparable result each",
         formatter_class=argparse.RawDescriptionHelpFormatter,
         description="""\
-Run each ENTRY through every track of the protocol (lgmd_sim/benchmark/v1.toml: its
+Run each ENTRY through every track of the protocol (lgmd_sim/benchmark/v2.toml: its
 seeds, 20000 and up, are no calibration's, training's or evaluation's) and write
 OUT/<entry>/result.json: the protocol's version and digest, the entry and its resolved
-parameters, the scores with 95% bootstrap intervals, the raw metrics, the machine.
+parameters, the scores with 95% bootstrap intervals, the raw metrics, each episode's
+fingerprint, the machine.
 
-Tracks and scores (each in [0, 1], higher is better):
-  goal       RoughTerrainObstacles at jitter 0, 1, 2, 40 episodes each: success weighted
-             by path efficiency (SPL); a robot that never moves scores 0
-  arena      ArenaRoam at jitter 0, 1, 2, 40 episodes each: the share of encounters
-             avoided times the distance travelled over the Oracle's (at most 1)
-  detection  (detectors) 20 clips of each stimulus at jitter 0 and 1, no controller: the
-             mean of the hit rate on looming clips and the silence rate on receding,
-             crossing, rotating, grating and flickering ones
-  overall    the mean of goal and arena
+Tracks and scores of protocol v2 (each in [0, 1], higher is better):
+  goal       RoughTerrainObstacles at jitter 0, 0.5, 1, 1.5, 2, 3, 20 episodes each:
+             success weighted by path efficiency (SPL); a robot that never moves scores 0
+  arena      ArenaRoam at the same levels: the share of encounters avoided times the
+             distance travelled over the Oracle's (at most 1)
+  detection  (detectors) the robot's own camera, no controller: 6 clips of driving at a
+             box or a wall and past obstacles or over open ground at each level; the mean
+             of approach clips alarmed 0.6-1.15 s before collision (the manoeuvre's
+             window), clear clips silent, window frames alarmed, clear frames silent
+  stimuli    (detectors) synthetic looming and non-looming clips (v1's detection), a table
+             of its own
+  overall    the mean of goal and arena; J50, the level at which it halves, beside it
 
 An ENTRY is a detector driving the reference controller (ReactiveAvoid, its constants
 as they ship; @eyes: with two LGMDs) or the controller named after '@' (@loom-steer):
 MODEL[/PRESET][+FRONT...][@eyes|@CONTROLLER], a built-in name or a
 package.module:Class spec; or a controller (oracle, straight, steer, a spec); or a
-policy folder (or shipped). A detector runs 240 episodes and 240 clips (each shipped
+policy folder (or shipped). A detector runs 240 episodes and 384 clips (each shipped
 row's wall time and machine: docs/leaderboard.md). Running the same command again
 completes an interrupted benchmark. Then:
 lgmd-sim leaderboard OUT/*/result.json --out leaderboard.md""")
@@ -44,7 +48,8 @@ lgmd-sim leaderboard OUT/*/result.json --out leaderboard.md""")
                    "with --smoke ./benchmark-smoke)")
     p.add_argument("--smoke", action="store_true",
                    help="every track and the calibration on a handful of seeds (2 episodes "
-                   "a track and level, 1 clip a stimulus and level, 2 calibration settings): "
+                   "a track and level, 1 clip a scenario or stimulus and level, 2 "
+                   "calibration settings): "
                    "a plug-in's errors and its output in a few minutes; the result is "
                    "marked as a smoke result, which no leaderboard ranks")
     p.add_argument("--calibrate", action="store_true",
@@ -54,8 +59,9 @@ lgmd-sim leaderboard OUT/*/result.json --out leaderboard.md""")
                    "fairly: its row is MODEL/robot[-FRONT] (a built-in's, which ships that "
                    "preset: MODEL/robot[-FRONT]-recalibrated); a few minutes more")
     more = advanced(p, "another protocol than the shipped one, and Ray")
-    more.add_argument("--protocol", default="v1", metavar="NAME|FILE",
-                      help="a shipped protocol (v1, the default) or a protocol TOML file")
+    more.add_argument("--protocol", default="v2", metavar="NAME|FILE",
+                      help="a shipped protocol (v2, the default; v1, the first) or a "
+                      "protocol TOML file (docs/benchmark.md says how to write one)")
     add_parallel_options(p, more)
 
 

@@ -16,8 +16,8 @@ def add(sub: argparse._SubParsersAction) -> None:
     p.add_argument("results", nargs="+", metavar="RESULT",
                    help="result.json files or the entries' folders")
     p.add_argument("--out", required=True, metavar="FILE.md", help="the table to write")
-    p.add_argument("--protocol", default="v1", metavar="NAME|FILE",
-                   help="the protocol the results ran (default v1)")
+    p.add_argument("--protocol", default="v2", metavar="NAME|FILE",
+                   help="the protocol the results ran (default v2)")
 
 
 def run(args: argparse.Namespace) -> int:

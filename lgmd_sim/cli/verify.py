@@ -29,8 +29,8 @@ def add(sub: argparse._SubParsersAction) -> None:
                    help="local worker processes (default: every core)")
     p.add_argument("--no-progress", action="store_true", help="hide the progress bar")
     more = advanced(p, "another protocol than the shipped one, another sample")
-    more.add_argument("--protocol", default="v1", metavar="NAME|FILE",
-                      help="the protocol the result ran (default v1)")
+    more.add_argument("--protocol", default="v2", metavar="NAME|FILE",
+                      help="the protocol the result ran (default v2)")
     more.add_argument("--seed", type=non_negative_int, default=0,
                       help="the sample's seed (default 0)")
 

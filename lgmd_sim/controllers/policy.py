@@ -46,7 +46,13 @@ class Policy(Controller):
     `wrap_env` applies the observation pipeline the policy was trained with (the LGMD
     wrapper's features, stacked small grey frames, or the threat's ground truth from
     ``info``; read from its policy.json), and `act` normalises the observation with the
-    training statistics, frozen, before ``predict(obs, deterministic=True)``. The
+    training statistics, frozen, and takes the action ``predict(obs, deterministic=True)``
+    gives. A policy on vectors (LGMD features, ground truth) computes it in
+    `lgmd_sim.policies.forward`, in an order of its own, so that its episodes give the
+    same bits on any x86-64 processor with AVX2 (in the replay numeric mode,
+    `lgmd_sim.core.numerics`); one that module does not cover (a pixel policy's CNN) keeps
+    stable-baselines3's ``predict``, whose PyTorch kernels sum in an order that depends on
+    the processor: its episodes replay only on processors of the same kind. The
     environment must be the one it was trained in (same id, frame size): `wrap_env`
     refuses another frame size, but for a privileged policy, which reads no frames
     (trained frameless, it acts on a rendering environment of any size alike). ``alarm``
@@ -61,10 +67,13 @@ class Policy(Controller):
 
     def __init__(self, **params: Any) -> None:
         from lgmd_sim import policies
+        from lgmd_sim.policies import forward
 
         super().__init__(**params)
         self.policy = policies.load(self.params.path, comma_list(self.params.plugins))
-        # one thread: a small network's forward pass, and one controller per core in a sweep
+        self.forward = forward.build(self.policy.network)
+        # one thread for torch's forward pass where it runs (a policy `forward` does not
+        # cover): a small network, and one controller per core in a sweep
         import torch
 
         torch.set_num_threads(1)
@@ -90,5 +99,8 @@ class Policy(Controller):
     def act(self, obs: Mapping[str, np.ndarray], info: Mapping[str, Any]) -> np.ndarray:
         if "lgmd_alarm" in obs:
             self.alarm = bool(obs["lgmd_alarm"].any())
-        action, _ = self.policy.network.predict(self.policy.normalize(obs), deterministic=True)
+        normalized = self.policy.normalize(obs)
+        if self.forward is not None:
+            return self.forward(normalized)
+        action, _ = self.policy.network.predict(normalized, deterministic=True)
         return np.asarray(action, np.float32)

@@ -115,9 +115,20 @@ def run_episodes(model: Any, envs: VecEnvs, seeds: Sequence[int]) -> list[dict[s
     """One episode per seed, the policy deterministic: return (of the unshaped task reward),
     success, collision and distance travelled of each. `seeds` must be consecutive; the
     environments play ``num_envs`` of them at a time, and the policy acts on each
-    environment's observation alone, as the controller of ``lgmd-sim eval`` does: a batch
-    rounds differently (about 1e-7), which a closed loop can grow into another episode."""
+    environment's observation alone, through the same arithmetic as the controller of
+    ``lgmd-sim eval`` (`lgmd_sim.policies.forward`, else ``predict``): a batch, or another
+    order of the sums, rounds differently (about 1e-7), which a closed loop can grow into
+    another episode."""
+    from lgmd_sim.policies import forward
+
     venv, n = envs.venv, envs.venv.num_envs
+    act = forward.build(model.policy)  # the weights as they are at this validation
+
+    def action(obs: dict[str, np.ndarray], i: int) -> np.ndarray:
+        if act is not None:
+            return act({k: v[i] for k, v in obs.items()})[None]
+        return model.predict({k: v[i:i + 1] for k, v in obs.items()}, deterministic=True)[0]
+
     results = []
     for start in range(0, len(seeds), n):
         batch = seeds[start:start + n]
@@ -127,9 +138,7 @@ def run_episodes(model: Any, envs: VecEnvs, seeds: Sequence[int]) -> list[dict[s
         playing = np.arange(n) < len(batch)
         ret, dist = np.zeros(n), np.zeros(n)
         while playing.any():
-            actions = np.concatenate([
-                model.predict({k: v[i:i + 1] for k, v in obs.items()}, deterministic=True)[0]
-                for i in range(n)])
+            actions = np.concatenate([action(obs, i) for i in range(n)])
             obs, rewards, dones, infos = venv.step(actions)
             now = np.array([info["carrier_pos"][:2] for info in infos])
             ret += np.where(playing, _task_rewards(rewards, infos), 0.0)
