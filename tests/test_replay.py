@@ -72,6 +72,28 @@ def test_the_shipped_policy_s_short_episode_gives_its_golden_fingerprint():
         "(AMD EPYC, replay mode)")
 
 
+#: The demo's avoiding episode (`lgmd_sim.apps.defaults`): its potentials' SHA-256.
+DEMO_POTENTIALS = "5701de489afe275f91633024261fdfb79de0e512563198b07ace908617524a1f"
+
+
+@pytest.mark.skipif(not X86, reason="the golden fingerprints are x86-64's")
+def test_the_demo_s_avoiding_episode_reaches_the_goal_as_its_defaults_say():
+    import hashlib
+
+    from lgmd_sim.apps import avoid
+    from lgmd_sim.apps.defaults import AVOID_SEED, AVOIDER
+
+    ep = avoid.drive(AVOID_SEED, 1.0, *avoid.parse_avoider(AVOIDER))
+    alarm = np.asarray(ep.alarm)
+    onsets = int((alarm & ~np.concatenate([[False], alarm[:-1]])).sum())
+    # defaults.py: it reaches the goal at frame 609 with five alarms
+    assert (ep.goal_reached, len(ep.frames) - 1, onsets) == (True, 609, 5)
+    digest = hashlib.sha256(np.nan_to_num(ep.potential).tobytes()).hexdigest()
+    assert digest == DEMO_POTENTIALS, (
+        "the demo's avoiding episode: this processor computes other potentials than the ones "
+        "recorded (AMD EPYC, replay mode)")
+
+
 def _in_a_process(code: str, **env: str) -> str:
     """`code`'s output in a fresh interpreter started as from a shell: without the pinned
     variables this process has set (a child inherits them)."""

@@ -29,6 +29,8 @@ _CONTROLLERS = Registry("controller", Controller, {
     "straight": "lgmd_sim.controllers.straight:Straight",
     "reactive": "lgmd_sim.controllers.avoid:ReactiveAvoid",
     "oracle": "lgmd_sim.controllers.avoid:Oracle",
+    # the Oracle on what the camera sees only (lgmd_sim.world.view)
+    "view-oracle": "lgmd_sim.controllers.avoid:ViewOracle",
     "steer": "lgmd_sim.controllers.steer:Steer",  # the Oracle's inputs, no memory
     "loom-steer": "lgmd_sim.controllers.loom:LoomSteer",  # steered by two LGMDs' potentials
     "policy": "lgmd_sim.controllers.policy:Policy",  # a trained policy (the 'rl' extra)

@@ -1,6 +1,7 @@
 """Avoidance controllers: cruise to the goal; when triggered, brake and turn away for a
 set time, then resume. `ReactiveAvoid` is triggered by an LGMD model's alarm, `Oracle` by
-the ground truth; both share the manoeuvre, so they differ only in what triggers it."""
+the ground truth, `ViewOracle` by the ground truth of what the camera sees; all share the
+manoeuvre, so they differ only in what triggers it."""
 
 from __future__ import annotations
 
@@ -22,6 +23,7 @@ from lgmd_sim.envs.wrappers.frames import check_frame_space
 from lgmd_sim.envs.zone import ORACLE_TUNED, TriggerZone, in_trigger_zone
 from lgmd_sim.models.layers import needed_layer
 from lgmd_sim.models.sectors import Sectors
+from lgmd_sim.world.view import CameraView
 
 __all__ = [
     "AvoidParams",
@@ -30,6 +32,8 @@ __all__ = [
     "OracleParams",
     "ReactiveAvoid",
     "ReactiveParams",
+    "ViewOracle",
+    "ViewTruth",
 ]
 
 
@@ -104,6 +108,66 @@ class Oracle(Avoider):
 
     def _trigger(self, obs: Mapping[str, np.ndarray], info: Mapping[str, Any]) -> float | None:
         return float(info["threat_bearing"]) if in_trigger_zone(info, self.params) else None
+
+
+class ViewTruth(gym.Wrapper):
+    """`env` with the ground truth of what its camera sees: after each reset and step,
+    ``info`` gains the keys of `lgmd_sim.world.view.VIEW_KEYS`, the most threatening of
+    the threats the camera sees (`lgmd_sim.world.view.CameraView`), read from the world
+    of ``env.unwrapped`` (a `JitterEnv`). Only the controllers that read them wrap an
+    environment in it: the rays cost a fraction of a frame's render."""
+
+    def __init__(self, env: gym.Env) -> None:
+        super().__init__(env)
+        world = getattr(env.unwrapped, "world", None)
+        if world is None:
+            raise TypeError(f"ViewTruth needs a JitterEnv (its world), got {env.unwrapped!r}")
+        self._view = CameraView(world)
+
+    def reset(self, **kwargs: Any) -> tuple[Any, dict[str, Any]]:
+        obs, info = self.env.reset(**kwargs)
+        self._view.new_episode()
+        return obs, self._with_view(info)
+
+    def step(self, action: Any) -> tuple[Any, float, bool, bool, dict[str, Any]]:
+        obs, reward, terminated, truncated, info = self.env.step(action)
+        return obs, reward, terminated, truncated, self._with_view(info)
+
+    def _with_view(self, info: dict[str, Any]) -> dict[str, Any]:
+        # in a frame with a collision the ground truth's threat is one touched
+        touched = frozenset({info["threat_index"]}) if info["collision"] else frozenset()
+        return {**info, **self._view.threat(touched)}
+
+
+class ViewOracle(Oracle):
+    """The Oracle's manoeuvre and trigger zone, triggered by the ground truth of what the
+    camera sees: the most threatening of the threats in view and not hidden, in the
+    trigger zone (`in_trigger_zone` of ``info["view_threat_ttc"]``,
+    ``["view_threat_distance"]`` and ``["view_threat_bearing"]``), turning away from its
+    bearing.
+
+    *In view*: some line of sight to it leaves the camera inside the frame's frustum
+    (``fovy`` up and down, as wide as the frame's aspect ratio makes it, in front of the
+    near clip plane). *Not hidden*: that line of sight meets it before any other obstacle,
+    the terrain, the scenery or the goal flag. `lgmd_sim.world.view` defines the lines of
+    sight tried; `wrap_env` puts the view keys in ``info`` (`ViewTruth`). Among those seen,
+    the threat is ranked as the ground truth's is: one touched first, else the soonest to
+    collide, else the nearest; its time to collision is the ground truth's.
+
+    What it is for: a ceiling for a camera-driven controller. The Oracle also reacts to
+    obstacles the camera cannot see (beside the robot, behind another); this one reacts
+    only to what is in the frame, as an LGMD can at best. An LGMD's gap to the Oracle
+    splits into the camera's (the Oracle's gap to this one) and the detector's (this
+    one's gap to the LGMD)."""
+
+    def wrap_env(self, env: gym.Env) -> gym.Env:
+        return ViewTruth(super().wrap_env(env))
+
+    def _trigger(self, obs: Mapping[str, np.ndarray], info: Mapping[str, Any]) -> float | None:
+        view = {"threat_ttc": info["view_threat_ttc"],
+                "threat_distance": info["view_threat_distance"],
+                "threat_bearing": info["view_threat_bearing"]}
+        return float(view["threat_bearing"]) if in_trigger_zone(view, self.params) else None
 
 
 @dataclass(frozen=True)

@@ -69,9 +69,12 @@ class Threats:
         self._threat_reach = self._reach(sc.threat_geoms)
 
     def threat(self, cam_pos: np.ndarray, cam_vel: np.ndarray, forward: np.ndarray,
-               left: np.ndarray, touched: frozenset[int]) -> dict[str, Any]:
+               left: np.ndarray, touched: frozenset[int],
+               among: frozenset[int] | None = None) -> dict[str, Any]:
         """The most threatening obstacle or arena wall: one touched in this frame (in
-        `touched`), else the soonest to collide, else the nearest.
+        `touched`), else the soonest to collide, else the nearest. With `among`, the most
+        threatening of those threats only (`lgmd_sim.world.view`: those the camera sees),
+        ranked the same way; none where it holds none.
 
         Bounding spheres rank the obstacles and the mover cheaply; the exact surface
         distance (MuJoCo's geom distance from the carrier's main geom) is computed for the
@@ -80,7 +83,7 @@ class Threats:
         """
         m, d, sc = self.model, self.data, self.scene
         n = sc.n_threats
-        if n == 0:
+        if n == 0 or (among is not None and not among):
             return {"threat_index": -1, "threat_distance": math.inf, "threat_bearing": 0.0,
                     "threat_closing_speed": 0.0, "threat_ttc": math.inf}
         mover_vel = None
@@ -97,10 +100,14 @@ class Threats:
             centre_dist = np.sqrt(np.einsum("ij,ij->i", towards, towards))
             rough = np.minimum.reduceat(centre_dist - self._threat_rbound, self._owner_start)
             rough[list(self._walls)] = np.inf
+            if among is not None:  # the others are no candidates
+                rough[[i for i in range(n) if i not in among]] = np.inf
             first = self._owner_start
             closing = -np.einsum("ij,ij->i", rel_vel, towards[first]) / centre_dist[first]
             ttc = np.maximum(rough, 0.0) / np.where(closing > 1e-6, closing, 1e-300)
             candidates = {int(ttc.argmin()), int(rough.argmin()), *self._walls, *touched}
+        if among is not None:
+            candidates &= among
         best: tuple[tuple[bool, float, float], int, np.ndarray, float] | None = None
         for i in candidates:
             dist = math.inf
