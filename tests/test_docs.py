@@ -15,6 +15,7 @@ PAGES = [ROOT / "README.md", ROOT / "CONTRIBUTING.md", ROOT / "CHANGELOG.md",
 # [text](target) and ![alt](target), not inside code spans; a target without a scheme.
 LINK = re.compile(r"!?\[[^\]]*\]\(([^)\s]+)\)")
 LEADERBOARD = ROOT / "docs" / "leaderboard.md"
+LEADERBOARD_V1 = ROOT / "docs" / "benchmark" / "leaderboard-v1.md"
 
 
 def _links(page: Path) -> list[str]:
@@ -43,20 +44,24 @@ def test_the_readme_s_leaderboard_rows_are_the_leaderboard_s():
         "README rows differ from docs/leaderboard.md: copy them again from it"
 
 
-def test_the_leaderboard_page_is_what_its_results_make_now(tmp_path):
-    """docs/leaderboard.md is `lgmd-sim leaderboard` over the result files it names, as the
-    code ranks them today."""
+@pytest.mark.parametrize(("page", "version"), [(LEADERBOARD, "v2"),
+                                               (LEADERBOARD_V1, "v1")],
+                         ids=["leaderboard", "leaderboard-v1"])
+def test_the_leaderboard_page_is_what_its_results_make_now(tmp_path, page, version):
+    """docs/leaderboard.md (protocol v2) and v1's are `lgmd-sim leaderboard` over the result
+    files they name, as the code ranks them today."""
     from lgmd_sim.benchmark import protocol
     from lgmd_sim.benchmark.leaderboard import leaderboard
 
-    text = LEADERBOARD.read_text()
+    text = page.read_text()
     names = re.findall(r"^- `[^`]+` \(([^)]+/result\.json)\)", text, re.M)
     assert names and all((ROOT / n).is_file() for n in names), names
-    out = tmp_path / "leaderboard.md"
-    leaderboard([ROOT / n for n in names], out, protocol.load())
+    out = tmp_path / page.name
+    leaderboard([ROOT / n for n in names], out, protocol.load(version))
     made = out.read_text().replace(str(ROOT) + "/", "")
-    assert made == text, ("docs/leaderboard.md is stale: " + shlex.join(
-        ["lgmd-sim", "leaderboard", *names, "--out", "docs/leaderboard.md"]))
+    where = str(page.relative_to(ROOT))
+    assert made == text, (f"{where} is stale: " + shlex.join(
+        ["lgmd-sim", "leaderboard", *names, "--protocol", version, "--out", where]))
 
 
 def _commands(page: Path) -> list[str]:
