@@ -93,6 +93,11 @@ def page() -> str:
               "J50 (where it halves, with its 95% interval; inf: not within the levels):", ""]
     doses = {k: scores.dose_response(parts(r), 2000, 0) for k, r in v2.items()}
     levels = next((d["levels"] for d in doses.values() if d), [])
+    within = [k for k, d in doses.items() if d and np.isfinite(d["j50"])]
+    lines += [f"J50 lies within the levels for {len(within)} of {len(doses)} entries "
+              f"({', '.join(f'`{k}`' for k in sorted(within)) or 'none'}): up to jitter "
+              f"{levels[-1]:g} most scores do not halve, and the floors' rise with it (the "
+              "rough ground deflects a robot that would drive into an obstacle).", ""]
     lines += ["| entry | " + " | ".join(f"j{j:g}" for j in levels) + " | J50 |",
               "|---|" + "---:|" * len(levels) + "---|"]
     for label, d in sorted(doses.items(), key=lambda kv: -kv[1]["scores"][0] if kv[1] else 0):
@@ -102,11 +107,17 @@ def page() -> str:
         lines.append(f"| `{label}` | " + " | ".join(_f(s) for s in d["scores"])
                      + f" | {_f(d['j50'], 1)} [{_f(low, 1)}, {_f(high, 1)}] |")
 
+    ratios = [_half(r, "overall") / _half(v1[k], "overall") for k, r in v2.items()
+              if k in v1 and _half(v1[k], "overall") and _half(r, "overall")]
     lines += ["", "## Interval widths and wall times", "",
               "Half-widths of the 95% intervals, v2 (20 seeds x 6 levels a track) beside v1 "
               "(40 seeds x 3 levels) for the entries both have; each v2 row's wall time and "
-              "processor:", "",
-              "| entry | overall v1 | overall v2 | goal v1 | goal v2 | arena v1 | arena v2 "
+              "processor."]
+    if ratios:
+        lines += [f"Over the {len(ratios)} entries both have, v2's overall interval is "
+                  f"{np.median(ratios):.2f} times v1's (median; {min(ratios):.2f} to "
+                  f"{max(ratios):.2f}): the price of the three levels more it scores."]
+    lines += ["", "| entry | overall v1 | overall v2 | goal v1 | goal v2 | arena v1 | arena v2 "
               "| v2 wall time (min) | processor |",
               "|---|---:|---:|---:|---:|---:|---:|---:|---|"]
     for label, r in sorted(v2.items()):
