@@ -86,16 +86,18 @@ class FrameLabel:
 
 
 def frame_label(kind: str, ttc: np.ndarray, bearing: np.ndarray,
-                window_s: tuple[float, float] = (TTC_LO, TTC_HI), horizon: float = HORIZON
+                window_s: tuple[float, float] | None = None, horizon: float | None = None
                 ) -> FrameLabel:
     """A clip's label from its threat's time to collision (s) and bearing (rad) per frame,
     with the window's times to collision and the horizon (the benchmark's detection track
-    gives its protocol's; they are this module's by default)."""
+    gives its protocol's; None: this module's `TTC_LO`, `TTC_HI` and `HORIZON`)."""
+    low, high = (TTC_LO, TTC_HI) if window_s is None else window_s
     ttc = np.asarray(ttc, np.float64)
     ahead = np.abs(np.degrees(np.asarray(bearing, np.float64))) <= AHEAD
-    window = ahead & (ttc >= window_s[0]) & (ttc <= window_s[1])
+    window = ahead & (ttc >= low) & (ttc <= high)
     # a clear clip's threat is passed, not met, whatever its time to collision says
-    return FrameLabel(kind, window & (kind == "approach"), ttc > horizon)
+    return FrameLabel(kind, window & (kind == "approach"),
+                      ttc > (HORIZON if horizon is None else horizon))
 
 
 def hits(labels: Sequence[FrameLabel], potentials: Sequence[np.ndarray],
