@@ -211,3 +211,46 @@ def test_verify_replays_a_published_row_from_its_episodes_json(tiny_v2, tmp_path
     (row / "episodes.json").write_text(json.dumps(episodes))
     assert cli.main(args) == 2
     assert "3 goal episodes, its run holds 4" in capsys.readouterr().err
+
+
+# --- the audit of a v2 row ----------------------------------------------------------------
+
+V2_ROW = ROOT / "docs/benchmark/v2/runs/lgmd1-robot-image/result.json"
+
+
+def _edit_levels(r: dict) -> None:
+    r["parts"]["goal"]["levels"] = [0.0, 1.0, 2.0, 3.0, 4.0, 5.0]
+
+
+def _edit_frames(r: dict) -> None:
+    r["parts"]["detection"]["sums"][0][4] = r["parts"]["detection"]["sums"][0][5] + 1
+
+
+def _edit_detection(r: dict) -> None:
+    r["scores"]["detection"] += 0.1
+
+
+@pytest.mark.parametrize(("edit", "field"), [
+    (_edit_levels, "parts.goal.levels are not the protocol's goal jitter levels"),
+    (_edit_frames, "parts.detection.sums[0]"),
+    (_edit_detection, "scores.detection"),
+])
+def test_a_v2_row_claiming_what_its_parts_do_not_hold_is_refused(tmp_path, capsys, edit,
+                                                                 field):
+    result = json.loads(V2_ROW.read_text())
+    edit(result)
+    file = tmp_path / "row" / "result.json"
+    file.parent.mkdir()
+    file.write_text(json.dumps(result))
+    assert cli.main(["leaderboard", str(file), "--out", str(tmp_path / "b.md")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and field in err and "not ranked" in err, err
+
+
+def test_the_shipped_v2_rows_pass_the_audit(tmp_path):
+    from lgmd_sim.benchmark.leaderboard import load_result
+
+    rows = sorted((ROOT / "docs/benchmark/v2/runs").glob("*/result.json"))
+    assert len(rows) >= 19
+    for row in rows:
+        load_result(row, protocol.load("v2"))

@@ -197,8 +197,8 @@ def markdown(results: Sequence[Mapping[str, Any]], names: Sequence[str],
     """The ranked table of `results` (their files' `names`, for the commands' list); those
     without an overall score (a policy: no arena) unranked, after the others."""
     order = _order(results)
-    dose = any(p.get("levels") for r in results for p in r["parts"].values() if p)
-    camera = dose  # protocol 2's detection is the robot camera's
+    # parts per jitter level (J50) are protocol 2's, whose detection is the robot camera's
+    dose = camera = any(p.get("levels") for r in results for p in r["parts"].values() if p)
     lines = ["| rank | entry | overall | goal | arena | detection | "
              + ("J50 | " if dose else "")
              + "success % | collisions % | avoided % | false alarms / min | AUC |",

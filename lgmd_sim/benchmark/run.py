@@ -1,12 +1,13 @@
 """One entry through every track of a protocol: `benchmark` runs the closed-loop tracks
-with the closed-loop bench (`lgmd_sim.bench.closed_loop`), the detection track clip by
+with the closed-loop bench (`lgmd_sim.bench.closed_loop`), the open-loop tracks clip by
 clip, and writes the entry's ``result.json``: its scores with intervals, the raw metrics
 and the per-seed parts the leaderboard compares entries by.
 
 Layout of an entry's folder (``OUT/<entry>``): ``goal/`` and ``arena/`` (closed-loop
-bench run folders, their episodes, tables and figures), ``detection/`` (a run folder of
-one record per clip) and ``result.json``. Every part keeps its finished jobs: running the
-same command again completes an interrupted benchmark.
+bench run folders, their episodes, tables and figures), ``detection/`` and, in protocol
+2, ``stimuli/`` (run folders of one record per clip), ``result.json`` and
+``episodes.json`` (`EPISODES`). Every part keeps its finished jobs: running the same
+command again completes an interrupted benchmark.
 """
 
 from __future__ import annotations
