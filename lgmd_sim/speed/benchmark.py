@@ -44,7 +44,8 @@ def run(*, entry: str = "lgmd1/robot-image", episodes: int = 4, markdown: bool =
     short = dataclasses.replace(
         full, goal=dataclasses.replace(full.goal, episodes=episodes),
         arena=dataclasses.replace(full.arena, episodes=episodes),
-        detection=dataclasses.replace(full.detection, clips=1))
+        detection=dataclasses.replace(full.detection, clips=1),
+        stimuli=full.stimuli and dataclasses.replace(full.stimuli, clips=1))
     tracks = (short.goal, short.arena)
     count = sum(len(t.jitter) * t.episodes for t in tracks)
     def timed_bench(tmp: Path, workers: int) -> float:
