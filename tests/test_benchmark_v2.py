@@ -41,9 +41,9 @@ def _tiny(tmp_path: Path, **changes: str) -> Path:
 
 @pytest.mark.parametrize(("change", "message"), [
     ({"approaching": 'approaching = ["HandheldApproach"]'},
-     "detection.approaching: 'HandheldApproach' does not carry the camera on the robot"),
+     "detection.approaching: scenario 'HandheldApproach' does not carry the camera on the robot"),
     ({"clear": 'clear = ["RobotApproach"]'},
-     "detection.clear: 'RobotApproach' is in detection.approaching already"),
+     "detection.clear: scenario 'RobotApproach' is in detection.approaching already"),
     ({"window_s": "window_s = [1.2, 0.6]"}, "detection.window_s must be [low, high]"),
     ({"cruise": "cruise = 0.6\nnothing = 1"}, "unknown key nothing"),
     ({"version": "version = 3"}, "a protocol is of version 1 or 2"),

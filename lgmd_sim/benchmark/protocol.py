@@ -13,7 +13,7 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import tomllib
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -275,20 +275,28 @@ def _check(p: Protocol) -> None:
                          f"(heldout_seed on) overlap, {c.seeds} of each")
 
 
+def _each_once(track: Any, name: str, keys: tuple[str, str], what: str,
+               problem: Callable[[str], str | None]) -> None:
+    """Every item of the track's two lists `keys` checked (`problem`: what is wrong with
+    it, or None) and given once in all, or a one-line ValueError naming the key."""
+    seen: dict[str, str] = {}
+    for key in keys:
+        for item in getattr(track, key):
+            wrong = problem(item)
+            if wrong:
+                raise ValueError(f"{name}.{key}: {what} {item!r} {wrong}")
+            if item in seen:
+                raise ValueError(f"{name}.{key}: {what} {item!r} is in {name}.{seen[item]} "
+                                 f"already: give each {what} once")
+            seen[item] = key
+
+
 def _check_stimuli(d: DetectionTrack, name: str) -> None:
     from lgmd_sim import options
     from lgmd_sim.calibration.clips import STIMULI
 
-    seen: dict[str, str] = {}
-    for key in ("approaching", "non_approach"):
-        for stimulus in getattr(d, key):
-            if stimulus not in STIMULI:
-                raise ValueError(f"{name}.{key}: stimulus {stimulus!r} is none of "
-                                 f"{', '.join(STIMULI)}")
-            if stimulus in seen:
-                raise ValueError(f"{name}.{key}: stimulus {stimulus!r} is in "
-                                 f"{name}.{seen[stimulus]} already: give each stimulus once")
-            seen[stimulus] = key
+    _each_once(d, name, ("approaching", "non_approach"), "stimulus",
+               lambda s: None if s in STIMULI else f"is none of {', '.join(STIMULI)}")
     options.check_jitter(d.jitter, f"{name}.jitter")
     options.check_positive(d.clips, f"{name}.clips", integer=True)
     options.check_seed(d.first_seed, f"{name}.first_seed")
@@ -299,27 +307,21 @@ def _check_camera(d: CameraTrack, known: Any) -> None:
     from lgmd_sim import options
     from lgmd_sim.envs.catalogue import params_for
 
-    seen: dict[str, str] = {}
-    for key in ("approaching", "clear"):
-        for scenario in getattr(d, key):
-            if scenario not in known:
-                raise ValueError(f"detection.{key}: {scenario!r} is not a scenario "
-                                 "(lgmd-sim envs lists them)")
-            if params_for(scenario, {}).carrier != "robot":
-                raise ValueError(f"detection.{key}: {scenario!r} does not carry the camera "
-                                 "on the robot")
-            if scenario in seen:
-                raise ValueError(f"detection.{key}: {scenario!r} is in detection."
-                                 f"{seen[scenario]} already: give each scenario once")
-            seen[scenario] = key
+    def problem(scenario: str) -> str | None:
+        if scenario not in known:
+            return "is not a scenario (lgmd-sim envs lists them)"
+        if params_for(scenario, {}).carrier != "robot":
+            return "does not carry the camera on the robot"
+        return None
+
+    _each_once(d, "detection", ("approaching", "clear"), "scenario", problem)
     options.check_jitter(d.jitter, "detection.jitter")
     for speed in d.cruise:
         if not 0 < speed <= 1:
             raise ValueError(f"detection.cruise: {speed:g} is not a forward action in (0, 1]")
     options.check_positive(d.clips, "detection.clips", integer=True)
     options.check_seed(d.first_seed, "detection.first_seed")
-    low, *high = d.window_s
-    if len(d.window_s) != 2 or not 0 <= low < high[0]:
+    if len(d.window_s) != 2 or not 0 <= d.window_s[0] < d.window_s[1]:
         raise ValueError("detection.window_s must be [low, high], 0 <= low < high (s to "
                          f"collision), got {list(d.window_s)}")
 
