@@ -29,6 +29,7 @@ __all__ = [
     "AlarmRule",
     "EventResult",
     "Sensitivity",
+    "alarm_onsets",
     "evaluate_clip",
     "first_alarm",
     "isi",
@@ -213,6 +214,13 @@ def first_alarm(
     hits = a if a.dtype == np.bool_ else a > threshold
     idx = np.flatnonzero(hits)
     return int(idx[0]) if idx.size else None
+
+
+def alarm_onsets(alarms: Sequence[bool] | np.ndarray) -> np.ndarray:
+    """The frames (0-based) where an alarm turns on: alarmed, and not in the frame before
+    (how alarms are counted: a run of alarmed frames is one alarm)."""
+    a = np.asarray(alarms, bool)
+    return np.flatnonzero(a & ~np.r_[False, a[:-1]])
 
 
 @dataclass(frozen=True)

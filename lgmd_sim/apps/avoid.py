@@ -23,6 +23,7 @@ import numpy as np
 
 from lgmd_sim import models
 from lgmd_sim.benchmark.entries import REFERENCE, SIDES, driver
+from lgmd_sim.metrics import alarm_onsets
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -70,7 +71,7 @@ class AvoidEpisode:
     @property
     def onsets(self) -> np.ndarray:
         """The frames where the controller's alarm turns on."""
-        return np.flatnonzero(self.alarm & ~np.r_[False, self.alarm[:-1]])
+        return alarm_onsets(self.alarm)
 
     @property
     def outcome(self) -> str:

@@ -30,6 +30,7 @@ from lgmd_sim.bench import encounters
 from lgmd_sim.bench.fingerprint import Fingerprint
 from lgmd_sim.controllers.avoid import ReactiveParams
 from lgmd_sim.core.runs import NULL, NUMBER, Maybe
+from lgmd_sim.metrics import alarm_onsets
 
 if TYPE_CHECKING:
     import gymnasium as gym
@@ -148,8 +149,7 @@ def episode(cell: Cell, seed: int, *, resolution: Any, cruise: float, horizon: f
     xy = np.array([i["carrier_pos"][:2] for i in infos])
     times = np.array([i["time"] for i in infos])
     travelled = float(np.linalg.norm(np.diff(xy, axis=0), axis=1).sum())
-    alarm = np.array(alarms)
-    onsets = np.flatnonzero(alarm & ~np.r_[False, alarm[:-1]])
+    onsets = alarm_onsets(alarms)
     ttc_at = np.array([infos[t]["threat_ttc"] for t in onsets])
     false_alarms = int((ttc_at > horizon).sum())
     collision = int(last["first_collision_frame"])

@@ -61,6 +61,7 @@ def clip_job(clip: CameraClip, model: str, preset: str, resolution: Any, cruise:
     from lgmd_sim.controllers import rollout
     from lgmd_sim.envs.reuse import episode_env
     from lgmd_sim.envs.wrappers.frames import check_frame_space
+    from lgmd_sim.metrics import alarm_onsets
 
     kind, scenario, jitter, seed = clip
     detector = models.make(model, preset=preset)
@@ -85,7 +86,7 @@ def clip_job(clip: CameraClip, model: str, preset: str, resolution: Any, cruise:
         outcome = "hit"
     else:  # before the window the robot turns away from nothing; after it, too late
         outcome = "late" if label.window[:first].any() else "early"
-    onsets = alarm & ~np.concatenate([[False], alarm[:-1]])
+    onsets = alarm_onsets(alarm)
     return {"kind": kind, "scenario": scenario, "jitter": jitter, "seed": seed,
             "cruise": cruise, "frames": len(alarms), "fps": fps, "first_alarm": first,
             "outcome": outcome,
@@ -94,7 +95,7 @@ def clip_job(clip: CameraClip, model: str, preset: str, resolution: Any, cruise:
             "window_alarmed": int((alarm & label.window).sum()),
             "clear_frames": int(label.clear.sum()),
             "clear_silent": int((~alarm & label.clear).sum()),
-            "clear_onsets": int((onsets & label.clear).sum()),
+            "clear_onsets": int(label.clear[onsets].sum()),
             "potentials": potentials, "window": label.window.tolist(),
             "clear": label.clear.tolist()}
 

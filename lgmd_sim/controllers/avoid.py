@@ -134,9 +134,7 @@ class ViewTruth(gym.Wrapper):
         return obs, reward, terminated, truncated, self._with_view(info)
 
     def _with_view(self, info: dict[str, Any]) -> dict[str, Any]:
-        # in a frame with a collision the ground truth's threat is one touched
-        touched = frozenset({info["threat_index"]}) if info["collision"] else frozenset()
-        return {**info, **self._view.threat(touched)}
+        return {**info, **self._view.threat(info)}
 
 
 class ViewOracle(Oracle):

@@ -37,6 +37,7 @@ truth's threat is (`lgmd_sim.world.truth.Threats.threat`), under the keys of `VI
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -101,22 +102,22 @@ class CameraView:
         self._owner_of = self._owners()
         self._solid = [sc.threat_geoms[sc.threat_owner == i] for i in range(sc.n_threats)]
         self._threats = Threats(m, world.data, sc, world.params)
-        self._velocity = np.empty(6)
 
     def new_episode(self) -> None:
         """Take the sizes of this episode's obstacles: call after each reset."""
         self._threats.new_episode()
 
-    def threat(self, touched: frozenset[int]) -> dict[str, Any]:
+    def threat(self, truth: Mapping[str, Any]) -> dict[str, Any]:
         """The most threatening of the threats the camera sees now (`seen`), ranked as the
-        ground truth's threat is, with `touched` the threats a contact joins to the
-        carrier in this frame: the keys of `VIEW_KEYS`."""
-        m, d, sc = self.model, self.data, self.scene
-        axes = d.cam_xmat[sc.camera].reshape(3, 3)
-        mujoco.mj_objectVelocity(m, d, mujoco.mjtObj.mjOBJ_CAMERA, sc.camera, self._velocity, 1)
+        ground truth's threat is, from the world's `truth` of this frame (its ``info``:
+        the camera's position and velocity; in a frame with a collision, its threat is
+        the one touched): the keys of `VIEW_KEYS`."""
+        axes = self.data.cam_xmat[self.scene.camera].reshape(3, 3)
+        touched = frozenset({truth["threat_index"]}) if truth["collision"] else frozenset()
         # as the world's ground truth: the camera looks along its -z, its -x is to the left
-        threat = self._threats.threat(d.cam_xpos[sc.camera].copy(), axes @ self._velocity[3:],
-                                      -axes[:, 2], -axes[:, 0], touched, among=self.seen())
+        threat = self._threats.threat(np.asarray(truth["camera_pos"]),
+                                      axes @ truth["camera_linvel"], -axes[:, 2],
+                                      -axes[:, 0], touched, among=self.seen())
         return {f"view_{key}": value for key, value in threat.items()}
 
     def seen(self) -> frozenset[int]:
