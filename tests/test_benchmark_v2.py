@@ -15,7 +15,7 @@ import pytest
 
 from lgmd_sim import cli
 from lgmd_sim.benchmark import camera, protocol, scores
-from lgmd_sim.benchmark.leaderboard import spearman
+from lgmd_sim.benchmark.leaderboard import against_driving, spearman
 
 SHIPPED = protocol.PROTOCOLS["v2"].read_text()
 ROOT = Path(__file__).resolve().parents[1]
@@ -140,6 +140,15 @@ def test_spearman_ranks_ties_by_their_mean():
     assert spearman([1, 2, 3, 4], [4, 3, 2, 1]) == pytest.approx(-1.0)
     assert spearman([1, 1, 2, 3], [1, 2, 3, 4]) == pytest.approx(
         np.corrcoef([1.5, 1.5, 3, 4], [1, 2, 3, 4])[0, 1])
+
+
+def test_spearman_is_computed_over_the_detector_rows_only():
+    rows = [{"scores": {"detection": d, "overall": o}} for d, o in
+            ((0.1, 0.1), (0.2, 0.3), (0.3, 0.2), (0.4, 0.4))]
+    rows.append({"scores": {"overall": 0.9}})  # a controller: no detection score
+    rho, n = against_driving(rows, "detection")
+    assert n == 4 and rho == pytest.approx(0.8)
+    assert against_driving(rows[:2], "detection") is None  # too few to rank
 
 
 # --- end to end ---------------------------------------------------------------------------

@@ -25,7 +25,8 @@ from lgmd_sim.benchmark.protocol import Protocol
 from lgmd_sim.core.fileio import atomic_outputs
 from lgmd_sim.core.runs import NUMBER, Maybe, read_record
 
-__all__ = ["RESULT_FIELDS", "leaderboard", "load_result", "markdown", "parts", "spearman"]
+__all__ = ["RESULT_FIELDS", "against_driving", "leaderboard", "load_result", "markdown",
+           "parts", "spearman"]
 
 #: What the leaderboard reads of a result.
 RESULT_FIELDS = {
@@ -162,15 +163,26 @@ def spearman(x: Sequence[float], y: Sequence[float]) -> float:
     return float(np.corrcoef(ranks(x), ranks(y))[0, 1])
 
 
-def _prediction(results: Sequence[Mapping[str, Any]]) -> str:
-    """How the detection track ranks the detector rows against their driving."""
-    rows = [r for r in results if r["scores"].get("detection") is not None
+def against_driving(results: Sequence[Mapping[str, Any]], track: str = "detection"
+                    ) -> tuple[float, int] | None:
+    """How `track`'s score ranks the rows that have it and an overall score (the detector
+    rows) against their driving: Spearman's correlation with the overall score, and the
+    rows counted; None with fewer than 3."""
+    rows = [r for r in results if r["scores"].get(track) is not None
             and r["scores"].get("overall") is not None]
     if len(rows) < 3:
+        return None
+    return spearman([r["scores"][track] for r in rows],
+                    [r["scores"]["overall"] for r in rows]), len(rows)
+
+
+def _prediction(results: Sequence[Mapping[str, Any]]) -> str:
+    """How the detection track ranks the detector rows against their driving, in words."""
+    found = against_driving(results)
+    if found is None:
         return ""
-    rho = spearman([r["scores"]["detection"] for r in rows],
-                   [r["scores"]["overall"] for r in rows])
-    return (f"Detection against driving: over the {len(rows)} detector rows, the detection "
+    rho, n = found
+    return (f"Detection against driving: over the {n} detector rows, the detection "
             f"score ranks them as the overall score does with a Spearman correlation of "
             f"{rho:.2f}.\n\n")
 

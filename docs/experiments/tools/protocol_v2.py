@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from lgmd_sim.benchmark import scores
-from lgmd_sim.benchmark.leaderboard import parts, spearman
+from lgmd_sim.benchmark.leaderboard import against_driving, parts
 
 ROOT = Path(__file__).resolve().parents[3]
 V1, V2 = ROOT / "docs/benchmark/runs", ROOT / "docs/benchmark/v2/runs"
@@ -38,15 +38,6 @@ def _f(v: float | None, digits: int = 2) -> str:
     return "-" if v is None or (isinstance(v, float) and np.isnan(v)) else f"{v:.{digits}f}"
 
 
-def _rho(rows: list[dict], track: str) -> tuple[float, int] | None:
-    kept = [r for r in rows if r["scores"].get(track) is not None
-            and r["scores"].get("overall") is not None]
-    if len(kept) < 3:
-        return None
-    return spearman([r["scores"][track] for r in kept],
-                    [r["scores"]["overall"] for r in kept]), len(kept)
-
-
 def page() -> str:
     v1, v2 = _results(V1), _results(V2)
     rel = "docs/experiments/tools/protocol_v2.py"
@@ -65,7 +56,7 @@ def page() -> str:
     for name, results, tracks in (("v1", v1, ("detection",)),
                                   ("v2", v2, ("detection", "stimuli"))):
         for track in tracks:
-            got = _rho(list(results.values()), track)
+            got = against_driving(list(results.values()), track)
             what = {"detection": "detection (synthetic clips)" if name == "v1" else
                     "detection (robot camera)", "stimuli": "stimuli (synthetic clips)"}[track]
             lines.append(f"| {name} | {what} | {got[1] if got else 0} | "
