@@ -126,7 +126,8 @@ def _differences(a: Any, b: Any, where: str) -> list[str]:
                 for d in (_differences(a[k], b[k], f"{where}.{k}") if k in a and k in b
                           else [f"{where}.{k}: only in {'A' if k in a else 'B'}"])]
     if isinstance(a, list) and isinstance(b, list) and len(a) == len(b):
-        return [d for i, (x, y) in enumerate(zip(a, b)) for d in _differences(x, y, f"{where}[{i}]")]
+        return [d for i, (x, y) in enumerate(zip(a, b, strict=True))
+                for d in _differences(x, y, f"{where}[{i}]")]
     return [] if a == b else [f"{where}: {str(a)[:80]} != {str(b)[:80]}"]
 
 
