@@ -21,7 +21,8 @@ from pathlib import Path
 
 import numpy as np
 
-from lgmd_sim import data, options
+from lgmd_sim import data
+from lgmd_sim.controllers import options
 from lgmd_sim.core.extras import MissingExtra
 from lgmd_sim.core.fileio import error_text, write_text_atomic
 from lgmd_sim.data.export import ExportConfig, export

@@ -18,8 +18,8 @@ import argparse
 import sys
 from pathlib import Path
 
-from lgmd_sim.bench.closed_loop import ClosedLoopConfig, run
-from lgmd_sim.bench.summary import summary_markdown
+from lgmd_sim.benchmark.closed_loop import ClosedLoopConfig, run
+from lgmd_sim.benchmark.summary import summary_markdown
 from lgmd_sim.core.extras import MissingExtra
 from lgmd_sim.core.fileio import error_text
 from lgmd_sim.detect.outputs import check_out_folder

@@ -17,7 +17,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from lgmd_sim import options
+from lgmd_sim.controllers import options
 from lgmd_sim.core.extras import MissingExtra
 from lgmd_sim.core.fileio import error_text
 from lgmd_sim.detect.outputs import check_out_folder

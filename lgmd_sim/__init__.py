@@ -1,19 +1,18 @@
 """lgmd-sim: a Gymnasium jitter-robot testbed for bio-inspired (LGMD) collision detection.
 
-Packages, in floors (each imports only from the floors below it):
+Packages, in floors (each imports only from the floors below it; CONTRIBUTING.md draws them):
     core     lgmd_sim.core: params (checked parameters), fileio (atomic outputs), runs (the
              one resumable run folder), parallel (jobs on a pool or on Ray), registry,
-             extras, machine, resources, frames, plots
-    signals  lgmd_sim.models (the LGMD family: feedback LGMD, LGMD1, LGMD2, F(ONn),
-             F(OFFp), their front ends and presets), metrics (ISI, MpSI, SI, events),
-             noise, stimuli, video
+             extras, machine, numerics, resources, frames, plots
+    signals  lgmd_sim.signals (stimuli, video, noise, metrics), lgmd_sim.models (the LGMD
+             family: feedback LGMD, LGMD1, LGMD2, F(ONn), F(OFFp), front ends, presets)
     world    lgmd_sim.world (the MuJoCo jitter world), envs (Gymnasium environments, the
              scenario catalogue, wrappers)
     acting   lgmd_sim.policies (trained policies and what they observe), controllers
-             (what drives the carrier; the episode loop), options (the shared options)
-    jobs     lgmd_sim.benchmark (the protocol, one row, the leaderboard), bench, detect,
-             data (labelled datasets), calibration, training, speed: each job a function
-             taking a typed, frozen configuration (docs/reference/api.md)
+             (what drives the carrier; the options every job shares)
+    jobs     lgmd_sim.benchmark (episodes, the closed- and open-loop benches, the protocol,
+             the leaderboard), detect, data (labelled datasets), calibration, training: each
+             job a function taking a typed, frozen configuration (docs/reference/api.md)
     apps     lgmd_sim.apps: demo, record
     command  lgmd_sim.cli (`lgmd-sim`: parses options into a job's configuration)
 

@@ -2,22 +2,15 @@
 
 from __future__ import annotations
 
-import atexit
 import os
 import shutil
 import subprocess
 import sys
-import tempfile
 from pathlib import Path
 
 import pytest
 
-import lgmd_sim  # noqa: F401  before NumPy: the suite runs in the default numeric mode
-
 ROOT = Path(__file__).resolve().parents[1]
-# The suite reads the shipped calibrated presets only, never a user's (lgmd_sim.models.presets).
-os.environ["LGMD_SIM_DATA_DIR"] = tempfile.mkdtemp(prefix="lgmd-sim-test-data-")
-atexit.register(shutil.rmtree, os.environ["LGMD_SIM_DATA_DIR"], ignore_errors=True)
 
 
 @pytest.fixture(scope="session")
@@ -78,7 +71,7 @@ def approach(tmp_path_factory):
     """A video of an approach (48 x 64, grey as BGR), and its clip."""
     import cv2
 
-    from lgmd_sim import stimuli
+    from lgmd_sim.signals import stimuli
 
     clip = stimuli.approaching((48, 64), start_distance=1.0, speed=2.0, still_frames=3,
                                look=stimuli.Look(background="texture"))

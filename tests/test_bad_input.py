@@ -27,8 +27,9 @@ import numpy as np
 import pytest
 
 import lgmd_sim
-from lgmd_sim import cli, models, stimuli
+from lgmd_sim import cli, models
 from lgmd_sim.envs.params import EnvParams
+from lgmd_sim.signals import stimuli
 
 ROOT = Path(__file__).resolve().parents[1]
 SHAPE = (48, 64)

@@ -9,9 +9,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from lgmd_sim import models, stimuli
+from lgmd_sim import models
 from lgmd_sim.models.lgmd2 import frame_interval
 from lgmd_sim.models.reference import make_reference
+from lgmd_sim.signals import stimuli
 
 BASELINES = ["lgmd1", "lgmd2", "f_on", "f_off"]
 #: (model, preset) for every preset of every baseline.

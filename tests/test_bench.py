@@ -104,7 +104,6 @@ def test_a_run_whose_preset_changed_since_is_not_resumed(one_worker, tmp_path, c
                                                          monkeypatch):
     import shutil
 
-    from lgmd_sim import models
 
     out = tmp_path / "recalibrated"
     shutil.copytree(one_worker, out)
@@ -189,18 +188,6 @@ def test_open_loop_on_a_dataset_equals_the_simulated_clips(tmp_path):
     a = list(csv.DictReader((tmp_path / "a" / "summary.csv").open()))
     b = list(csv.DictReader((tmp_path / "b" / "summary.csv").open()))
     assert a == b  # lossless frames: the same potentials, the same table
-
-
-@pytest.mark.slow
-def test_speed_closed_loop_prints_both_tables(capsys):
-    assert cli.main(["speed", "closed-loop", "--steps", "5", "--episodes", "1",
-                     "--resolution", "small"]) == 0
-    out = capsys.readouterr().out
-    rows = {line.split("  ")[0] for line in out.splitlines()}
-    assert {f"ReactiveAvoid({name})" for name in models.available()} <= rows
-    assert "share of the time in the environment's step" in out
-    assert "closed-loop episodes" in out and "the environment alone" in out
-    assert "Start-up before the timing" in out  # the pools warmed, outside the timing
 
 
 def test_open_loop_runs_detectors_with_front_ends(tmp_path):

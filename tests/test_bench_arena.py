@@ -9,10 +9,10 @@ import math
 
 import pytest
 
-from lgmd_sim import metrics
-from lgmd_sim.bench import encounters
+from lgmd_sim.benchmark import encounters
 from lgmd_sim.controllers.avoid import OracleParams
 from lgmd_sim.envs.zone import TriggerZone
+from lgmd_sim.signals import metrics
 
 FPS = 30.0
 
@@ -184,7 +184,7 @@ def roam_records() -> list[dict]:
 
 
 def test_the_roam_summary_pools_encounters_and_compares_distance_with_the_oracle():
-    from lgmd_sim.bench import summary
+    from lgmd_sim.benchmark import summary
 
     rows = {r["controller"]: r for r in summary.summarise(roam_records())}
     reactive = rows["reactive"]
@@ -203,14 +203,14 @@ def test_the_roam_summary_pools_encounters_and_compares_distance_with_the_oracle
 
 
 def test_without_an_oracle_cell_there_is_no_oracle_relative_distance():
-    from lgmd_sim.bench import summary
+    from lgmd_sim.benchmark import summary
 
     rows = summary.summarise([r for r in roam_records() if r["controller"] != "oracle"])
     assert all(r["distance_vs_oracle"] is None for r in rows)
 
 
 def test_the_oracle_distance_is_the_same_jitter_levels():
-    from lgmd_sim.bench import summary
+    from lgmd_sim.benchmark import summary
 
     records = [*roam_records(), record("oracle", 1000, jitter=1.0, distance=3.0, found=1,
                                        avoided=1),
@@ -221,7 +221,7 @@ def test_the_oracle_distance_is_the_same_jitter_levels():
 
 
 def test_the_oracle_distance_pairs_the_seeds_both_cells_have():
-    from lgmd_sim.bench import summary
+    from lgmd_sim.benchmark import summary
 
     oracle = [record("oracle", 1000, distance=10.0), record("oracle", 1001, distance=12.0),
               record("oracle", 1002, distance=20.0)]
@@ -239,8 +239,8 @@ def test_the_oracle_distance_pairs_the_seeds_both_cells_have():
 def test_an_extra_cell_with_parameters_needs_a_tag():
     """An untagged extra oracle with other parameters would read as the planned Oracle
     (records, keys and labels carry no parameters but the side): it is refused."""
-    from lgmd_sim.bench.closed_loop import ClosedLoopConfig
-    from lgmd_sim.bench.episode import Cell
+    from lgmd_sim.benchmark.closed_loop import ClosedLoopConfig
+    from lgmd_sim.benchmark.episode import Cell
 
     other = Cell("ArenaRoam", 0.0, "oracle", params=(("horizon", 2.0),))
     with pytest.raises(ValueError) as exc:
@@ -268,7 +268,7 @@ def test_a_controller_that_cannot_tell_reports_no_manoeuvring_share(monkeypatch)
     import numpy as np
 
     from lgmd_sim import controllers
-    from lgmd_sim.bench import episode, summary
+    from lgmd_sim.benchmark import episode, summary
     from lgmd_sim.core.params import CheckedParams
 
     class Blind(controllers.Controller):
@@ -288,8 +288,8 @@ def test_a_controller_that_cannot_tell_reports_no_manoeuvring_share(monkeypatch)
 
 
 def test_the_sides_identify_a_run_only_where_a_controller_takes_one():
-    from lgmd_sim.bench.closed_loop import ClosedLoopConfig
-    from lgmd_sim.bench.episode import DEFAULT_SIDE
+    from lgmd_sim.benchmark.closed_loop import ClosedLoopConfig
+    from lgmd_sim.benchmark.episode import DEFAULT_SIDE
     from lgmd_sim.controllers.avoid import ReactiveParams
 
     assert DEFAULT_SIDE == ReactiveParams().side
@@ -306,8 +306,8 @@ def test_the_sides_identify_a_run_only_where_a_controller_takes_one():
 
 
 def test_a_run_folders_configuration_reads_back_as_the_one_that_ran():
-    from lgmd_sim.bench.closed_loop import ClosedLoopConfig
-    from lgmd_sim.bench.episode import Cell
+    from lgmd_sim.benchmark.closed_loop import ClosedLoopConfig
+    from lgmd_sim.benchmark.episode import Cell
 
     ran = ClosedLoopConfig(
         scenarios=("RobotWallAhead",), jitter=(0.0, 2.0), controllers=("oracle", "reactive"),
@@ -325,7 +325,7 @@ def test_a_run_folders_configuration_reads_back_as_the_one_that_ran():
 
 
 def test_the_markdown_has_a_table_per_task_kind_each_with_its_legend(tmp_path):
-    from lgmd_sim.bench import summary
+    from lgmd_sim.benchmark import summary
 
     goal = [record(c, s, scenario="RoughTerrainObstacles", goal=True, found=2, avoided=2)
             for c in ("oracle", "straight") for s in (1000, 1001)]
@@ -358,7 +358,7 @@ def test_the_markdown_has_a_table_per_task_kind_each_with_its_legend(tmp_path):
 def test_older_records_without_the_arena_fields_still_summarise():
     """A run folder from before the arena task resumes: its goal records lack the new
     fields, and read as goal tasks."""
-    from lgmd_sim.bench import episode, summary
+    from lgmd_sim.benchmark import episode, summary
     from lgmd_sim.core.runs import _mismatch
 
     old = record("straight", 1000, scenario="RoughTerrainObstacles", goal=True)
@@ -391,7 +391,7 @@ def sided(monkeypatch):
 
 
 def test_a_controller_with_a_side_gets_a_cell_per_detector_and_side(sided):
-    from lgmd_sim.bench.closed_loop import ClosedLoopConfig
+    from lgmd_sim.benchmark.closed_loop import ClosedLoopConfig
 
     config = ClosedLoopConfig(scenarios=("StationaryApproach",), jitter=(0.0,),
                               detectors=(("feedback", "paper"), ("lgmd1", "published")),
@@ -413,7 +413,7 @@ def test_a_controller_with_a_side_gets_a_cell_per_detector_and_side(sided):
 
 
 def test_a_side_the_controller_lacks_is_one_line_naming_it(sided):
-    from lgmd_sim.bench.closed_loop import ClosedLoopConfig
+    from lgmd_sim.benchmark.closed_loop import ClosedLoopConfig
 
     for sides, message in ((("both",), "--sides 'both'"), ((), "--sides: no side given")):
         with pytest.raises(ValueError) as exc:
@@ -423,7 +423,7 @@ def test_a_side_the_controller_lacks_is_one_line_naming_it(sided):
 
 def test_the_command_takes_sides(sided):
     from lgmd_sim import cli
-    from lgmd_sim.bench.closed_loop import ClosedLoopConfig
+    from lgmd_sim.benchmark.closed_loop import ClosedLoopConfig
     from lgmd_sim.cli import bench as cli_bench
 
     args = cli.build_parser().parse_args(["bench", "closed-loop", "--sides", "halves,eyes"])
@@ -433,7 +433,7 @@ def test_the_command_takes_sides(sided):
 
 
 def test_the_summary_keeps_the_sides_apart():
-    from lgmd_sim.bench import summary
+    from lgmd_sim.benchmark import summary
 
     records = [record("reactive", 1000, model="feedback", found=2, avoided=2),
                record("reactive", 1000, model="feedback", side="eyes", found=2, avoided=1)]
@@ -448,7 +448,7 @@ def test_the_summary_keeps_the_sides_apart():
 def test_each_example_is_drawn_under_its_own_cells_label(tmp_path, monkeypatch):
     """The top views reach the figures labelled with the cell that drove them (the records
     come back in key order, the cells in plan order: oracle's path was drawn as straight's)."""
-    from lgmd_sim.bench import closed_loop, figures
+    from lgmd_sim.benchmark import closed_loop, figures
 
     drawn = {}
     monkeypatch.setattr(figures, "closed_loop",
@@ -469,7 +469,7 @@ def test_the_arena_run_counts_encounters_and_draws_where_they_happened(tmp_path)
     import csv
     import json
 
-    from lgmd_sim.bench import closed_loop, figures
+    from lgmd_sim.benchmark import closed_loop, figures
 
     config = closed_loop.ClosedLoopConfig(
         scenarios=("ArenaRoam",), jitter=(0.0,), controllers=("straight", "oracle"), seeds=1,
@@ -512,7 +512,7 @@ def roam_example(controller: str, marks: list) -> dict:
 def test_roam_figures_mark_each_encounter_and_report_no_success(tmp_path, monkeypatch):
     from matplotlib.colors import to_rgb
 
-    from lgmd_sim.bench import figures, summary
+    from lgmd_sim.benchmark import figures, summary
 
     goal = [record(c, 1000, scenario="RoughTerrainObstacles", goal=True, found=1, avoided=1)
             for c in ("oracle", "straight")]
@@ -558,7 +558,7 @@ def test_roam_figures_mark_each_encounter_and_report_no_success(tmp_path, monkey
 def test_a_roam_task_plots_collisions_per_minute_against_false_alarms(tmp_path, monkeypatch):
     """Over a fixed time nearly every roam episode touches something: the collision rate
     is about 1 for every cell, collisions per minute tell them apart."""
-    from lgmd_sim.bench import figures, summary
+    from lgmd_sim.benchmark import figures, summary
 
     goal = [record("oracle", 1000, scenario="RoughTerrainObstacles", goal=True, collisions=1)]
     roam = [record("straight", s, collisions=c) for s, c in ((1000, 3), (1001, 6))]
@@ -576,7 +576,7 @@ def test_a_roam_task_plots_collisions_per_minute_against_false_alarms(tmp_path, 
 
 
 def test_the_world_drawing_helpers_are_public():
-    from lgmd_sim.bench import figures
+    from lgmd_sim.benchmark import figures
 
     assert {"draw_world", "map_bounds"} <= set(figures.__all__)
 
@@ -584,7 +584,7 @@ def test_the_world_drawing_helpers_are_public():
 def test_a_path_that_goes_on_after_a_collision_ends_at_its_end(tmp_path, monkeypatch):
     """Without termination on collision the path goes on: it is drawn to its end, the
     cross at its first collision."""
-    from lgmd_sim.bench import figures, summary
+    from lgmd_sim.benchmark import figures, summary
 
     rows = summary.summarise([record("straight", 1000, found=1, collisions=1)])
     example = roam_example("straight", [[1.0, 0.0, False]])

@@ -6,8 +6,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from lgmd_sim import models, stimuli
+from lgmd_sim import models
 from lgmd_sim.benchmark.baselines import FrameDifference, RandomAlarm
+from lgmd_sim.signals import stimuli
 
 FD = "lgmd_sim.benchmark.baselines:FrameDifference"
 RANDOM = "lgmd_sim.benchmark.baselines:RandomAlarm"

@@ -18,7 +18,7 @@ TOOLS = ROOT / "docs" / "experiments" / "tools"  # the research log's scripts
 
 
 def test_a_wall_driven_into_is_seen_ahead_and_a_replay_that_differs_is_left_out(tmp_path):
-    from lgmd_sim.bench.closed_loop import ClosedLoopConfig, run
+    from lgmd_sim.benchmark.closed_loop import ClosedLoopConfig, run
 
     bench = tmp_path / "bench"
     # Straight at the wall of RobotWallAhead, seeds 0 and 1: both end against it.
@@ -50,8 +50,8 @@ def test_a_wall_driven_into_is_seen_ahead_and_a_replay_that_differs_is_left_out(
 
 
 def test_a_loom_steer_collision_keeps_what_its_detector_said_before_it(tmp_path):
-    from lgmd_sim.bench.closed_loop import ClosedLoopConfig, run
-    from lgmd_sim.bench.episode import Cell
+    from lgmd_sim.benchmark.closed_loop import ClosedLoopConfig, run
+    from lgmd_sim.benchmark.episode import Cell
 
     bench = tmp_path / "bench"
     # LoomSteer on LGMD1 that cannot steer nor slow: whatever its detector says, it drives
@@ -84,7 +84,7 @@ def test_a_loom_steer_collision_keeps_what_its_detector_said_before_it(tmp_path)
 def test_a_run_it_cannot_replay_is_refused_in_one_line(tmp_path, scenario, collided, says):
     import json
 
-    from lgmd_sim.bench.closed_loop import ClosedLoopConfig
+    from lgmd_sim.benchmark.closed_loop import ClosedLoopConfig
 
     config = ClosedLoopConfig(scenarios=(scenario,), jitter=(1.0,), controllers=("straight",),
                               seeds=1)
@@ -104,7 +104,7 @@ def _bad(folder: Path, case: str) -> tuple[list[str], Path, str]:
     folder and what its one line must name."""
     import json
 
-    from lgmd_sim.bench.closed_loop import ClosedLoopConfig
+    from lgmd_sim.benchmark.closed_loop import ClosedLoopConfig
 
     run, out = folder / "run", folder / "views"
     run.mkdir()

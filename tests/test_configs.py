@@ -8,11 +8,12 @@ import json
 
 import pytest
 
-from lgmd_sim import cli, options
-from lgmd_sim.bench.closed_loop import ClosedLoopConfig
-from lgmd_sim.bench.open_loop import OpenLoopConfig
+from lgmd_sim import cli
+from lgmd_sim.benchmark.closed_loop import ClosedLoopConfig
+from lgmd_sim.benchmark.open_loop import OpenLoopConfig
 from lgmd_sim.calibration.run import CalibrateConfig
 from lgmd_sim.cli import bench as cli_bench
+from lgmd_sim.controllers import options
 from lgmd_sim.core.runs import RunFolder
 
 

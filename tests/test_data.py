@@ -13,10 +13,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from lgmd_sim import data, noise
+from lgmd_sim import data
 from lgmd_sim.data import layout
 from lgmd_sim.data.generate import GenerateConfig, generate
 from lgmd_sim.data.verify import verify
+from lgmd_sim.signals import noise
 
 pytest.importorskip("pyarrow")
 
@@ -184,15 +185,3 @@ def test_other_video_formats_record_their_codec(tmp_path, video):
 def test_docs_describe_every_label_column():
     text = (Path(__file__).resolve().parents[1] / "docs" / "guides" / "datasets.md").read_text()
     assert [c.name for c in layout.COLUMNS if f"| `{c.name}` |" not in text] == []
-
-
-@pytest.mark.slow
-def test_speed_dataset_prints_its_table(capsys):
-    from lgmd_sim.cli import main
-
-    assert main(["speed", "dataset", "--scenarios", "StationaryApproach", "--episodes", "1",
-                 "--resolution", "32x48", "--workers", "1", "--repeat", "1"]) == 0
-    lines = capsys.readouterr().out.splitlines()
-    assert lines[1].split()[:2] == ["scenario", "frames"]
-    assert lines[2].split()[0] == "StationaryApproach"
-    assert lines[-1].startswith("Start-up before each timing")  # apart from the timing

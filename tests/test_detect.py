@@ -11,10 +11,11 @@ import cv2
 import numpy as np
 import pytest
 
-from lgmd_sim import cli, metrics, models, stimuli
+from lgmd_sim import cli, models
+from lgmd_sim.controllers.options import model_names
 from lgmd_sim.detect import detect, detect_video
-from lgmd_sim.options import model_names
-from lgmd_sim.video import VideoReader, natural_key
+from lgmd_sim.signals import metrics, stimuli
+from lgmd_sim.signals.video import VideoReader, natural_key
 
 SHAPE = (60, 80)
 
@@ -229,7 +230,7 @@ def test_json_without_out_prints_and_writes_no_files(tmp_path, clip, capsys, mon
 
 def test_noise_corrupts_the_frames_before_models_and_ssim_and_is_recorded(tmp_path, clip,
                                                                           capsys):
-    from lgmd_sim import noise
+    from lgmd_sim.signals import noise
 
     folder = _write_folder(tmp_path / "shots", clip.frames)  # PNG: lossless
     spec = "gaussian:0.005,saltpepper:0.005"
@@ -322,7 +323,7 @@ def test_an_alarm_on_the_collision_frame_is_a_hit_with_lead_0_as_the_benchmarks_
     """The rule `--help` states: a first alarm in the window before the collision frame,
     that frame included, is a hit; `--window` sets the window as `bench open-loop` does."""
     from lgmd_sim.detect.figure import alarm_label
-    from lgmd_sim.metrics import evaluate_clip
+    from lgmd_sim.signals.metrics import evaluate_clip
 
     video = _write_video(tmp_path / "a.mp4", clip.frames)
 

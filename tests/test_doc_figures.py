@@ -16,11 +16,12 @@ import numpy as np
 import pytest
 from matplotlib.colors import to_rgb
 
-from lgmd_sim import cli, models, stimuli
+from lgmd_sim import cli, models
 from lgmd_sim.apps import demo
 from lgmd_sim.cli import demo as demo_cli
 from lgmd_sim.core.plots import MIN_CONTRAST, contrast, figure, model_style, palette
 from lgmd_sim.core.pngtext import add_text, png_text, read_config, read_text
+from lgmd_sim.signals import stimuli
 
 ROOT = Path(__file__).resolve().parents[1]
 DOCS = ROOT / "docs"
@@ -119,7 +120,7 @@ def test_every_readme_figure_is_captioned_with_the_command_that_made_it():
 
 
 def test_every_colour_a_detector_s_line_takes_reads_on_white():
-    from lgmd_sim.bench import figures
+    from lgmd_sim.benchmark import figures
 
     for colour in [*palette(), *figures._EXTRA]:
         assert contrast(colour) >= MIN_CONTRAST, colour

@@ -149,7 +149,7 @@ def result(tmp_path) -> Path:
     "- `mine` (runs/mine/result.json): `lgmd-sim benchmark mine`, 17 min on Some CPU",
     "No time stated here (runs/mine/result.json), false alarms 3 / min, 6 a minute.",
     "<!-- test-times -->about 2 minutes<!-- /test-times -->",
-    "```text\n# lgmd-sim speed: CPU: Some CPU\nOne row: 6.6 min (target 15: met)\n```",
+    "```text\n# python -m scripts.speed: CPU: Some CPU\nOne row: 6.6 min (target 15: met)\n```",
 ])
 def test_a_time_its_record_gives_passes(result, text):
     assert problems(result, text) == []

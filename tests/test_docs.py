@@ -106,7 +106,7 @@ def _closed_loop_example_config():
     """The ClosedLoopConfig the API reference's closed-loop example makes, as it stands."""
     import ast
 
-    from lgmd_sim.bench.closed_loop import ClosedLoopConfig
+    from lgmd_sim.benchmark.closed_loop import ClosedLoopConfig
 
     section = API.read_text().split("## Closed-loop benchmark", 1)[1]
     code = re.search(r"^```python\n(.*?)^```", section, re.S | re.M).group(1)
@@ -133,7 +133,7 @@ def test_the_api_closed_loop_example_drives_a_robot_among_obstacles():
 def test_the_api_closed_loop_example_s_controllers_differ(tmp_path):
     """The example as configured: the floor (straight) collides more often than the ceiling
     (the Oracle), as the text below it says."""
-    from lgmd_sim.bench.closed_loop import run
+    from lgmd_sim.benchmark.closed_loop import run
 
     rows = run(_closed_loop_example_config(), tmp_path / "run", workers=1,
                progress=False).rows

@@ -6,11 +6,12 @@ import math
 import numpy as np
 import pytest
 
-from lgmd_sim import models, stimuli
+from lgmd_sim import models
 from lgmd_sim.models.feedback import FeedbackLGMD, delay_weights, spline_coefficients
 from lgmd_sim.models.kernels import gaussian_taps
 from lgmd_sim.models.reference import make_reference
 from lgmd_sim.models.reference.feedback import cardinal_bspline
+from lgmd_sim.signals import stimuli
 
 # Parameters under which the loop is active on the stimuli below (D reaches the spline's
 # centres), so that the tests exercise Phi and its effect on P_on / P_off. The gain keeps

@@ -11,10 +11,10 @@ import numpy as np
 import pytest
 from matplotlib.colors import to_rgb
 
-from lgmd_sim import metrics
-from lgmd_sim.bench import figures
+from lgmd_sim.benchmark import figures
 from lgmd_sim.core.plots import figure, model_style
 from lgmd_sim.detect.figure import draw_thresholds
+from lgmd_sim.signals import metrics
 
 #: (controller, model, preset): a run's cells, two of the same model, the straight
 #: controller and two detectors that never alarm (their paths and results those of

@@ -22,7 +22,7 @@ from matplotlib.colors import to_rgb
 
 from lgmd_sim.apps import demo
 from lgmd_sim.data import layout
-from lgmd_sim.video import VideoReader, encoder, video_writer
+from lgmd_sim.signals.video import VideoReader, encoder, video_writer
 
 LGMD_SIM = [sys.executable, "-m", "lgmd_sim.cli"]
 SMALL_DATASET = ["--scenarios", "StationaryApproach", "--jitter", "0", "--episodes", "2",
@@ -204,7 +204,7 @@ def test_bench_on_a_full_disk_keeps_its_records_and_resumes(full_disk, tmp_path,
 _WRITE_CLIP = """
 import sys
 import numpy as np
-from lgmd_sim.video import video_writer
+from lgmd_sim.signals.video import video_writer
 frames = np.random.default_rng(0).integers(0, 255, (40, 48, 64, 3), np.uint8)
 with video_writer(sys.argv[1], 30, (48, 64)) as write:
     for rgb in frames:
@@ -247,7 +247,7 @@ def test_a_complete_video_passes_the_check(tmp_path, fourcc, suffix, n):
 
 
 def test_frames_are_encoded_as_written_while_the_caller_reuses_its_buffer(tmp_path):
-    from lgmd_sim.video import ENCODER_QUEUE
+    from lgmd_sim.signals.video import ENCODER_QUEUE
 
     path = tmp_path / "clip.mkv"  # FFV1: lossless, so the frames read back exactly
     frames = np.random.default_rng(0).integers(0, 255, (3 * ENCODER_QUEUE, 24, 32, 3),

@@ -17,7 +17,6 @@ import numpy as np
 import pytest
 from gymnasium.utils.env_checker import check_env
 
-from lgmd_sim import noise
 from lgmd_sim.envs import JitterEnv
 from lgmd_sim.envs.wrappers import (
     FrameObservation,
@@ -25,6 +24,7 @@ from lgmd_sim.envs.wrappers import (
     NoiseObservation,
     ResizeFrame,
 )
+from lgmd_sim.signals import noise
 
 SIZE = [24, 32]
 

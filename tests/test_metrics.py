@@ -6,7 +6,7 @@ import cv2
 import numpy as np
 import pytest
 
-from lgmd_sim import metrics
+from lgmd_sim.signals import metrics
 
 
 def _frames(seed: int = 0, shape: tuple[int, ...] = (24, 30)) -> tuple[np.ndarray, np.ndarray]:

@@ -7,7 +7,8 @@ import re
 
 import pytest
 
-from lgmd_sim import cli, models, stimuli
+from lgmd_sim import cli, models
+from lgmd_sim.signals import stimuli
 
 
 @pytest.mark.parametrize(("name", "params", "field"), [

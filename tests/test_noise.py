@@ -1,4 +1,4 @@
-"""lgmd_sim.noise: the paper's Gaussian and salt-and-pepper noise, extra shake, a real
+"""lgmd_sim.signals.noise: the paper's Gaussian and salt-and-pepper noise, extra shake, a real
 camera's exposure, sensor noise and compression, seeding."""
 
 from __future__ import annotations
@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from lgmd_sim import noise
+from lgmd_sim.signals import noise
 
 
 def _frames(n: int = 6, shape=(60, 80)) -> list[np.ndarray]:

@@ -15,10 +15,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from lgmd_sim import cli, controllers, models, options
+from lgmd_sim import cli, controllers, models
 from lgmd_sim.benchmark import entries
 from lgmd_sim.calibration import search
 from lgmd_sim.calibration.run import CalibrateConfig
+from lgmd_sim.controllers import options
 from lgmd_sim.envs.wrappers import LGMDFeatures
 
 # The plug-in, tests/plugins/lgmd_plug.py, by its specs: a model with a search space, the

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from lgmd_sim import cli, controllers, models
-from lgmd_sim.bench.episode import Cell, plan
+from lgmd_sim.benchmark.episode import Cell, plan
 from lgmd_sim.models.warp import Motion
 
 # The plug-in, tests/plugins/lgmd_plug.py, by its specs.

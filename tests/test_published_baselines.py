@@ -9,9 +9,10 @@ import numpy as np
 import pytest
 
 import lgmd_sim  # noqa: F401  (registers the environments)
-from lgmd_sim import models, stimuli
+from lgmd_sim import models
 from lgmd_sim.core.frames import to_grey
 from lgmd_sim.models.reference.published import ORACLES, olgmd
+from lgmd_sim.signals import stimuli
 
 SHAPE = (60, 80)
 

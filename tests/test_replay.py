@@ -1,5 +1,5 @@
 """Episodes that replay on any processor (issue 50): the numeric mode pinned in every
-process (`lgmd_sim.core.numerics`), episodes' fingerprints (`lgmd_sim.bench.fingerprint`),
+process (`lgmd_sim.core.numerics`), episodes' fingerprints (`lgmd_sim.benchmark.fingerprint`),
 golden fingerprints of a few short episodes, and `lgmd-sim verify` on a tampered result.
 
 The golden fingerprints were recorded in the replay mode on an AMD EPYC (Zen 4, AVX-512);
@@ -17,8 +17,8 @@ import numpy as np
 import pytest
 
 from lgmd_sim import cli
-from lgmd_sim.bench.episode import Cell, episode
-from lgmd_sim.bench.fingerprint import EVERY, Fingerprint, first_difference
+from lgmd_sim.benchmark.episode import Cell, episode
+from lgmd_sim.benchmark.fingerprint import EVERY, Fingerprint, first_difference
 from lgmd_sim.core import numerics
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -119,7 +119,7 @@ def test_the_host_mode_is_another_episode_on_a_processor_with_avx512():
 
     if not features.get("AVX512F"):
         pytest.skip("no AVX-512 here: the host mode is the replay mode's code")
-    code = ("import lgmd_sim; from lgmd_sim.bench.episode import Cell, episode; "
+    code = ("import lgmd_sim; from lgmd_sim.benchmark.episode import Cell, episode; "
             "print(episode(Cell('RoughTerrainObstacles', 1.0, 'loom-steer', 'lgmd1', "
             "'robot-image'), 20000, resolution='small', cruise=0.6, horizon=2.0)"
             "['fingerprint']['sha256'])")

@@ -10,7 +10,7 @@ from typing import ClassVar
 import numpy as np
 import pytest
 
-from lgmd_sim.bench.episode import Cell, episode
+from lgmd_sim.benchmark.episode import Cell, episode
 from lgmd_sim.calibration import clips
 from lgmd_sim.core import parallel
 from lgmd_sim.core.parallel import Job, kept, run_jobs

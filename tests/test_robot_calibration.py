@@ -11,9 +11,10 @@ import shutil
 import numpy as np
 import pytest
 
-from lgmd_sim import cli, models, options
+from lgmd_sim import cli, models
 from lgmd_sim.calibration import clips, robot, run
 from lgmd_sim.calibration.objective import THRESHOLDS
+from lgmd_sim.controllers import options
 from lgmd_sim.models import presets
 
 #: Frames 0..100 of a straight approach: time to collision (100 - t) / 30 s, so that the

@@ -319,7 +319,7 @@ def test_the_missing_extra_hint_is_a_command_that_works_from_a_checkout(monkeypa
 def test_how_the_jobs_run_is_checked_before_the_run_folder(tmp_path, job, how, why):
     """Through the API: the run folder was made (run.json, "running") before a bad
     `workers` or a Ray address where nothing answers was refused."""
-    from lgmd_sim.bench import closed_loop, open_loop
+    from lgmd_sim.benchmark import closed_loop, open_loop
     from lgmd_sim.calibration.run import CalibrateConfig, calibrate
     from lgmd_sim.data.generate import GenerateConfig, generate
 

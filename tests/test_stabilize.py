@@ -6,7 +6,7 @@ import cv2
 import numpy as np
 import pytest
 
-from lgmd_sim import models, stimuli
+from lgmd_sim import models
 from lgmd_sim.models.stabilize import (
     ImageRotation,
     brightness_gain,
@@ -16,7 +16,8 @@ from lgmd_sim.models.stabilize import (
     rotation_vector,
 )
 from lgmd_sim.models.warp import Motion
-from lgmd_sim.speed.stabilize import rotating_scene
+from lgmd_sim.signals import stimuli
+from scripts.speed.stabilize import rotating_scene
 
 MODELS = models.available()
 SHAPE = (48, 64)
@@ -330,7 +331,7 @@ def test_detect_stabilize_image_equals_the_compensated_models(tmp_path, capfd):
     from test_detect import _detect, _write_folder
 
     from lgmd_sim.detect import detect
-    from lgmd_sim.video import VideoReader
+    from lgmd_sim.signals.video import VideoReader
 
     frames, _ = _scene(6, (72, 96), seed=7)
     folder = _write_folder(tmp_path / "shots", frames)
@@ -347,25 +348,6 @@ def test_detect_stabilize_image_equals_the_compensated_models(tmp_path, capfd):
                                    expected.models[name].potential, atol=1e-6)
     assert _detect(str(folder), "--stabilize", "pose", "--out", str(tmp_path / "o")) == 2
     assert "a video has no pose or IMU" in capfd.readouterr().err
-
-
-def test_speed_stabilize_prints_every_front_end():
-    """In a process of its own: the benchmark pins itself to one core."""
-    import subprocess
-    import sys
-
-    run = subprocess.run([sys.executable, "-m", "lgmd_sim.cli", "speed", "stabilize",
-                          "--height", "24", "--width", "32", "--frames", "2", "--markdown"],
-                         capture_output=True, text=True, timeout=300)
-    assert run.returncode == 0, run.stderr
-    assert "| image: rotation fit (ImageRotation.update) |" in run.stdout
-    assert "| one warp of the previous frame (cv2.warpPerspective) |" in run.stdout
-    rows = [line.split("|") for line in run.stdout.splitlines()
-            if line.split("|")[1:2] in ([f" {name} "] for name in models.available())]
-    assert len(rows) == len(models.available())
-    for row in rows:  # the video preset's cost over the bare model's, and its verdict
-        ratio = float(row[7].strip().removesuffix("x"))
-        assert ratio > 0 and row[8].strip() == ("met" if ratio <= 2 else "not met")
 
 
 def test_detect_takes_the_rotation_from_infos():

@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from lgmd_sim import metrics, noise, stimuli
+from lgmd_sim.signals import metrics, noise, stimuli
 
 SHAPE = (60, 80)
 

@@ -337,23 +337,6 @@ def test_a_missing_rl_extra_is_one_line_naming_it(monkeypatch, tmp_path, capsys)
         assert len(err.splitlines()) == 1 and "'rl' extra" in err
 
 
-@pytest.mark.slow
-def test_speed_train_reports_each_row_against_the_bare_vec_env(capsys):
-    from lgmd_sim.speed import train as speed_training
-
-    assert cli.main(["speed", "train", "--env", ENV, "--resolution", "small", "--steps", "64",
-                     "--envs", "1", "--markdown"]) == 0
-    table = [line for line in capsys.readouterr().out.splitlines() if line.startswith("| ")]
-    rows = [[c.strip() for c in line.strip("|").split("|")] for line in table[1:]]
-    assert [r[0] for r in rows] == [f"{a}/{o}" for a, o, _ in speed_training.ROWS]
-    assert rows[0][1] == "n_steps=32" and rows[3][1] == "train_freq=8, gradient_steps=8"
-    for row in rows:
-        bare, training, ratio = (float(row[i]) for i in (2, 3, 4))
-        assert bare > 0 and training > 0
-        assert ratio == pytest.approx(training / bare, abs=0.01 + 0.01 * ratio)
-        assert row[5] == "-"  # the target is for 2 environments
-
-
 def test_ship_policy_releases_a_runs_best_policy_with_its_rows(run, tmp_path, monkeypatch):
     import importlib
     from pathlib import Path

@@ -16,7 +16,7 @@ from lgmd_sim import cli, models
 from lgmd_sim.calibration import clips, search
 from lgmd_sim.calibration import objective as obj
 from lgmd_sim.calibration.run import TASKS, CalibrateConfig
-from lgmd_sim.metrics import AlarmRule
+from lgmd_sim.signals.metrics import AlarmRule
 
 ROOT = Path(__file__).resolve().parents[1]
 TOOLS = ROOT / "docs" / "experiments" / "tools"  # the research log's scripts

@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from lgmd_sim import metrics
+from lgmd_sim.signals import metrics
 from lgmd_sim.world import JitterWorld, SceneParams, gl, terrain
 from lgmd_sim.world.carriers import Shake
 from lgmd_sim.world.render import SSIMStream

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from gymnasium.vector import AsyncVectorEnv, AutoresetMode, SyncVectorEnv
 
-from lgmd_sim import models, noise
+from lgmd_sim import models
 from lgmd_sim.envs import JitterEnv
 from lgmd_sim.envs.wrappers import (
     FrameObservation,
@@ -18,6 +18,7 @@ from lgmd_sim.envs.wrappers import (
     LGMDVectorObservation,
     NoiseObservation,
 )
+from lgmd_sim.signals import noise
 
 SIZE = (32, 48)
 NOISE = "gaussian:0.003,saltpepper:0.003"

@@ -23,7 +23,7 @@ import numpy as np
 
 from lgmd_sim import models
 from lgmd_sim.benchmark.entries import REFERENCE, SIDES, driver
-from lgmd_sim.metrics import alarm_onsets
+from lgmd_sim.signals.metrics import alarm_onsets
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -117,7 +117,7 @@ def drive(seed: int, jitter: float, detector: str, how: str | None = None,
 
     import lgmd_sim  # noqa: F401  (registers the scenarios)
     from lgmd_sim import controllers
-    from lgmd_sim.bench.closed_loop import ClosedLoopConfig
+    from lgmd_sim.benchmark.closed_loop import ClosedLoopConfig
 
     name, preset = models.parse_spec(detector)
     bench = ClosedLoopConfig()
@@ -150,7 +150,7 @@ def drive(seed: int, jitter: float, detector: str, how: str | None = None,
 
 def _top_view_bounds(ep: AvoidEpisode) -> np.ndarray:
     """(x0, y0), (x1, y1) around the path, the obstacles and the goal."""
-    from lgmd_sim.bench.figures import map_bounds
+    from lgmd_sim.benchmark.figures import map_bounds
 
     return map_bounds([{"top_view": {**ep.view, "path": ep.path}}])
 
@@ -173,7 +173,7 @@ def figure(ep: AvoidEpisode) -> Figure:
     collision against time; each alarm onset numbered on both."""
     from matplotlib import patheffects
 
-    from lgmd_sim.bench.figures import draw_world
+    from lgmd_sim.benchmark.figures import draw_world
     from lgmd_sim.core.plots import COLLISION, figure, model_style
     from lgmd_sim.detect.figure import draw_thresholds
 
@@ -243,7 +243,7 @@ def figure(ep: AvoidEpisode) -> Figure:
 
 def _spans(mask: np.ndarray) -> list[tuple[int, int]]:
     """The (first, last) frames of each run of True in `mask`."""
-    from lgmd_sim.bench.encounters import runs
+    from lgmd_sim.benchmark.encounters import runs
 
     return runs(mask, np.arange(len(mask)), gap=0.0)
 
@@ -259,7 +259,7 @@ class _Compositor:
     so far, its manoeuvres and alarm onsets (RGB). The map's world is drawn once."""
 
     def __init__(self, ep: AvoidEpisode) -> None:
-        from lgmd_sim.bench.figures import draw_world
+        from lgmd_sim.benchmark.figures import draw_world
         from lgmd_sim.core.plots import figure
 
         self.ep = ep
@@ -333,7 +333,7 @@ def write(ep: AvoidEpisode, video: Path, summary: Path,
     """The episode's video and figure (`figure`), the figure with the PNG text chunks
     `text` (`lgmd_sim.core.pngtext`: what made it)."""
     from lgmd_sim.core.fileio import atomic_output
-    from lgmd_sim.video import video_writer
+    from lgmd_sim.signals.video import video_writer
 
     compose = _Compositor(ep)
     with video_writer(video, ep.fps, compose.size) as write_frame:

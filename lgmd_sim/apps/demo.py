@@ -28,17 +28,19 @@ import cv2
 import numpy as np
 from matplotlib.colors import to_rgb
 
-from lgmd_sim import metrics, models
+from lgmd_sim import models
 from lgmd_sim.apps.defaults import AVOID_SEED, DETECTORS, SEED
 from lgmd_sim.controllers import Straight, rollout
 from lgmd_sim.core.fileio import atomic_folder_outputs, atomic_output, write_files
 from lgmd_sim.core.plots import model_style
 from lgmd_sim.core.pngtext import add_text, png_text
-from lgmd_sim.video import video_writer
+from lgmd_sim.envs.zone import CRUISE
+from lgmd_sim.signals import metrics
+from lgmd_sim.signals.video import video_writer
 
 SCENARIO = "lgmd_sim/RoughTerrainObstacles-v0"
 #: Forward speed as a fraction of the robot's limit, and the heading gain (1/rad).
-CRUISE, HEADING_GAIN = 0.6, 1.5
+HEADING_GAIN = 1.5
 #: Height (pixels) of the membrane-potential panel under the video.
 TRACE_HEIGHT = 210
 #: Frames smaller than this are shown enlarged by a whole factor, pixels kept square and

@@ -17,7 +17,7 @@ import gymnasium as gym
 from lgmd_sim.controllers import Straight, rollout
 from lgmd_sim.envs.catalogue import scenario
 from lgmd_sim.envs.wrappers.frames import check_frame_space
-from lgmd_sim.video import CODECS, video_writer
+from lgmd_sim.signals.video import CODECS, video_writer
 
 __all__ = ["Recording", "record"]
 

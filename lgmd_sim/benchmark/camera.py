@@ -61,7 +61,7 @@ def clip_job(clip: CameraClip, model: str, preset: str, resolution: Any, cruise:
     from lgmd_sim.controllers import rollout
     from lgmd_sim.envs.reuse import episode_env
     from lgmd_sim.envs.wrappers.frames import check_frame_space
-    from lgmd_sim.metrics import alarm_onsets
+    from lgmd_sim.signals.metrics import alarm_onsets
 
     kind, scenario, jitter, seed = clip
     detector = models.make(model, preset=preset)
@@ -123,7 +123,7 @@ def metrics(records: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
     95% Wilson intervals, false alarms per minute of clear frames, the median lead time of
     the hits, the ROC AUC of the potential (window frames against clear ones); per
     scenario, the outcomes."""
-    from lgmd_sim.metrics import roc_auc, wilson_interval
+    from lgmd_sim.signals.metrics import roc_auc, wilson_interval
 
     approach = [r for r in records if r["kind"] == "approach"]
     clear = [r for r in records if r["kind"] == "clear"]

@@ -40,8 +40,9 @@ def clip_job(clip: ClipKey, model: str, preset: str, resolution: Any, approachin
 
     The record keeps each frame's potential and whether it is in the window (ROC AUC
     pools them: in the window against every frame of the clips that do not loom)."""
-    from lgmd_sim import metrics, models
+    from lgmd_sim import models
     from lgmd_sim.calibration.clips import stimulus_clip
+    from lgmd_sim.signals import metrics
 
     name, jitter, seed = clip
     stimulus = stimulus_clip(name, jitter, seed, resolution)
@@ -67,7 +68,7 @@ def clip_job(clip: ClipKey, model: str, preset: str, resolution: Any, approachin
 def auc(records: Sequence[Mapping[str, Any]]) -> float | None:
     """ROC AUC of the frames' potentials: the frames in the window before a collision
     against every frame of the clips that do not loom."""
-    from lgmd_sim import metrics
+    from lgmd_sim.signals import metrics
 
     scores, labels = [], []
     for r in records:
@@ -81,7 +82,7 @@ def auc(records: Sequence[Mapping[str, Any]]) -> float | None:
 def metrics(records: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
     """The track's raw metrics: hit rate and false-alarm rate with 95% Wilson intervals,
     the median lead time of the hits, ROC AUC; per stimulus, the alarms."""
-    from lgmd_sim.metrics import wilson_interval
+    from lgmd_sim.signals.metrics import wilson_interval
 
     approach = [r for r in records if r["approaching"]]
     other = [r for r in records if not r["approaching"]]

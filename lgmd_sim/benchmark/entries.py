@@ -10,7 +10,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from lgmd_sim.bench.episode import Cell
+from lgmd_sim.benchmark.episode import Cell
 
 __all__ = ["REFERENCE", "SIDES", "Entry", "driver", "parse"]
 
@@ -59,12 +59,12 @@ class Entry:
     @property
     def key(self) -> str:
         """The entry's folder name: its label, with "-" for the preset's "/" and "@"."""
-        from lgmd_sim.options import file_key
+        from lgmd_sim.controllers.options import file_key
 
         return file_key(self.label).replace("/", "-").replace("@", "-")
 
     def bench_options(self, scenario: str, jitter: tuple[float, ...]) -> dict[str, Any]:
-        """The closed-loop bench's options (`lgmd_sim.bench.closed_loop.ClosedLoopConfig`)
+        """The closed-loop bench's options (`lgmd_sim.benchmark.closed_loop.ClosedLoopConfig`)
         that run the entry's cells alone in `scenario` at each level of `jitter`."""
         if self.kind == "detector":
             return {"controllers": (self.controller,), "detectors": ((self.model, self.preset),),

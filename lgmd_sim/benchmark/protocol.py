@@ -224,8 +224,8 @@ def _table(data: Any, shape: Mapping[str, Any], where: str) -> dict[str, Any]:
 
 def _check(p: Protocol) -> None:
     """The values a well-formed protocol may not hold: one line naming the key."""
-    from lgmd_sim import options
     from lgmd_sim.calibration.run import TASKS
+    from lgmd_sim.controllers import options
     from lgmd_sim.envs.catalogue import scenarios
 
     options.resolution(p.resolution, "resolution")
@@ -292,8 +292,8 @@ def _each_once(track: Any, name: str, keys: tuple[str, str], what: str,
 
 
 def _check_stimuli(d: DetectionTrack, name: str) -> None:
-    from lgmd_sim import options
     from lgmd_sim.calibration.clips import STIMULI
+    from lgmd_sim.controllers import options
 
     _each_once(d, name, ("approaching", "non_approach"), "stimulus",
                lambda s: None if s in STIMULI else f"is none of {', '.join(STIMULI)}")
@@ -304,7 +304,7 @@ def _check_stimuli(d: DetectionTrack, name: str) -> None:
 
 
 def _check_camera(d: CameraTrack, known: Any) -> None:
-    from lgmd_sim import options
+    from lgmd_sim.controllers import options
     from lgmd_sim.envs.catalogue import params_for
 
     def problem(scenario: str) -> str | None:

@@ -1,5 +1,5 @@
 """One entry through every track of a protocol: `benchmark` runs the closed-loop tracks
-with the closed-loop bench (`lgmd_sim.bench.closed_loop`), the open-loop tracks clip by
+with the closed-loop bench (`lgmd_sim.benchmark.closed_loop`), the open-loop tracks clip by
 clip, and writes the entry's ``result.json``: its scores with intervals, the raw metrics
 and the per-seed parts the leaderboard compares entries by.
 
@@ -47,10 +47,10 @@ _ARENA_COLUMNS = ("episodes", "avoidance_rate", "avoidance_ci", "encounters",
 
 
 def track_config(entry: Entry, protocol: Protocol, track: ClosedLoopTrack) -> Any:
-    """The closed-loop bench's configuration (`lgmd_sim.bench.closed_loop.ClosedLoopConfig`)
+    """The closed-loop bench's configuration (`lgmd_sim.benchmark.closed_loop.ClosedLoopConfig`)
     of the entry's cells in `track`: its scenario, jitter levels and seeds, at the
     protocol's frame size, cruise and horizon."""
-    from lgmd_sim.bench import closed_loop
+    from lgmd_sim.benchmark import closed_loop
 
     return closed_loop.ClosedLoopConfig(
         scenarios=(track.scenario,), jitter=track.jitter,
@@ -64,7 +64,7 @@ def _closed_loop(entry: Entry, protocol: Protocol, track: ClosedLoopTrack, out: 
                  ) -> tuple[list[dict[str, Any]], list[dict[str, Any]]]:
     """Run the entry's cells of `track` (a closed-loop bench run in `out`); its records and
     the bench's summary rows of them."""
-    from lgmd_sim.bench import closed_loop
+    from lgmd_sim.benchmark import closed_loop
 
     config = track_config(entry, protocol, track)
     result = closed_loop.run(config, out, resume=True, **run_options)
@@ -170,9 +170,9 @@ def episode_score(track: str, protocol: Protocol) -> Callable[[Mapping[str, Any]
 
 
 def _fingerprint(records: Sequence[Mapping[str, Any]]) -> str | None:
-    """One digest over a track's episodes (`lgmd_sim.bench.fingerprint`), in their keys'
+    """One digest over a track's episodes (`lgmd_sim.benchmark.fingerprint`), in their keys'
     order; None where an episode has none (recorded before fingerprints were)."""
-    from lgmd_sim.bench.fingerprint import combined
+    from lgmd_sim.benchmark.fingerprint import combined
 
     if not all("fingerprint" in r for r in records):
         return None
@@ -277,7 +277,7 @@ def benchmark(entry: Entry, protocol: Protocol, out: str | Path, *,
 
     A detector runs every track; a controller the closed-loop ones (it has no detector to
     run on clips), a policy the goal track (it observes the goal, which the arena has not).
-    The arguments are `lgmd_sim.bench.closed_loop.run`'s.
+    The arguments are `lgmd_sim.benchmark.closed_loop.run`'s.
     """
     folder = Path(out) / entry.key
     folder.mkdir(parents=True, exist_ok=True)

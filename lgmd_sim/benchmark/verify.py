@@ -1,5 +1,5 @@
 """Checking a published row: replay a sample of its episodes on this machine and compare
-each with its record, fingerprint and fields (`lgmd_sim.bench.fingerprint`), so that a
+each with its record, fingerprint and fields (`lgmd_sim.benchmark.fingerprint`), so that a
 reader can tell whether a row replays here, and where it parts if not.
 
 `verify` reads an entry's folder as `lgmd-sim benchmark` leaves it (``result.json`` beside
@@ -17,9 +17,9 @@ from typing import Any
 
 import numpy as np
 
-from lgmd_sim.bench.episode import RECORD_FIELDS, episode
-from lgmd_sim.bench.fingerprint import first_difference
 from lgmd_sim.benchmark.entries import Entry, parse
+from lgmd_sim.benchmark.episode import RECORD_FIELDS, episode
+from lgmd_sim.benchmark.fingerprint import first_difference
 from lgmd_sim.benchmark.protocol import Protocol
 from lgmd_sim.benchmark.run import EPISODES, track_config
 
@@ -117,7 +117,7 @@ def _track(file: Path, track: str, part: Any, protocol: Protocol,
     """`verify` of one closed-loop track: its run folder beside `file` (a published row's:
     the protocol's for the result's entry, its records from ``episodes.json``), the
     episodes `sample` (how many, the draw's seed) of it."""
-    from lgmd_sim.bench.closed_loop import ClosedLoopConfig
+    from lgmd_sim.benchmark.closed_loop import ClosedLoopConfig
     from lgmd_sim.core.parallel import Job, run_jobs
     from lgmd_sim.core.runs import RunFolder, read_record
 

@@ -2,8 +2,8 @@
 
 A clip set is scenarios x jitter levels x seeds. Search and held-out sets use disjoint
 seeds. A scenario is an environment's (driven straight ahead) or a synthetic stimulus of
-`STIMULI` (its shake: `lgmd_sim.stimuli.jittered` at the jitter level). A task may add a
-camera's noise (`lgmd_sim.noise`) to every frame, seeded by the clip's seed. Each clip is
+`STIMULI` (its shake: `lgmd_sim.signals.stimuli.jittered` at the jitter level). A task may add a
+camera's noise (`lgmd_sim.signals.noise`) to every frame, seeded by the clip's seed. Each clip is
 stored as ``<key>.npz``: its grey frames (uint8, what the models see), every per-frame
 number of the ground truth (time to collision, camera pose, rotations...), so that front
 ends fed by the ground truth can replay it too, and per front end the motions the model
@@ -21,11 +21,11 @@ from typing import Any
 
 import numpy as np
 
-from lgmd_sim import noise as noise_mod
-from lgmd_sim import stimuli
 from lgmd_sim.calibration.objective import WALKER, ClipLabel
 from lgmd_sim.controllers import Straight
 from lgmd_sim.core.fileio import atomic_output
+from lgmd_sim.signals import noise as noise_mod
+from lgmd_sim.signals import stimuli
 
 __all__ = ["DEFAULT_GROUPS", "FRONT_ENDS", "LOOKAHEAD", "ROBOT_GROUPS", "STIMULI",
            "VIDEO_FOVY", "VIDEO_FOVY_RANGE", "VIDEO_GROUPS", "VIDEO_LOOKS", "ClipSpec",
@@ -71,7 +71,7 @@ VIDEO_GROUPS: dict[str, list[tuple[str, tuple[float, ...]]]] = {
 @dataclass(frozen=True)
 class Looks:
     """A family of looks clips are recorded in: a camera's noise on every frame
-    (`lgmd_sim.noise`, seeded by the clip's seed), the scenes' light (environment
+    (`lgmd_sim.signals.noise`, seeded by the clip's seed), the scenes' light (environment
     parameters of the scenario clips) and the synthetic stimuli's background."""
 
     noise: str = ""
@@ -105,7 +105,7 @@ def _look(rng: np.random.Generator, seed: int, background: str) -> stimuli.Look:
                         seed=seed)
 
 
-#: Synthetic stimuli as clip scenarios (`lgmd_sim.stimuli`), each drawn per clip from its
+#: Synthetic stimuli as clip scenarios (`lgmd_sim.signals.stimuli`), each drawn per clip from its
 #: seed (the object's polarity, form and contrast on the looks' background; speeds,
 #: periods and frequencies): a looming object (to collision), and five that do not loom:
 #: an object receding, crossing the view or turning, a drifting grating, the whole field
@@ -135,7 +135,7 @@ def stimulus_clip(name: str, jitter: float, seed: int, resolution: Any,
                   background: str = "texture") -> stimuli.Stimulus:
     """Stimulus `name` of `STIMULI` drawn from `seed` (its own generator: the same clip
     whatever else a set holds) at the frame size of `resolution` on `background`, shaken
-    at `jitter` (`lgmd_sim.stimuli.jittered`, seeded by `seed`)."""
+    at `jitter` (`lgmd_sim.signals.stimuli.jittered`, seeded by `seed`)."""
     from lgmd_sim.world.params import frame_size
 
     rng = np.random.default_rng([seed, zlib.crc32(name.encode())])

@@ -26,7 +26,7 @@ from typing import Any
 import numpy as np
 
 from lgmd_sim.core.runs import Fields
-from lgmd_sim.metrics import PAPER_ALARM, AlarmRule
+from lgmd_sim.signals.metrics import PAPER_ALARM, AlarmRule
 
 __all__ = ["KINDS", "LATE", "THRESHOLDS", "VIDEO", "WALKER", "ClipLabel", "Objective",
            "first_crossings", "hits", "kind_rates", "objective", "pack_hits", "unpack_hits"]

@@ -49,7 +49,6 @@ from typing import Any
 
 import numpy as np
 
-from lgmd_sim.bench.closed_loop import ClosedLoopConfig
 from lgmd_sim.calibration.objective import (
     VIDEO,
     Objective,
@@ -59,7 +58,8 @@ from lgmd_sim.calibration.objective import (
     unpack_hits,
 )
 from lgmd_sim.controllers.avoid import OracleParams
-from lgmd_sim.metrics import PAPER_ALARM
+from lgmd_sim.envs.zone import FALSE_ALARM_HORIZON
+from lgmd_sim.signals.metrics import PAPER_ALARM
 
 __all__ = ["AHEAD", "HORIZON", "KINDS", "ROBOT", "ROBOT_FRAMES", "TRUTH", "TTC_HI", "TTC_LO",
            "FrameLabel", "frame_counts", "frame_label", "hits"]
@@ -67,7 +67,7 @@ __all__ = ["AHEAD", "HORIZON", "KINDS", "ROBOT", "ROBOT_FRAMES", "TRUTH", "TTC_H
 #: The window of times to collision (s) in which the robot's alarm must come.
 TTC_LO, TTC_HI = 0.6, 1.15
 #: No threat within this time to collision (s): a frame that must stay silent.
-HORIZON: float = ClosedLoopConfig.horizon
+HORIZON: float = FALSE_ALARM_HORIZON
 #: A threat is ahead within this many degrees of the heading.
 AHEAD: float = OracleParams.ahead
 KINDS = ("approach", "clear")

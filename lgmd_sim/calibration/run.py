@@ -33,8 +33,6 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from lgmd_sim import options
-from lgmd_sim.bench.closed_loop import ClosedLoopConfig
 from lgmd_sim.calibration import clips as clip_mod
 from lgmd_sim.calibration.objective import VIDEO, WALKER, Objective
 from lgmd_sim.calibration.robot import ROBOT, ROBOT_FRAMES
@@ -46,12 +44,14 @@ from lgmd_sim.calibration.search import (
     evaluate,
     space,
 )
+from lgmd_sim.controllers import options
 from lgmd_sim.core.fileio import write_files, write_text_atomic
 from lgmd_sim.core.parallel import Job, check_parallel, run_jobs
 from lgmd_sim.core.pngtext import png_text
 from lgmd_sim.core.runs import NULL, Fields, RunFolder, RunResult
-from lgmd_sim.metrics import PAPER_ALARM
+from lgmd_sim.envs.zone import CRUISE
 from lgmd_sim.models import presets
+from lgmd_sim.signals.metrics import PAPER_ALARM
 from lgmd_sim.world.params import frame_size
 
 if TYPE_CHECKING:
@@ -125,9 +125,9 @@ class Task:
 #: driven at the closed-loop benchmark's cruise, and the video task's.
 TASKS: dict[str, Task] = {
     "walker": Task(WALKER, clip_mod.DEFAULT_GROUPS, "calibrated"),
-    "robot": Task(ROBOT, clip_mod.ROBOT_GROUPS, "robot", ClosedLoopConfig.cruise),
+    "robot": Task(ROBOT, clip_mod.ROBOT_GROUPS, "robot", CRUISE),
     "robot-frames": Task(ROBOT_FRAMES, clip_mod.ROBOT_GROUPS, "robot-frames",
-                         ClosedLoopConfig.cruise),
+                         CRUISE),
     "video": Task(VIDEO, clip_mod.VIDEO_GROUPS, "video", fronts=("image+gain",),
                   front="image+gain", looks=clip_mod.VIDEO_LOOKS, fovy=clip_mod.VIDEO_FOVY,
                   at_clip_size=True),
@@ -485,7 +485,7 @@ def calibrate(config: CalibrateConfig, out: str | Path, *, resume: bool = False,
               workers: int | None = None, ray_address: str | None = None,
               progress: bool | None = None, command: str = "") -> RunResult:
     """Run (or resume) the calibration of `config` in folder `out` (the arguments as
-    `lgmd_sim.bench.closed_loop.run`'s); return one row per detector: the chosen
+    `lgmd_sim.benchmark.closed_loop.run`'s); return one row per detector: the chosen
     candidate and threshold, with its scores on the search and held-out sets."""
     from lgmd_sim.models.check import preflight
 

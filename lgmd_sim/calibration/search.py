@@ -20,9 +20,10 @@ from typing import Any
 
 import numpy as np
 
-from lgmd_sim import models, options
+from lgmd_sim import models
 from lgmd_sim.calibration.clips import FRONT_ENDS, load_clip, load_gains, load_truth
 from lgmd_sim.calibration.objective import THRESHOLDS, WALKER, Objective
+from lgmd_sim.controllers import options
 from lgmd_sim.models.search import SearchRange, check_search_space, draw_search
 
 __all__ = ["CONTROLS", "THRESHOLDS", "Candidate", "Space", "candidates", "detector_list",
@@ -122,7 +123,7 @@ class Candidate:
 
     @property
     def key(self) -> str:
-        """Its record name (a file name: `lgmd_sim.options.file_key`)."""
+        """Its record name (a file name: `lgmd_sim.controllers.options.file_key`)."""
         return options.file_key(f"{self.detector}-{self.index:03d}")
 
 

@@ -27,8 +27,8 @@ from lgmd_sim.core.parallel import WorkerDied
 from lgmd_sim.core.stops import catch_swallowed_stops, stop_raised
 
 #: The subcommands, in the order `--help` lists them.
-COMMANDS = ("demo", "detect", "record", "models", "envs", "bench", "calibrate", "speed", "dataset",
-            "train", "eval", "benchmark", "leaderboard", "verify", "reference")
+COMMANDS = ("demo", "detect", "record", "models", "envs", "bench", "calibrate", "dataset",
+            "train", "eval", "benchmark", "leaderboard", "verify")
 
 
 def build_parser() -> argparse.ArgumentParser:

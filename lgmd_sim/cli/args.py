@@ -8,6 +8,8 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
+from lgmd_sim.envs.zone import CRUISE, FALSE_ALARM_HORIZON
+
 #: What an option helper adds its arguments to: a parser, or one of its groups.
 Options = argparse._ActionsContainer
 
@@ -119,11 +121,11 @@ def add_closed_loop_options(p: Options, more: Options, jitter: str, seeds: int =
     more.add_argument("--first-seed", type=non_negative_int, default=1000,
                       help="the first episode seed; seeds are consecutive (default 1000: "
                       "never a training or validation seed of `lgmd-sim train`)")
-    more.add_argument("--cruise", type=float, default=0.6,
+    more.add_argument("--cruise", type=float, default=CRUISE,
                       help="forward action of every controller while cruising (default 0.6)")
-    more.add_argument("--horizon", type=float, default=2.0,
+    more.add_argument("--horizon", type=float, default=FALSE_ALARM_HORIZON,
                       help="an alarm is false when no obstacle is within this time to "
-                      "collision (s, default 2)")
+                      "collision (s, default %(default)s)")
     more.add_argument("--top-views", type=positive_int, default=top_views,
                       help="how many of the seeds, the first ones, trajectories.png draws "
                       f"from above, a row of panels each (default {top_views})")

@@ -1,8 +1,8 @@
 """`lgmd-sim bench`: its arguments, and the typed configuration made from them.
 
 The lists (scenarios, controllers, models, jitter levels) are parsed by
-`lgmd_sim.options` and checked when the configuration is made, before any episode, so
-that a bad one is a single error line naming it; the work is `lgmd_sim.bench`'s.
+`lgmd_sim.controllers.options` and checked when the configuration is made, before any episode, so
+that a bad one is a single error line naming it; the work is `lgmd_sim.benchmark`'s.
 """
 
 from __future__ import annotations
@@ -10,7 +10,6 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from lgmd_sim import options
 from lgmd_sim.cli.args import (
     add_closed_loop_options,
     add_detector_options,
@@ -23,13 +22,14 @@ from lgmd_sim.cli.args import (
     resolution,
     run_folder_kwargs,
 )
+from lgmd_sim.controllers import options
 
 
 def add(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "bench", help="benchmark LGMD models in closed loop (driving) and open loop (clips)",
         description="The model benchmark: fair, reproducible tables and figures of how each "
-        "LGMD model does, on the same seeds. (Code speed: `lgmd-sim speed`.)",
+        "LGMD model does, on the same seeds. (Code speed: `python -m scripts.speed`.)",
     )
     bench = p.add_subparsers(dest="what", required=True, metavar="WHAT")
     b = bench.add_parser(
@@ -109,7 +109,7 @@ def add(sub: argparse._SubParsersAction) -> None:
 
 def closed_loop_config(args: argparse.Namespace) -> Any:
     """The `ClosedLoopConfig` of ``bench closed-loop``'s arguments."""
-    from lgmd_sim.bench.closed_loop import ClosedLoopConfig
+    from lgmd_sim.benchmark.closed_loop import ClosedLoopConfig
 
     return ClosedLoopConfig(
         scenarios=tuple(options.comma_list(args.scenarios)),
@@ -123,7 +123,7 @@ def closed_loop_config(args: argparse.Namespace) -> Any:
 
 def open_loop_config(args: argparse.Namespace) -> Any:
     """The `OpenLoopConfig` of ``bench open-loop``'s arguments."""
-    from lgmd_sim.bench.open_loop import OpenLoopConfig
+    from lgmd_sim.benchmark.open_loop import OpenLoopConfig
 
     return OpenLoopConfig(
         scenarios=tuple(options.comma_list(args.scenarios)), jitter=options.jitter_levels(
@@ -134,7 +134,7 @@ def open_loop_config(args: argparse.Namespace) -> Any:
 
 
 def run(args: argparse.Namespace) -> int:
-    from lgmd_sim.bench import closed_loop, open_loop, summary
+    from lgmd_sim.benchmark import closed_loop, open_loop, summary
 
     job, config, markdown = (
         (closed_loop, closed_loop_config(args), summary.summary_markdown)

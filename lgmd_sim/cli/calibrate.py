@@ -5,7 +5,6 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from lgmd_sim import options
 from lgmd_sim.cli.args import (
     add_parallel_options,
     add_run_folder_options,
@@ -16,6 +15,7 @@ from lgmd_sim.cli.args import (
     resolution,
     run_folder_kwargs,
 )
+from lgmd_sim.controllers import options
 
 
 def add(sub: argparse._SubParsersAction) -> None:

@@ -7,7 +7,6 @@ import json
 import sys
 from typing import Any
 
-from lgmd_sim import options
 from lgmd_sim.cli.args import (
     add_parallel_options,
     advanced,
@@ -15,6 +14,7 @@ from lgmd_sim.cli.args import (
     positive_int,
     resolution,
 )
+from lgmd_sim.controllers import options
 
 
 def add(sub: argparse._SubParsersAction) -> None:
@@ -85,9 +85,9 @@ def add(sub: argparse._SubParsersAction) -> None:
 
 def config_from_args(args: argparse.Namespace) -> Any:
     """The `GenerateConfig` of ``dataset generate``'s arguments."""
-    from lgmd_sim import noise
     from lgmd_sim.data.generate import GenerateConfig
     from lgmd_sim.envs.catalogue import scenarios
+    from lgmd_sim.signals import noise
 
     # repeats kept: the configuration refuses a scenario or a level given twice
     names = options.names(args.scenarios, list(scenarios()), "scenario(s)",

@@ -57,7 +57,7 @@ def add(sub: argparse._SubParsersAction) -> None:
 def episodes(args: argparse.Namespace) -> dict:
     """`lgmd_sim.apps.demo.run`'s arguments for the episodes (all but the output folder
     and the command line)."""
-    from lgmd_sim import options
+    from lgmd_sim.controllers import options
 
     return {"seed": args.seed, "jitter": args.jitter,
             "detectors": options.comma_list(args.models), "resolution": args.resolution,

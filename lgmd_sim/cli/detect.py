@@ -94,7 +94,7 @@ def add(sub: argparse._SubParsersAction) -> None:
 def config_from_args(args: argparse.Namespace) -> Any:
     """The `DetectConfig` of ``detect``'s arguments; a dataset folder (or ``DIR:N``)
     among the videos becomes its episodes, each with its labelled collision frame."""
-    from lgmd_sim import options
+    from lgmd_sim.controllers import options
     from lgmd_sim.data import detect_inputs
     from lgmd_sim.detect import DetectConfig, Video
 

@@ -5,7 +5,6 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from lgmd_sim import options
 from lgmd_sim.cli.args import (
     add_closed_loop_options,
     add_detector_options,
@@ -15,6 +14,7 @@ from lgmd_sim.cli.args import (
     print_result,
     run_folder_kwargs,
 )
+from lgmd_sim.controllers import options
 from lgmd_sim.core.extras import install_command
 from lgmd_sim.policies import EVAL_SEEDS, EVAL_TOP_VIEWS
 
@@ -71,7 +71,7 @@ def config_from_args(args: argparse.Namespace) -> Any:
 
 
 def run(args: argparse.Namespace) -> int:
-    from lgmd_sim.bench.summary import summary_markdown
+    from lgmd_sim.benchmark.summary import summary_markdown
     from lgmd_sim.training.evaluate import evaluate
 
     result = evaluate(config_from_args(args), args.out, **run_folder_kwargs(args))

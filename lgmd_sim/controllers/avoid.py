@@ -20,7 +20,7 @@ from lgmd_sim.controllers.detector import DetectorParams, eye_overlap, eyes
 from lgmd_sim.controllers.straight import StraightParams
 from lgmd_sim.core.params import in_range, one_of, param
 from lgmd_sim.envs.wrappers.frames import check_frame_space
-from lgmd_sim.envs.zone import ORACLE_TUNED, TriggerZone, in_trigger_zone
+from lgmd_sim.envs.zone import CRUISE, ORACLE_TUNED, TriggerZone, in_trigger_zone
 from lgmd_sim.models.layers import needed_layer
 from lgmd_sim.models.sectors import Sectors
 from lgmd_sim.world.view import CameraView
@@ -41,7 +41,7 @@ __all__ = [
 class AvoidParams(StraightParams):
     """The cruise of `Straight` and the avoidance manoeuvre."""
 
-    cruise: float = param(0.6, ORACLE_TUNED, check=in_range(-1.0, 1.0),
+    cruise: float = param(CRUISE, ORACLE_TUNED, check=in_range(-1.0, 1.0),
                           doc="forward action while cruising (fraction of max_speed)")
     avoid_time: float = param(0.7, ORACLE_TUNED, check=in_range(0.0, 10.0),
                               doc="duration of the manoeuvre (s)")

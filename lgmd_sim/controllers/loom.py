@@ -37,7 +37,7 @@ from lgmd_sim.controllers.detector import DetectorParams, eye_overlap, eyes
 from lgmd_sim.controllers.straight import StraightParams
 from lgmd_sim.core.params import in_range, non_negative, param
 from lgmd_sim.envs.wrappers.frames import check_frame_space
-from lgmd_sim.envs.zone import ORACLE_TUNED
+from lgmd_sim.envs.zone import CRUISE, ORACLE_TUNED
 
 __all__ = ["LoomParams", "LoomSteer"]
 
@@ -62,7 +62,7 @@ TUNED: dict[str, dict[str, float]] = {
 class LoomParams(DetectorParams, StraightParams):
     """The detector, its two eyes, and how their excitation steers."""
 
-    cruise: float = param(0.6, ORACLE_TUNED, check=in_range(-1.0, 1.0),
+    cruise: float = param(CRUISE, ORACLE_TUNED, check=in_range(-1.0, 1.0),
                           doc="forward action with nothing excited (fraction of max_speed)")
     eye_overlap: float = eye_overlap()
     smooth: float = param(0.1, SEARCHED, check=non_negative,

@@ -20,7 +20,7 @@ import numpy as np
 from lgmd_sim.controllers.base import Controller
 from lgmd_sim.controllers.straight import StraightParams
 from lgmd_sim.core.params import in_range, non_negative, param, positive
-from lgmd_sim.envs.zone import ORACLE_TUNED
+from lgmd_sim.envs.zone import CRUISE, ORACLE_TUNED
 
 __all__ = ["Steer", "SteerParams"]
 
@@ -35,7 +35,7 @@ SEARCHED = ("design, then chosen among 8 settings on search seeds 2000-2029 of "
 class SteerParams(StraightParams):
     """The cruise and heading of `Straight`, and the push away from a threat."""
 
-    cruise: float = param(0.6, ORACLE_TUNED, check=in_range(-1.0, 1.0),
+    cruise: float = param(CRUISE, ORACLE_TUNED, check=in_range(-1.0, 1.0),
                           doc="forward action while no threat pushes (the Oracle's cruise)")
     ahead: float = param(90.0, SEARCHED, check=in_range(0.0, 180.0),
                          doc="a threat pushes while within this many degrees of straight "

@@ -58,7 +58,7 @@ def sheet_frame(meta: Mapping[str, Any]) -> int:
 
 
 def _frame(path: Path, index: int) -> np.ndarray:
-    from lgmd_sim.video import VideoReader
+    from lgmd_sim.signals.video import VideoReader
 
     for i, rgb in enumerate(VideoReader(path)):
         if i == index:
@@ -80,7 +80,7 @@ def _tile(rgb: np.ndarray, label: str) -> np.ndarray:
 def contact_sheet(out: Path, config: Any, metas: Sequence[Mapping[str, Any]]) -> bytes:
     """A PNG: a row per scenario, a column per jitter level (the first seed's episode),
     then the noise variants of the last jitter level's frame."""
-    from lgmd_sim import noise
+    from lgmd_sim.signals import noise
 
     by_key = {(m["scenario"], m["jitter"], m["seed"]): m for m in metas}
     rows = []

@@ -39,7 +39,7 @@ from typing import Any
 
 import numpy as np
 
-from lgmd_sim import options
+from lgmd_sim.controllers import options
 from lgmd_sim.core.fileio import (
     canonical_json,
     remove_stale_partials,
@@ -193,8 +193,8 @@ class Summary:
 def _validate(config: GenerateConfig) -> None:
     """Check every option before any episode runs; a bad one raises a one-line ValueError
     naming it."""
-    from lgmd_sim import noise
     from lgmd_sim.envs.catalogue import params_for, scenarios
+    from lgmd_sim.signals import noise
 
     if not config.scenarios:
         raise ValueError("no scenarios given")
@@ -237,11 +237,12 @@ def _validate(config: GenerateConfig) -> None:
 def make_episode(spec: EpisodeSpec) -> EpisodeResult:
     """Run one episode and encode it: its video, its labels as a Parquet file, its
     metadata. Depends on `spec` only (the same bytes wherever it runs)."""
-    from lgmd_sim import __version__, controllers, models, noise
+    from lgmd_sim import __version__, controllers, models
     from lgmd_sim.controllers import rollout
     from lgmd_sim.core.frames import to_grey
     from lgmd_sim.envs.reuse import episode_env
-    from lgmd_sim.video import encoder
+    from lgmd_sim.signals import noise
+    from lgmd_sim.signals.video import encoder
 
     fmt = layout.VIDEO_FORMATS[spec.video]
     variants = {v: noise.parse(v.replace("+", ",")) for v in spec.noise}

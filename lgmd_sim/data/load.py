@@ -148,8 +148,8 @@ class Episode:
         """The frames, (H, W, 3) uint8 RGB, in order; with `noise` (one of the dataset's
         variants, or any "kind:level[+kind:level]"), that noise on each, drawn from the
         episode's seed and the frame index: the frames the variant's labels were made on."""
-        from lgmd_sim import noise as noise_mod
-        from lgmd_sim.video import VideoReader
+        from lgmd_sim.signals import noise as noise_mod
+        from lgmd_sim.signals.video import VideoReader
 
         noises = noise_mod.parse(noise.replace("+", ",")) if noise else []
         self.check_video()

@@ -76,7 +76,7 @@ def info(config_json: Mapping[str, Any], metas: Sequence[Mapping[str, Any]],
             "models": models,
             "noise_variants": noise,
             "noise_views": "noisy frames are not stored: lgmd_sim.data derives them from "
-                           "the clean frames (lgmd_sim.noise.apply with the episode's seed "
+                           "the clean frames (lgmd_sim.signals.noise.apply with the episode's seed "
                            "and the frame index)",
             "near_miss_distance": layout.NEAR_MISS_DISTANCE,
             "outcomes": list(layout.OUTCOMES),

@@ -12,13 +12,13 @@ from typing import Any
 
 import numpy as np
 
-from lgmd_sim import metrics
-from lgmd_sim import noise as noise_lib
 from lgmd_sim.core.frames import to_grey
 from lgmd_sim.detect.results import Detection, ModelTrace
 from lgmd_sim.detect.specs import detector_names, with_preset
 from lgmd_sim.models.base import LGMDModel
-from lgmd_sim.video import VideoReader
+from lgmd_sim.signals import metrics
+from lgmd_sim.signals import noise as noise_lib
+from lgmd_sim.signals.video import VideoReader
 
 __all__ = ["check_collision_frame", "detect", "detect_video"]
 
@@ -75,7 +75,7 @@ def detect(
         progress: show a progress bar on stderr (None: only on a terminal).
         window_s: tolerance window of the event metrics, seconds before the collision.
         noise: corrupt every frame (uint8) before the models and the SSIM see it:
-            "kind:level,..." or a list of `lgmd_sim.noise.Noise` (see `lgmd_sim.noise`).
+            "kind:level,..." or a list of `lgmd_sim.signals.noise.Noise` (see that module).
         noise_seed: the noise's seed; frame t's noise depends only on it and t.
         infos: a simulated clip's ``info`` of every frame, for models that compensate the
             camera's rotation from the pose or the IMU (``stabilize="pose"`` or
@@ -145,7 +145,7 @@ def detect_video(
     noise: str | Sequence[noise_lib.Noise] | None = None,
     noise_seed: int = 0,
 ) -> Detection:
-    """`detect` over a video file or image folder (see `lgmd_sim.video.VideoReader`)."""
+    """`detect` over a video file or image folder (see `lgmd_sim.signals.video.VideoReader`)."""
     clip = VideoReader(path)
     return detect(clip, clip.fps, model_spec, collision_frame, name=str(path),
                   total=clip.frame_count, progress=progress, window_s=window_s,

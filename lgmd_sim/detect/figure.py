@@ -12,10 +12,10 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from lgmd_sim import metrics
 from lgmd_sim.core.plots import COLLISION, THRESHOLD, model_style
 from lgmd_sim.detect.results import Detection
 from lgmd_sim.detect.specs import model_of
+from lgmd_sim.signals import metrics
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes

@@ -8,13 +8,13 @@ import sys
 from dataclasses import dataclass
 from pathlib import Path
 
-from lgmd_sim import noise as noise_lib
-from lgmd_sim import options
+from lgmd_sim.controllers import options
 from lgmd_sim.core.fileio import error_text
 from lgmd_sim.detect.clip import check_collision_frame, detect
 from lgmd_sim.detect.outputs import check_out_folder, output_names, write_outputs
 from lgmd_sim.detect.specs import detector, detector_names, front_end_params, with_preset
-from lgmd_sim.video import VideoReader
+from lgmd_sim.signals import noise as noise_lib
+from lgmd_sim.signals.video import VideoReader
 
 __all__ = ["DetectConfig", "Video", "run"]
 
@@ -42,11 +42,11 @@ class DetectConfig:
             others at their default); a model listed with another preset is refused.
         collision_frame: the labelled collision frame of every video (over a `Video`'s own).
         window: a first alarm within this many seconds before the collision frame, that
-            frame included, is a hit (`lgmd_sim.metrics.evaluate_clip`, as the benchmarks
+            frame included, is a hit (`lgmd_sim.signals.metrics.evaluate_clip`, as the benchmarks
             count it).
         out: the output folder; None: ``detect-out``, or no files with `json_lines`.
         json_lines: print one JSON record per video instead of a line.
-        noise: corrupt every frame first ("kind:level,...", `lgmd_sim.noise`).
+        noise: corrupt every frame first ("kind:level,...", `lgmd_sim.signals.noise`).
         noise_seed: the noise's seed.
         stabilize: front ends for videos: "none", "image", "gain" or "image+gain".
         fov: the camera's vertical field of view (degrees), for the "image" front end.

@@ -9,7 +9,7 @@ from typing import Any
 
 import numpy as np
 
-from lgmd_sim import metrics
+from lgmd_sim.signals import metrics
 
 __all__ = ["Detection", "ModelTrace"]
 

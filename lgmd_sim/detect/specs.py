@@ -22,8 +22,8 @@ def model_of(name: str) -> str:
 def detector_names(spec: str | Sequence[str]) -> list[str]:
     """The detectors of "all" (every model), a comma-separated list or a sequence, each
     MODEL[/PRESET][+FRONT...] (`detector`), repeats dropped; their models are checked
-    here, an unknown one named with the valid ones (`lgmd_sim.options.model_names`)."""
-    from lgmd_sim import options
+    here, an unknown one named with the valid ones (`lgmd_sim.controllers.options.model_names`)."""
+    from lgmd_sim.controllers import options
 
     given = options.comma_list(spec) if isinstance(spec, str) else [
         str(t).strip() for t in spec if str(t).strip()]

@@ -60,7 +60,7 @@ class JitterEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
     - Info: the ground truth of the frame (`lgmd_sim.world.core.TRUTH_KEYS`, see
       `JitterWorld`) and the keys of `INFO_KEYS`.
 
-    The scenario reference (docs/reference/scenarios.md, ``lgmd-sim reference``) is made
+    The scenario reference (docs/reference/scenarios.md, ``python -m scripts.reference``) is made
     from these items, `OBSERVATION_KEYS`, `INFO_KEYS` and `TRUTH_KEYS`.
 
     Args:

@@ -15,10 +15,16 @@ from typing import Any
 
 from lgmd_sim.core.params import CheckedParams, in_range, param, positive
 
-__all__ = ["ORACLE_TUNED", "TriggerZone", "in_trigger_zone"]
+__all__ = ["CRUISE", "FALSE_ALARM_HORIZON", "ORACLE_TUNED", "TriggerZone", "in_trigger_zone"]
 
-#: The rationale of the Oracle's tuned defaults (its zone's, its manoeuvre's).
+#: The rationale of the Oracle's tuned defaults (its zone's, its manoeuvre's, its cruise).
 ORACLE_TUNED = "design: tuned so that Oracle avoids the obstacles of RoughTerrainObstacles"
+#: The Oracle's cruise, every cruising controller's default and every job's: the forward
+#: action in [-1, 1], a fraction of the carrier's top speed (ORACLE_TUNED).
+CRUISE = 0.6
+#: An alarm in closed loop is false when no threat is within this time to collision (s),
+#: twice the Oracle's trigger horizon: every job's default (design).
+FALSE_ALARM_HORIZON = 2.0
 
 
 @dataclass(frozen=True)
@@ -38,6 +44,6 @@ def in_trigger_zone(info: Mapping[str, Any], zone: TriggerZone) -> bool:
     (``info["threat_ttc"]``) below ``horizon`` or its distance (``info["threat_distance"]``)
     below ``clearance``, with its bearing (``info["threat_bearing"]``, radians) within
     ``ahead`` degrees of straight ahead. The benchmark's encounters are this zone too
-    (`lgmd_sim.bench.encounters`)."""
+    (`lgmd_sim.benchmark.encounters`)."""
     near = info["threat_ttc"] < zone.horizon or info["threat_distance"] < zone.clearance
     return bool(near and abs(math.degrees(info["threat_bearing"])) <= zone.ahead)

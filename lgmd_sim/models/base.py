@@ -27,11 +27,11 @@ import numpy as np
 
 from lgmd_sim.core.frames import to_grey
 from lgmd_sim.core.params import CheckedParams, in_range, int_in_range, one_of, param
-from lgmd_sim.metrics import AlarmRule
 from lgmd_sim.models.compensation import Compensation
 from lgmd_sim.models.guard import PluginError, is_plugin, potentials_fault, run_hook
 from lgmd_sim.models.search import SearchRange
 from lgmd_sim.models.warp import Motion
+from lgmd_sim.signals.metrics import AlarmRule
 
 #: Values of the ``stabilize`` parameter: where each frame's camera rotation comes from.
 FRONT_ENDS = ("none", "pose", "imu", "image")
@@ -198,7 +198,7 @@ class LGMDModel(ABC):
     The base gives `step` and `reset` for one stream or N, the checks on every input,
     a plug-in's guards (`lgmd_sim.models.guard`), colour to grey, the front ends and
     ``motion=`` (`lgmd_sim.models.compensation`), the alarms (``potential > threshold`` by
-    the `lgmd_sim.metrics.AlarmRule` of ``alarm_frames`` and ``alarm_rising``) and,
+    the `lgmd_sim.signals.metrics.AlarmRule` of ``alarm_frames`` and ``alarm_rising``) and,
     through `lgmd_sim.models.make`, the presets and the parameter checks.
     """
 

@@ -123,7 +123,7 @@ def ground_motion(rotvec: np.ndarray, displacement: np.ndarray, up: np.ndarray,
 class ImageRotationParams(CheckedParams):
     """How `ImageRotation` fits the camera's rotation from two frames."""
 
-    scale: int = param(2, "ours: measured (lgmd-sim speed stabilize; "
+    scale: int = param(2, "ours: measured (python -m scripts.speed stabilize; "
                           "docs/experiments/models-log.md)",
                        check=one_of(1, 2, 4),
                        doc="frames are tracked at 1/scale of their size (2: halved)")

@@ -11,7 +11,7 @@ import json
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
-from lgmd_sim import options
+from lgmd_sim.controllers import options
 from lgmd_sim.policies.config import PolicyConfig
 from lgmd_sim.policies.folder import ALGOS, OBS
 from lgmd_sim.training.dagger import FIT_EPOCHS, STUDENT_ACTIONS

@@ -2,7 +2,7 @@
 controllers, on the same seeds.
 
 Each policy is a cell of its own (``Cell(scenario, jitter, "policy", params=(("path",
-...),), tag=<policy name>)``) added to the benchmark's sweep (`lgmd_sim.bench.closed_loop`),
+...),), tag=<policy name>)``) added to the benchmark's sweep (`lgmd_sim.benchmark.closed_loop`),
 so it writes the same tables and figures; ``eval.md`` adds the mean distance travelled.
 Every cell runs in the environment the policies were trained in (their scenario and frame
 size), so the policies must share both.
@@ -16,10 +16,11 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from lgmd_sim.bench.closed_loop import ClosedLoopConfig
-from lgmd_sim.bench.episode import Cell
+from lgmd_sim.benchmark.closed_loop import ClosedLoopConfig
+from lgmd_sim.benchmark.episode import Cell
 from lgmd_sim.core.fileio import write_text_atomic
 from lgmd_sim.core.runs import RunResult
+from lgmd_sim.envs.zone import CRUISE, FALSE_ALARM_HORIZON
 from lgmd_sim.policies import EVAL_SEEDS, EVAL_TOP_VIEWS
 
 __all__ = ["EvalConfig", "eval_markdown", "evaluate"]
@@ -45,7 +46,7 @@ class EvalConfig:
         seeds: episodes per cell (`lgmd_sim.policies.EVAL_SEEDS`: those of the
             evaluation a shipped policy's POLICY.md quotes, so the defaults reproduce it).
         jitter, first_seed, cruise, horizon, top_views: as in
-            `lgmd_sim.bench.closed_loop.ClosedLoopConfig` (`top_views` by default
+            `lgmd_sim.benchmark.closed_loop.ClosedLoopConfig` (`top_views` by default
             `lgmd_sim.policies.EVAL_TOP_VIEWS`).
     """
 
@@ -55,12 +56,13 @@ class EvalConfig:
     jitter: tuple[float, ...] = (1.0, 2.0)
     seeds: int = EVAL_SEEDS
     first_seed: int = 1000
-    cruise: float = 0.6
-    horizon: float = 2.0
+    cruise: float = CRUISE
+    horizon: float = FALSE_ALARM_HORIZON
     top_views: int = EVAL_TOP_VIEWS
 
     def __post_init__(self) -> None:
-        from lgmd_sim import controllers, options
+        from lgmd_sim import controllers
+        from lgmd_sim.controllers import options
         from lgmd_sim.policies import load
 
         hand_made = [c for c in controllers.available() if c != "policy"]
@@ -95,7 +97,7 @@ class EvalConfig:
     def bench(self) -> ClosedLoopConfig:
         """The closed-loop benchmark that evaluates the policies: their cells beside the
         hand-made controllers', in the environment they were trained in."""
-        from lgmd_sim import options
+        from lgmd_sim.controllers import options
         from lgmd_sim.core.extras import require
         from lgmd_sim.envs.catalogue import scenarios
         from lgmd_sim.policies import load_config, name_of
@@ -134,8 +136,8 @@ def evaluate(config: EvalConfig, out: str | Path, *, resume: bool = False,
              workers: int | None = None, ray_address: str | None = None,
              progress: bool | None = None, command: str = "") -> RunResult:
     """Run the policies of `config` in the closed-loop benchmark (its tables and figures
-    in `out`, see `lgmd_sim.bench.closed_loop.run` for the arguments), then ``eval.md``."""
-    from lgmd_sim.bench import closed_loop
+    in `out`, see `lgmd_sim.benchmark.closed_loop.run` for the arguments), then ``eval.md``."""
+    from lgmd_sim.benchmark import closed_loop
 
     result = closed_loop.run(config.bench(), out, resume=resume, workers=workers,
                              ray_address=ray_address, progress=progress, command=command)

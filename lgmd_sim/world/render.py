@@ -7,7 +7,7 @@ context: a new GL context costs a quarter of a second of shader compilation on M
 software renderer, a MuJoCo context on an existing one a few milliseconds. Worker
 processes (vector envs) each have their own. `SSIMStream` gives each new frame's SSIM
 with the previous one in one numba pass over the frame (the previous frame's blurred
-moments are kept), with the definition of `lgmd_sim.metrics.ssim`.
+moments are kept), with the definition of `lgmd_sim.signals.metrics.ssim`.
 
 Fork safety: a process forked after EGL was initialised hangs when it creates a context
 (Mesa's driver state does not survive fork). So before any fork (``gym.make_vec(...,
@@ -31,7 +31,7 @@ import numpy as np
 from lgmd_sim.core.stops import reraise_stop_from_ctypes
 from lgmd_sim.world.gl import BACKEND, mujoco
 
-# SSIM as lgmd_sim.metrics.ssim (Wang et al. 2004): 11 x 11 Gaussian window, sigma 1.5,
+# SSIM as lgmd_sim.signals.metrics.ssim (Wang et al. 2004): 11 x 11 Gaussian window, sigma 1.5,
 # K1 = 0.01, K2 = 0.03 on 0..255 frames, averaged where the whole window fits.
 SSIM_WINDOW, SSIM_SIGMA = 11, 1.5
 SSIM_C1, SSIM_C2 = (0.01 * 255) ** 2, (0.03 * 255) ** 2

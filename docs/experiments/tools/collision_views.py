@@ -38,10 +38,11 @@ from typing import Any
 
 import numpy as np
 
-from lgmd_sim import controllers, options
-from lgmd_sim.bench.closed_loop import ClosedLoopConfig
-from lgmd_sim.bench.episode import Cell, driven
-from lgmd_sim.bench.summary import cell_of
+from lgmd_sim import controllers
+from lgmd_sim.benchmark.closed_loop import ClosedLoopConfig
+from lgmd_sim.benchmark.episode import Cell, driven
+from lgmd_sim.benchmark.summary import cell_of
+from lgmd_sim.controllers import options
 from lgmd_sim.core.extras import MissingExtra
 from lgmd_sim.core.fileio import atomic_outputs, error_text, read_text
 from lgmd_sim.core.parallel import Job, run_jobs

@@ -19,9 +19,10 @@ import gymnasium as gym
 import numpy as np
 
 import lgmd_sim  # noqa: F401  (registers the scenarios)
-from lgmd_sim import models, stimuli
+from lgmd_sim import models
 from lgmd_sim.core.frames import to_grey
 from lgmd_sim.models.reference.published import ORACLES
+from lgmd_sim.signals import stimuli
 
 THRESHOLD = 0.8
 #: The files preset v0.1 was read from (ORACLES labels).
@@ -75,8 +76,8 @@ def main() -> None:
         "RoughTerrainObstacles, jitter 1": simulated_clip(
             "lgmd_sim/RoughTerrainObstacles-v0", shape, args.seed),
     }
-    print(f"# {shape[0]}x{shape[1]}; looming squares: lgmd_sim.stimuli.approaching defaults "
-          f"(contrast 0.8, collision at frame 50); simulated clips: seed {args.seed}, "
+    print(f"# {shape[0]}x{shape[1]}; looming squares: lgmd_sim.signals.stimuli.approaching "
+          f"defaults (contrast 0.8, collision at frame 50); simulated clips: seed {args.seed}, "
           "driving straight, to the episode's end")
     print("# r, max |diff|: our membrane potential against the port of the published code; "
           "first alarm: first frame above 0.8 (ours / published)\n")

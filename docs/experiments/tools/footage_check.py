@@ -7,7 +7,7 @@ loom, stimuli that do not (receding, translating, gratings), real crash videos, 
 same crashes with a per-frame shake (a few pixels, a fraction of a degree of roll) and a
 brightness gain changing by up to 15% a frame. Here:
 
-- approaching: synthetic looming objects (`lgmd_sim.stimuli`, drawn per seed);
+- approaching: synthetic looming objects (`lgmd_sim.signals.stimuli`, drawn per seed);
 - non-approach: receding, translating, turning objects and drifting gratings;
 - crashes: the walker's collision scenes, recorded with a camera of 40 to 90 degrees
   (drawn per seed) and a camera's blur, sensor noise and compression, in a light the
@@ -38,9 +38,9 @@ from pathlib import Path
 import numpy as np
 
 from lgmd_sim.calibration import clips as clip_mod
+from lgmd_sim.controllers.options import model_names
 from lgmd_sim.core.fileio import write_text_atomic
 from lgmd_sim.detect import detect, with_preset
-from lgmd_sim.options import model_names
 
 #: The first of the clips' seeds, outside every calibration's sets (search 0+,
 #: held-out 100+, the pages' 4242): 7000 to 7003 chose the video presets' alarm rule,

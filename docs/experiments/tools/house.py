@@ -1,6 +1,9 @@
 """The house's figures (issue 51's targets), measured from the checkout as it stands.
 
-    python docs/experiments/tools/house.py [--json FILE]
+    python docs/experiments/tools/house.py [--json FILE] [--page]
+
+--page writes the table of the figures before (docs/experiments/house/before.json) and now
+into docs/experiments/house.md, between its markers.
 
 Rooms are lgmd_sim's subpackages plus its loose modules; the CLI's leaf commands and
 option entries are read from `lgmd-sim`'s own parser (-h not counted); the cruise
@@ -78,15 +81,58 @@ def repository() -> dict[str, object]:
     return {"tracked files under docs/": len(tracked)}
 
 
+#: What the page shows of each figure: (label, target, how a value is shown).
+ROWS = [
+    ("rooms (subpackages and loose modules)", "14 or fewer", None),
+    ("loose top-level modules", "0", len),
+    ("user CLI: leaf commands", "17 or fewer", None),
+    ("user CLI: option entries", "110 or fewer", None),
+    ("`speed` or `reference` in `lgmd-sim --help`", "no", None),
+    ("the cruise default written", "once", len),
+    ("signatures carrying `ray_address`", "0", len),
+    ("test folders mirroring the package", "5 or more", len),
+    ("CLI-driving test files outside tests/cli", "0", None),
+    ("tracked files under docs/", "200 or fewer", None),
+    ("biggest module (lines)", "500 or fewer", lambda v: f"{v[1]} ({v[0]})"),
+    ("modules over 500 lines", "-", None),
+]
+KEYS = ["rooms", "loose top-level modules", "leaf commands", "option entries",
+        "speed or reference in --help", "cruise default written",
+        "signatures carrying ray_address", "test folders mirroring the package",
+        "CLI-driving test files outside tests/cli", "tracked files under docs/",
+        "biggest module", "modules over 500 lines"]
+BEFORE = ROOT / "docs/experiments/house/before.json"
+PAGE = ROOT / "docs/experiments/house.md"
+MARKS = ("<!-- house-figures -->", "<!-- /house-figures -->")
+
+
+def table(before: dict, now: dict) -> str:
+    def shown(value: object, how: object) -> str:
+        value = how(value) if how else value
+        return {True: "yes", False: "no"}.get(value, str(value)) if isinstance(value, bool) \
+            else str(value)
+    lines = ["| figure | before | now | target |", "|---|---:|---:|---|"]
+    lines += [f"| {label} | {shown(before[key], how)} | {shown(now[key], how)} | {target} |"
+              for (label, target, how), key in zip(ROWS, KEYS, strict=True)]
+    return "\n".join(lines)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--json", type=Path, help="also write the figures to this file")
+    parser.add_argument("--page", action="store_true",
+                        help="write the table of before and now into docs/experiments/house.md")
     args = parser.parse_args()
     figures = {**code(), **cli(), **tests(), **repository()}
     text = json.dumps(figures, indent=1)
     print(text)
     if args.json:
         args.json.write_text(text + "\n")
+    if args.page:
+        page = PAGE.read_text()
+        start, end = page.index(MARKS[0]) + len(MARKS[0]), page.index(MARKS[1])
+        before = json.loads(BEFORE.read_text())
+        PAGE.write_text(page[:start] + "\n" + table(before, figures) + "\n" + page[end:])
 
 
 if __name__ == "__main__":

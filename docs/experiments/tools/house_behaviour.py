@@ -1,11 +1,14 @@
 """Behaviour before and after a reorganisation: tiny runs of the user's commands, digested.
 
     python docs/experiments/tools/house_behaviour.py run OUT     # runs the commands into OUT
+    python docs/experiments/tools/house_behaviour.py digest OUT  # digests OUT again
     python docs/experiments/tools/house_behaviour.py compare A B  # A, B: two OUT folders
 
-`run` writes OUT/digest.json: for every file the commands wrote, its content with what
-changes from run to run left out (times, paths, the machine, the package's version),
-JSON as values, tables, images, videos and arrays as hashes of their decoded content.
+`run` writes OUT/exits.json (each command's exit status) and OUT/digest.json: for every
+file the commands wrote, its content with what changes from run to run left out (times,
+paths, the machine, the package's version): JSON as values, Markdown as lines with its
+tables' timed columns left out, tables, images, videos and arrays as hashes of their
+decoded content.
 `compare` lists what differs, file by file and key by key; exit status 1 if anything does.
 The commands are those a user types (a smoke benchmark row, a dataset, a record and
 detect, a short training, a closed-loop bench, the leaderboard of the shipped rows), so a
@@ -79,7 +82,9 @@ def _digest(path: Path) -> Any:
         return [_strip(json.loads(line)) for line in path.read_text().splitlines() if line]
     if suffix == ".csv":
         rows = list(csv.reader(io.StringIO(path.read_text())))
-        keep = [i for i, name in enumerate(rows[0]) if not VOLATILE.search(name)] if rows else []
+        # by name: a logger may write its columns in another order from run to run
+        keep = sorted((i for i, name in enumerate(rows[0]) if not VOLATILE.search(name)),
+                      key=lambda i: rows[0][i]) if rows else []
         return _hash(json.dumps([[r[i] for i in keep if i < len(r)] for r in rows]).encode())
     if suffix in (".png", ".jpg"):
         import cv2
@@ -99,25 +104,55 @@ def _digest(path: Path) -> Any:
         import pyarrow.parquet as pq
         return _hash(json.dumps(pq.read_table(path).to_pydict(), default=str).encode())
     if suffix == ".md":
-        return _hash(path.read_bytes())
+        return _markdown(path.read_text())
     return "present"  # checkpoints, logs: their content carries times; their presence counts
+
+
+#: a Markdown table's columns that are timings (steps/s, their ratios, wall times)
+TIMED_COLUMN = re.compile(r"/s\b|ratio|" + VOLATILE.pattern, re.I)
+
+
+def _markdown(text: str) -> list[str]:
+    """A page's lines, its tables without their timed columns."""
+    lines, drop = [], set()
+    for line in text.splitlines():
+        if not line.startswith("|"):
+            drop = set()
+            lines.append(_strip(line))
+            continue
+        cells = line.strip("|").split("|")
+        if not drop and not set(line) <= set("|-: "):
+            drop = {i for i, c in enumerate(cells) if TIMED_COLUMN.search(c)} or {-1}
+        lines.append("|".join(c for i, c in enumerate(cells) if i not in drop))
+    return lines
+
+
+def _name(path: Path) -> str:
+    """A file's name without what a run stamps into it (TensorBoard's time and host)."""
+    return re.sub(r"events\.out\.tfevents\..*", "events.out.tfevents", str(path))
 
 
 def run(out: Path) -> None:
     out.mkdir(parents=True, exist_ok=False)
     lgmd = [sys.executable, "-m", "lgmd_sim.cli"]
-    digest: dict[str, Any] = {"exit": {}, "files": {}}
+    exits = {}
     for name, arguments in COMMANDS.items():
         start = time.time()
         done = subprocess.run([*lgmd, *(a.format(out=out) for a in arguments)], cwd=ROOT,
                               capture_output=True, text=True)
-        digest["exit"][name] = done.returncode
+        exits[name] = done.returncode
         print(f"{name}: exit {done.returncode} in {time.time() - start:.0f} s", flush=True)
         if done.returncode:
             print(done.stderr[-2000:], file=sys.stderr)
-    for path in sorted(p for p in out.rglob("*") if p.is_file() and p.name != "digest.json"):
-        digest["files"][str(path.relative_to(out))] = _digest(path)
-    (out / "digest.json").write_text(json.dumps(digest, indent=1, sort_keys=True))
+    (out / "exits.json").write_text(json.dumps(exits))
+    digest(out)
+
+
+def digest(out: Path) -> None:
+    """OUT/digest.json, from the files the commands wrote."""
+    files = sorted(p for p in out.rglob("*") if p.is_file() and p.name != "digest.json")
+    found = {_name(p.relative_to(out)): _digest(p) for p in files}
+    (out / "digest.json").write_text(json.dumps(found, indent=1, sort_keys=True))
 
 
 def _differences(a: Any, b: Any, where: str) -> list[str]:
@@ -135,13 +170,15 @@ def compare(a: Path, b: Path) -> int:
     one, two = (json.loads((p / "digest.json").read_text()) for p in (a, b))
     differences = _differences(one, two, "")
     print("\n".join(differences[:200]) or "equal: every file, but for times and paths")
-    print(f"{len(one['files'])} files compared; {len(differences)} differences")
+    print(f"{len(one)} files compared; {len(differences)} differences")
     return 1 if differences else 0
 
 
 if __name__ == "__main__":
     if sys.argv[1:2] == ["run"] and len(sys.argv) == 3:
         run(Path(sys.argv[2]).resolve())
+    elif sys.argv[1:2] == ["digest"] and len(sys.argv) == 3:
+        digest(Path(sys.argv[2]).resolve())
     elif sys.argv[1:2] == ["compare"] and len(sys.argv) == 4:
         sys.exit(compare(Path(sys.argv[2]), Path(sys.argv[3])))
     else:

@@ -27,7 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from lgmd_sim.controllers.avoid import OracleParams
-from lgmd_sim.metrics import roc_auc
+from lgmd_sim.signals.metrics import roc_auc
 from lgmd_sim.training.dagger import Labels
 
 #: "The Oracle starts its manoeuvre within": this step or the next 6 (0.2 s at the task's

@@ -23,11 +23,11 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from lgmd_sim import options
-from lgmd_sim.bench.episode import Cell, episode
+from lgmd_sim.benchmark.episode import Cell, episode
+from lgmd_sim.controllers import options
 from lgmd_sim.core.fileio import write_text_atomic
 from lgmd_sim.core.parallel import Job, run_jobs
-from lgmd_sim.metrics import wilson_interval
+from lgmd_sim.signals.metrics import wilson_interval
 
 ROOT = Path(__file__).resolve().parents[3]
 OUT = ROOT / "docs/experiments/loom-search"

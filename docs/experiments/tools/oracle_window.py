@@ -19,8 +19,8 @@ import argparse
 import shlex
 import sys
 
-from lgmd_sim.bench.closed_loop import ClosedLoopConfig, run
-from lgmd_sim.bench.episode import Cell
+from lgmd_sim.benchmark.closed_loop import ClosedLoopConfig, run
+from lgmd_sim.benchmark.episode import Cell
 
 HORIZONS = (0.3, 0.45, 0.6, 0.8, 1.0, 1.15, 1.3, 1.7, 2.2)
 #: Seeds 200 and up: not the calibration's (0-7, 100-107) nor the benchmark's (1000-1049).

@@ -22,7 +22,7 @@ import numpy as np
 from oracle_window import COLLISIONS, SUCCESS, horizon, window
 from results_page import FIGURES, FIGURES_LINK, OUT, ROOT, Figures, _command, _copier, _copy, _rows
 
-from lgmd_sim.bench import encounters
+from lgmd_sim.benchmark import encounters
 from lgmd_sim.calibration import robot
 from lgmd_sim.calibration.clips import specs
 from lgmd_sim.calibration.objective import THRESHOLDS, unpack_hits

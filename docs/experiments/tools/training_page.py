@@ -33,8 +33,8 @@ from results_page import seed_ranges
 
 from lgmd_sim import policies
 from lgmd_sim.core.fileio import write_files
-from lgmd_sim.metrics import wilson_interval
 from lgmd_sim.policies.folder import MODEL_FILE, name_of
+from lgmd_sim.signals.metrics import wilson_interval
 from lgmd_sim.training.curve import read_logs
 from lgmd_sim.training.evaluate import EvalConfig
 from lgmd_sim.training.run import VALIDATION_SEED

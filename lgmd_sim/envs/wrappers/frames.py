@@ -16,7 +16,7 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from lgmd_sim import noise as noise_lib
+from lgmd_sim.signals import noise as noise_lib
 
 
 def check_frame_space(space: gym.Space) -> None:
@@ -43,7 +43,8 @@ def frame_size_of(space: gym.Space) -> tuple[int, int]:
 
 
 class NoiseObservation(gym.Wrapper, gym.utils.RecordConstructorArgs):
-    """Corrupt the camera frame with seeded noise (`lgmd_sim.noise`), as the paper's dataset (d).
+    """Corrupt the camera frame with seeded noise (`lgmd_sim.signals.noise`), as the paper's
+    dataset (d).
 
     ``obs["frame"]`` becomes ``noise.apply(frame, noises, episode_seed, index)``, with the
     index counting the episode's frames from 0 at the reset. The episode seed is the
@@ -59,11 +60,12 @@ class NoiseObservation(gym.Wrapper, gym.utils.RecordConstructorArgs):
 
     Args:
         env: an environment with a Dict observation holding a uint8 ``"frame"``.
-        noise: "kind:level,..." (`lgmd_sim.noise.parse`: ``gaussian:V``, variance V on the
+        noise: "kind:level,..." (`lgmd_sim.signals.noise.parse`: ``gaussian:V``, variance V on the
             [0, 1] scale, the paper's 0.001 to 0.009; ``saltpepper:D``, density D, the
             paper's 0.001 to 0.009; ``shake:L``, extra rotation, translation and
             brightness gain at level L; a real camera's ``exposure:L``, ``sensor:L``,
-            ``blur:L`` and ``jpeg:Q``), or a list of `lgmd_sim.noise.Noise`, applied in order.
+            ``blur:L`` and ``jpeg:Q``), or a list of `lgmd_sim.signals.noise.Noise`, applied in
+            order.
     """
 
     def __init__(self, env: gym.Env, noise: str | Sequence[noise_lib.Noise]) -> None:
@@ -75,7 +77,7 @@ class NoiseObservation(gym.Wrapper, gym.utils.RecordConstructorArgs):
             isinstance(noise, Sequence) and all(isinstance(n, noise_lib.Noise) for n in noise)
         ):
             raise ValueError("noise must be a spec such as 'gaussian:0.005' or a list of "
-                             f"lgmd_sim.noise.Noise, got {noise!r}")
+                             f"lgmd_sim.signals.noise.Noise, got {noise!r}")
         self.noises = noise_lib.parse(noise)
         self._seeds: np.random.Generator | None = None
         self._seed = 0

@@ -9,8 +9,8 @@ and the check that the manoeuvre can avoid at all) and `ReactiveAvoid` with each
 into ``DIR/episodes.csv``); per cell the rates with 95% Wilson intervals
 (``DIR/summary.csv``, ``DIR/summary.md``); and figures (``DIR/*.png``).
 
-`lgmd_sim.bench.episode` runs one episode and says what its record holds (alarms, false
-alarms, lead time, the two kinds of task); `lgmd_sim.bench.summary` makes the summary and
+`lgmd_sim.benchmark.episode` runs one episode and says what its record holds (alarms, false
+alarms, lead time, the two kinds of task); `lgmd_sim.benchmark.summary` makes the summary and
 the tables.
 """
 
@@ -21,12 +21,13 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from lgmd_sim import options
-from lgmd_sim.bench.episode import DEFAULT_SIDE, RECORD_FIELDS, Cell, episode, plan
-from lgmd_sim.bench.summary import cell_of, summarise, write_tables
+from lgmd_sim.benchmark.episode import DEFAULT_SIDE, RECORD_FIELDS, Cell, episode, plan
+from lgmd_sim.benchmark.summary import cell_of, summarise, write_tables
+from lgmd_sim.controllers import options
 from lgmd_sim.core.fileio import atomic_folder_outputs
 from lgmd_sim.core.parallel import Job, check_parallel, run_jobs
 from lgmd_sim.core.runs import RunFolder, RunResult
+from lgmd_sim.envs.zone import CRUISE, FALSE_ALARM_HORIZON
 
 __all__ = ["ClosedLoopConfig", "run"]
 
@@ -66,8 +67,8 @@ class ClosedLoopConfig:
     seeds: int = 50
     first_seed: int = 1000
     resolution: str | tuple[int, int] = "rl"
-    cruise: float = 0.6
-    horizon: float = 2.0
+    cruise: float = CRUISE
+    horizon: float = FALSE_ALARM_HORIZON
     extra: tuple[Cell, ...] = ()
     sides: tuple[str, ...] = (DEFAULT_SIDE,)
     top_views: int = 1
@@ -203,7 +204,7 @@ def run(config: ClosedLoopConfig, out: str | Path, *, resume: bool = False,
         progress: show a progress bar (None: only on a terminal).
         command: the command line, for the run's record.
     """
-    from lgmd_sim.bench import figures
+    from lgmd_sim.benchmark import figures
     from lgmd_sim.models.check import preflight
 
     cells = config.cells()

@@ -1,18 +1,18 @@
-"""Speed benchmarks behind ``lgmd-sim speed``: each prints figures measured in one run.
+"""Speed benchmarks behind ``python -m scripts.speed``: each prints figures measured in one run.
 
-- `lgmd_sim.speed.models`: frames/s of every LGMD model on one core, streaming and
+- `scripts.speed.models`: frames/s of every LGMD model on one core, streaming and
   batched, against its per-equation reference implementation.
-- `lgmd_sim.speed.envs`: environment steps/s against bare renders of the same views, and
+- `scripts.speed.envs`: environment steps/s against bare renders of the same views, and
   the scaling of async vector environments.
-- `lgmd_sim.speed.stabilize`: milliseconds per frame of each ego-motion front end.
-- `lgmd_sim.speed.closed_loop`: the closed loop's cost over the environment alone, and
+- `scripts.speed.stabilize`: milliseconds per frame of each ego-motion front end.
+- `scripts.speed.closed_loop`: the closed loop's cost over the environment alone, and
   the benchmark's scaling with workers.
-- `lgmd_sim.speed.benchmark`: the benchmark's episodes against the closed-loop bench's on
+- `scripts.speed.benchmark`: the benchmark's episodes against the closed-loop bench's on
   the same cells, and one entry's row.
-- `lgmd_sim.speed.dataset`: dataset generation against the environment alone.
-- `lgmd_sim.speed.train`: training steps/s against the bare VecEnv it trains on.
+- `scripts.speed.dataset`: dataset generation against the environment alone.
+- `scripts.speed.train`: training steps/s against the bare VecEnv it trains on.
 
-Each module's ``run(**options)`` measures and prints its tables (``lgmd-sim speed WHAT``
+Each module's ``run(**options)`` measures and prints its tables (``python -m scripts.speed WHAT``
 passes its options by name), each target with its verdict in the same run.
 """
 

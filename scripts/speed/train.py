@@ -1,4 +1,4 @@
-"""`lgmd-sim speed train`: training steps per second against the bare VecEnv.
+"""`python -m scripts.speed train`: training steps per second against the bare VecEnv.
 
 Training spends time outside the environments: the LGMD models of "features" run in the
 main process on the workers' frames, and the algorithm computes its updates while the
@@ -25,7 +25,7 @@ import time
 from typing import Any
 
 from lgmd_sim.core.machine import cpu_name
-from lgmd_sim.speed import format_table, met
+from scripts.speed import format_table, met
 
 #: (algo, obs, hyperparameter overrides) of each row.
 ROWS: tuple[tuple[str, str, dict[str, Any]], ...] = (
@@ -88,7 +88,7 @@ def run(*, steps: int = 8192, envs: int = 2, env: str = "lgmd_sim/RoughTerrainOb
     require("stable_baselines3", "rl")
     rows = [measure_row(algo, obs, overrides, env=env, resolution=resolution, steps=steps,
                         envs=envs) for algo, obs, overrides in ROWS]
-    print(f"# lgmd-sim speed train: {env}, {steps} steps per row on {envs} environments; "
+    print(f"# python -m scripts.speed train: {env}, {steps} steps per row on {envs} environments; "
           f"CPU: {cpu_name()}, {os.cpu_count()} cores")
     print(format_table(
         ["algorithm/observation", "settings", "bare VecEnv steps/s", "training steps/s",

@@ -1,4 +1,4 @@
-"""`lgmd-sim speed benchmark`: the benchmark's closed-loop episodes against the closed-loop
+"""`python -m scripts.speed benchmark`: the benchmark's closed-loop episodes against the closed-loop
 bench's on the same cells, and what one entry's row costs.
 
 In one run, for one entry on the protocol's first seeds (`episodes` per jitter level of
@@ -20,7 +20,7 @@ from pathlib import Path
 
 from lgmd_sim.core.fileio import read_json, scratch_folder
 from lgmd_sim.core.machine import cpu_name
-from lgmd_sim.speed import format_table, met
+from scripts.speed import format_table, met
 
 #: The targets: the benchmark's episodes per second over the bench's, and one row's
 #: minutes on two workers.
@@ -35,8 +35,7 @@ def _wall(folder: Path) -> float:
 def run(*, entry: str = "lgmd1/robot-image", episodes: int = 4, markdown: bool = False
         ) -> int:
     """Measure and print the table (Markdown with `markdown`)."""
-    from lgmd_sim.bench import closed_loop
-    from lgmd_sim.benchmark import entries, protocol
+    from lgmd_sim.benchmark import closed_loop, entries, protocol
     from lgmd_sim.benchmark.run import benchmark, track_config
 
     full = protocol.load()
@@ -78,8 +77,9 @@ def run(*, entry: str = "lgmd1/robot-image", episodes: int = 4, markdown: bool =
                      f"{bench / ours:.2f}", met(bench / ours >= RATIO_TARGET)])
     row_min = per_episode[2] * sum(len(t.jitter) * t.episodes for t in (full.goal, full.arena)
                                    ) / 60
-    print(f"# lgmd-sim speed benchmark: {chosen.label}, {episodes} episodes per jitter level "
-          f"of goal and arena ({count} episodes), {short.resolution}; CPU: {cpu_name()}")
+    print(f"# python -m scripts.speed benchmark: {chosen.label}, {episodes} episodes per "
+          f"jitter level of goal and arena ({count} episodes), {short.resolution}; "
+          f"CPU: {cpu_name()}")
     print(format_table(["workers", "bench episodes/s", "benchmark episodes/s",
                         "benchmark / bench", f"target {RATIO_TARGET:g}"], rows, markdown))
     print(f"\nOne row of protocol v{full.version} ({full.goal.episodes + full.arena.episodes} "

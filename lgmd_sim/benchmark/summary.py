@@ -1,5 +1,5 @@
-"""The closed-loop benchmark's summary (`lgmd_sim.bench.closed_loop`): one row per cell
-from its episodes' records (`lgmd_sim.bench.episode`), rates with 95% Wilson intervals,
+"""The closed-loop benchmark's summary (`lgmd_sim.benchmark.closed_loop`): one row per cell
+from its episodes' records (`lgmd_sim.benchmark.episode`), rates with 95% Wilson intervals,
 and the tables episodes.csv, summary.csv and summary.md."""
 
 from __future__ import annotations
@@ -12,10 +12,10 @@ from typing import Any
 
 import numpy as np
 
-from lgmd_sim import metrics
-from lgmd_sim.bench import encounters
-from lgmd_sim.bench.episode import Cell
+from lgmd_sim.benchmark import encounters
+from lgmd_sim.benchmark.episode import Cell
 from lgmd_sim.core.fileio import csv_text, write_text_atomic
+from lgmd_sim.signals import metrics
 
 __all__ = ["cell_of", "summarise", "summary_markdown", "write_tables"]
 

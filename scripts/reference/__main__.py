@@ -1,5 +1,5 @@
-"""`lgmd-sim reference`: the reference pages, generated from the code so that they cannot
-drift: the scenarios (`lgmd_sim.envs.reference`) with a picture of each, and the command
+"""`python -m scripts.reference`: the reference pages, generated from the code so that they cannot
+drift: the scenarios (`scripts.reference.scenarios`) with a picture of each, and the command
 line (`cli_page`: every command's --help, from the parser itself)."""
 
 from __future__ import annotations
@@ -7,42 +7,55 @@ from __future__ import annotations
 import argparse
 import contextlib
 import os
+import sys
 from collections.abc import Iterator
 from pathlib import Path
+
+from lgmd_sim.core.fileio import error_text
 
 #: The width --help is wrapped to on the page, whatever the terminal's.
 HELP_WIDTH = 100
 
 
-def add(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser(
-        "reference", help="write the scenario and command-line reference pages",
+def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(
+        prog="python -m scripts.reference",
         description="Write the reference pages into the folder --out: scenarios.md (each "
         "scenario's spaces, reward, episode end, info keys and arguments, from the "
         "environments themselves), cli.md (every command's --help) and "
         "scenes/<Scenario>.png (each scenario seen from outside). The tests compare the "
-        "committed pages with what this writes: run it after changing a scenario, the "
-        "environment or an option.")
+        "committed pages with what this writes: run it from the checkout's root after "
+        "changing a scenario, the environment or an option.")
     p.add_argument("--out", default="docs/reference", metavar="DIR",
                    help="the folder to write into (default docs/reference)")
     p.add_argument("--no-pictures", action="store_true",
                    help="write the pages only, not the pictures (a few seconds each)")
+    return p
 
 
-def run(args: argparse.Namespace) -> int:
-    """`lgmd-sim reference`: the pages (and pictures) into --out, as one set."""
+def main(argv: list[str] | None = None) -> int:
+    """`python -m scripts.reference`: the pages (and pictures) into --out, as one set; a bad
+    --out or a failed write is one line on stderr and exit status 2."""
+    args = build_parser().parse_args(argv)
+    try:
+        return _write(Path(args.out), pictures=not args.no_pictures)
+    except (ValueError, OSError) as exc:
+        print(f"python -m scripts.reference: error: {error_text(exc)}", file=sys.stderr)
+        return 2
+
+
+def _write(out: Path, *, pictures: bool) -> int:
     import cv2
 
     from lgmd_sim.core.fileio import write_files
-    from lgmd_sim.envs import reference
+    from scripts.reference import scenarios as reference
 
-    out = Path(args.out)
     if out.exists() and not out.is_dir():
         raise ValueError(f"--out {out} is a file; give the folder to write the pages into")
     pages = {out / "scenarios.md": reference.scenarios_page(), out / "cli.md": cli_page()}
     writers = {path: (lambda tmp, text=text: tmp.write_text(text, encoding="utf-8"))
                for path, text in pages.items()}
-    if not args.no_pictures:
+    if pictures:
         for name in reference.packaged():
             rgb = reference.scene_picture(name)
             png = cv2.imencode(".png", cv2.cvtColor(rgb, cv2.COLOR_RGB2BGR))[1].tobytes()
@@ -85,7 +98,7 @@ def _help_width(columns: int) -> Iterator[None]:
 def cli_page() -> str:
     """docs/reference/cli.md: a contents list, then every command's --help."""
     from lgmd_sim.cli import build_parser
-    from lgmd_sim.envs.reference import REGENERATE
+    from scripts.reference.scenarios import REGENERATE
 
     commands = list(_commands(build_parser()))
     with _help_width(HELP_WIDTH):
@@ -101,3 +114,7 @@ def cli_page() -> str:
     for (path, _summary, _parser), text in zip(commands, helps, strict=True):
         lines += ["", f"## {' '.join(path)}", "", "```text", text, "```"]
     return "\n".join(lines) + "\n"
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -7,7 +7,7 @@ reward and episode end (`JitterEnv`'s docstring, with the scenario's values), th
 ``info`` (from a reset and a step, described by `OBSERVATION_KEYS`, `INFO_KEYS` and
 `TRUTH_KEYS`) and its arguments (`EnvParams`, the catalogue's overrides). A key that the
 environment returns and the code does not describe stops the generator. `scene_picture`
-renders a scenario from outside. ``lgmd-sim reference`` writes both.
+renders a scenario from outside. ``python -m scripts.reference`` writes both.
 """
 
 from __future__ import annotations
@@ -44,7 +44,7 @@ INSET_SHARE, INSET_DISTANCE = 0.4, 4.0
 PICTURE_SEED = 0
 #: The folder of the pictures, relative to the page.
 SCENES = "scenes"
-REGENERATE = "lgmd-sim reference --out docs/reference"
+REGENERATE = "python -m scripts.reference --out docs/reference"
 
 
 def packaged() -> dict[str, Scenario]:

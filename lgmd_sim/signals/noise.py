@@ -9,7 +9,7 @@ real camera's exposure, sensor noise, motion blur and compression.
   rotation about the centre, a translation on each axis and a brightness gain, their
   standard deviations L times `SHAKE_ROTATION_SD` (degrees), `SHAKE_SHIFT_SD` (pixels)
   and `SHAKE_GAIN_SD` (log gain); borders replicated. The synthetic stimuli shake with it
-  too (`lgmd_sim.stimuli.jittered`);
+  too (`lgmd_sim.signals.stimuli.jittered`);
 - ``exposure:L``: a real camera's auto-exposure, a global brightness gain that drifts
   smoothly: its log is a sum of `EXPOSURE_WAVES` sines of random frequency (in
   `EXPOSURE_CYCLES` per frame) and phase, drawn once per stream, with a standard deviation

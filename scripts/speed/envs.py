@@ -1,4 +1,4 @@
-"""`lgmd-sim speed envs`: environment steps per second against bare renders of its views.
+"""`python -m scripts.speed envs`: environment steps per second against bare renders of its views.
 
 For every scenario of the catalogue, at 120 x 160 and at the paper's 270 x 480:
 
@@ -24,7 +24,7 @@ import time
 import numpy as np
 
 from lgmd_sim.core.machine import cpu_name
-from lgmd_sim.speed import format_table, met
+from scripts.speed import format_table, met
 
 RESOLUTIONS = ((120, 160), (270, 480))
 #: The targets: a full step within this many bare renders of the same views, and two
@@ -101,7 +101,7 @@ def run(*, steps: int = 200, markdown: bool = False) -> int:
     single, scaling = measure(steps)
     from lgmd_sim.world.gl import BACKEND  # chosen by lgmd_sim.world when it loaded
 
-    print(f"# lgmd-sim speed envs: {steps} steps per run; CPU: {cpu_name()}, "
+    print(f"# python -m scripts.speed envs: {steps} steps per run; CPU: {cpu_name()}, "
           f"{os.cpu_count()} cores; MUJOCO_GL={BACKEND}")
     print(format_table(
         ["scenario", "size", "env steps/s", "bare renders/s", "step / render time",

@@ -12,8 +12,8 @@ from typing import Any
 import cv2
 import numpy as np
 
-from lgmd_sim import noise
 from lgmd_sim.core.params import Check, int_at_least, positive
+from lgmd_sim.signals import noise
 
 #: Texture amplitude around the background level (fraction of full scale).
 TEXTURE_AMPLITUDE = 0.1
@@ -104,7 +104,7 @@ def to_uint8(img: np.ndarray) -> np.ndarray:
 
 
 def jittered(stimulus: Stimulus, level: float, seed: int = 0) -> Stimulus:
-    """The same stimulus seen by a shaking camera: `lgmd_sim.noise`'s ``shake:level``.
+    """The same stimulus seen by a shaking camera: `lgmd_sim.signals.noise`'s ``shake:level``.
 
     Every frame gets an independent random rotation about the image centre, shift and
     brightness gain (their sizes per level: ``noise.SHAKE_*``); borders are replicated, so

@@ -8,7 +8,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from lgmd_sim.core.params import finite, one_of
-from lgmd_sim.stimuli.clip import (
+from lgmd_sim.signals.stimuli.clip import (
     BACKGROUNDS,
     Stimulus,
     count,

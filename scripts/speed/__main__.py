@@ -1,18 +1,20 @@
-"""`lgmd-sim speed`: its arguments, passed by name to the `run` of `lgmd_sim.speed.WHAT`."""
+"""`python -m scripts.speed WHAT`: the maintainers' speed benchmarks, run from the checkout's
+root; the arguments go by name to the `run` of `scripts.speed.WHAT`."""
 
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 
 from lgmd_sim.cli.args import positive_int, resolution
 
 
-def add(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser(
-        "speed", help="speed benchmarks (models, environments, front ends); print tables",
-        description="Speed benchmarks. They print figures and ratios measured in one run; "
-        "run them on a quiet machine.",
+def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(
+        prog="python -m scripts.speed",
+        description="Speed benchmarks (models, environments, front ends). They print figures "
+        "and ratios measured in one run; run them on a quiet machine.",
     )
     speed = p.add_subparsers(dest="what", required=True, metavar="WHAT")
     b = speed.add_parser(
@@ -123,6 +125,7 @@ def add(sub: argparse._SubParsersAction) -> None:
                    help="environments, one worker process each (default %(default)s)")
     b.add_argument("--markdown", action="store_true", help="print the table as Markdown")
 
+    return p
 
 def _frame_size(p: argparse.ArgumentParser) -> None:
     p.add_argument("--height", type=positive_int, default=270,
@@ -131,11 +134,16 @@ def _frame_size(p: argparse.ArgumentParser) -> None:
                    help="frame width in pixels (default %(default)s, the paper's)")
 
 
-def run(args: argparse.Namespace) -> int:
+def main(argv: list[str] | None = None) -> int:
     """The benchmark named by WHAT, with its options by name."""
     import inspect
     from importlib import import_module
 
-    job = import_module(f"lgmd_sim.speed.{args.what.replace('-', '_')}").run
+    args = build_parser().parse_args(argv)
+    job = import_module(f"scripts.speed.{args.what.replace('-', '_')}").run
     wanted = inspect.signature(job).parameters
     return job(**{k: v for k, v in vars(args).items() if k in wanted})
+
+
+if __name__ == "__main__":
+    sys.exit(main())

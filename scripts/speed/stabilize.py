@@ -1,4 +1,4 @@
-"""`lgmd-sim speed stabilize`: time per frame of each ego-motion front end, on one core.
+"""`python -m scripts.speed stabilize`: time per frame of each ego-motion front end, on one core.
 
 The frames are a far textured scene seen by a camera that turns by a seeded, random
 rotation of about 1 degree per frame (hand-held shake), so the image fit has real work.
@@ -20,7 +20,7 @@ from collections.abc import Callable
 import numpy as np
 
 from lgmd_sim.core.machine import cpu_name
-from lgmd_sim.speed import format_table, met, pin_to_one_core
+from scripts.speed import format_table, met, pin_to_one_core
 
 __all__ = ["rotating_scene", "run"]
 
@@ -84,7 +84,7 @@ def run(*, height: int = 270, width: int = 480, frames: int = 60,
     where = pin_to_one_core()
     frames, turns = rotating_scene(height, width, frames)
     n = len(frames)
-    print(f"# lgmd-sim speed stabilize: {height}x{width} uint8 frames of a camera "
+    print(f"# python -m scripts.speed stabilize: {height}x{width} uint8 frames of a camera "
           f"turning about 1 degree per frame, best of {RUNS} runs of {n} frames, one core")
     print(f"# CPU: {cpu_name()}, {where}; Python {platform.python_version()}")
 

@@ -1,6 +1,6 @@
 """Reading frames from a video file or a folder of images, and writing videos; RGB uint8.
 
->>> from lgmd_sim.video import VideoReader, video_writer
+>>> from lgmd_sim.signals.video import VideoReader, video_writer
 >>> clip = VideoReader("run.mp4")          # or a folder of frame0001.png, frame0002.png...
 >>> clip.fps, clip.frame_count
 >>> for rgb in clip: ...                   # (H, W, 3) uint8 frames, in order

@@ -1,4 +1,4 @@
-"""One episode of one cell of the closed-loop benchmark (`lgmd_sim.bench.closed_loop`),
+"""One episode of one cell of the closed-loop benchmark (`lgmd_sim.benchmark.closed_loop`),
 and its record: what is measured of it.
 
 Alarms are the controller's detector firing (an LGMD alarm, or the Oracle's trigger),
@@ -10,7 +10,7 @@ ground truth's at the first onset.
 Two kinds of task: a scenario with a goal (its infos carry ``goal_distance``), whose cells
 report collision and success rates and progress; and a roam task without one (ArenaRoam:
 a fixed time in a walled arena, collisions not ending the episode), whose cells report
-collisions per minute, the share of encounters avoided (`lgmd_sim.bench.encounters`
+collisions per minute, the share of encounters avoided (`lgmd_sim.benchmark.encounters`
 defines them), the distance travelled against the Oracle's and the share of the time
 spent manoeuvring. Every record carries both kinds of figure where they apply.
 """
@@ -25,12 +25,12 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from lgmd_sim import options
-from lgmd_sim.bench import encounters
-from lgmd_sim.bench.fingerprint import Fingerprint
+from lgmd_sim.benchmark import encounters
+from lgmd_sim.benchmark.fingerprint import Fingerprint
+from lgmd_sim.controllers import options
 from lgmd_sim.controllers.avoid import ReactiveParams
 from lgmd_sim.core.runs import NULL, NUMBER, Maybe
-from lgmd_sim.metrics import alarm_onsets
+from lgmd_sim.signals.metrics import alarm_onsets
 
 if TYPE_CHECKING:
     import gymnasium as gym
@@ -83,7 +83,7 @@ class Cell:
         return self.controller + (f": {detail}" if detail else "") + side
 
     def key(self, seed: int) -> str:
-        """The cell's record name for one seed (a file name: `lgmd_sim.options.file_key`)."""
+        """The cell's record name for one seed (a file name: `controllers.options.file_key`)."""
         detail = "".join(f"-{part}" for part in (self.model, self.preset, self.tag) if part)
         side = f"-{self.side}" if self.side else ""
         key = f"{self.scenario}-j{self.jitter:g}-{self.controller}{detail}{side}-s{seed}"
@@ -200,7 +200,7 @@ RECORD_FIELDS = {
     "first_alarm_ttc_s": (NUMBER, NULL), "lead_time_s": (NUMBER, NULL),
     "collisions": Maybe(int), "encounters": Maybe(int), "avoided": Maybe(int),
     "manoeuvring_share": Maybe((NUMBER, NULL)),
-    # recorded since fingerprints were (lgmd_sim.bench.fingerprint)
+    # recorded since fingerprints were (lgmd_sim.benchmark.fingerprint)
     "fingerprint": Maybe({"steps": int, "every": int, "chain": [str], "sha256": str}),
 }
 

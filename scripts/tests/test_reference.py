@@ -1,4 +1,4 @@
-"""`lgmd-sim reference`: the committed reference pages are what the code generates now, a
+"""`python -m scripts.reference`: the committed reference pages are what the code generates now, a
 key the environment returns undescribed stops the generator, the scene pictures show
 something, it prints each file it wrote, and a bad --out is refused in one line."""
 
@@ -8,21 +8,21 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from lgmd_sim import cli
-from lgmd_sim.envs import reference
+from scripts.reference import scenarios as reference
+from scripts.reference.__main__ import main
 
-DOCS = Path(__file__).resolve().parents[1] / "docs" / "reference"
+DOCS = Path(__file__).resolve().parents[2] / "docs" / "reference"
 
 
 @pytest.fixture(scope="module")
 def written(tmp_path_factory) -> tuple[Path, str]:
-    """The pages as `lgmd-sim reference --no-pictures` writes them now, and what it
+    """The pages as `python -m scripts.reference --no-pictures` writes them now, and what it
     printed."""
     out = tmp_path_factory.mktemp("reference")
     with pytest.MonkeyPatch.context() as mp:
         printed = io.StringIO()
         mp.setattr("sys.stdout", printed)
-        assert cli.main(["reference", "--out", str(out), "--no-pictures"]) == 0
+        assert main(["--out", str(out), "--no-pictures"]) == 0
     assert not (out / reference.SCENES).exists()  # --no-pictures: none rendered
     return out, printed.getvalue()
 
@@ -78,7 +78,7 @@ def test_scene_picture_shows_the_scene():
 def test_a_file_as_out_is_refused_in_one_line(tmp_path, capsys):
     out = tmp_path / "page.md"
     out.write_text("mine")
-    assert cli.main(["reference", "--out", str(out), "--no-pictures"]) == 2
+    assert main(["--out", str(out), "--no-pictures"]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "--out" in err and str(out) in err
     assert out.read_text() == "mine"

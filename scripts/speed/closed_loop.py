@@ -1,5 +1,5 @@
-"""`lgmd-sim speed closed-loop`: what the detector and the controller add to an episode, and
-how the benchmark scales with worker processes.
+"""`python -m scripts.speed closed-loop`: what the detector and the controller add to an
+episode, and how the benchmark scales with worker processes.
 
 In one run, on the same scenario and frame size:
 
@@ -9,7 +9,7 @@ In one run, on the same scenario and frame size:
   and the controller cost at most 10%). Timed apart, since an environment driven
   otherwise (a fixed action) goes elsewhere and renders other views: its own speed
   differed from the controller's runs by as much as the shares to be measured;
-- episodes of ``lgmd-sim bench closed-loop`` (`lgmd_sim.bench.episode.episode`) on one
+- episodes of ``lgmd-sim bench closed-loop`` (`lgmd_sim.benchmark.episode.episode`) on one
   and on two local workers, the same episodes: the speed-up (target 1.85x or more);
 - the environment alone stepping as many frames per episode, on one and on two workers:
   its own speed-up, the limit of the benchmark's, and the share of its two workers'
@@ -30,7 +30,8 @@ import time
 import numpy as np
 
 from lgmd_sim.core.machine import cpu_name
-from lgmd_sim.speed import format_table, met, on_warm_pool
+from lgmd_sim.envs.zone import CRUISE, FALSE_ALARM_HORIZON
+from scripts.speed import format_table, met, on_warm_pool
 
 #: The targets: the environment's share of the closed loop's time, the benchmark's two
 #: workers against one, and against the environment alone on two.
@@ -106,14 +107,15 @@ def measure_workers(scenario: str, resolution: str | list[int], episodes: int) -
     episode of its own (its imports, its environment and GL context, the models' compiled
     kernels), before the timing starts: a benchmark of a thousand episodes pays that once,
     and the seconds it took are reported beside."""
-    from lgmd_sim.bench.episode import Cell, episode
+    from lgmd_sim.benchmark.episode import Cell, episode
     from lgmd_sim.core.parallel import Job, run_jobs
 
     cell = Cell(scenario, 1.0, "reactive", "feedback", "paper")
 
     def jobs_of(seeds: range) -> list[Job]:
         return [Job(cell.key(s), episode, {"cell": cell, "seed": s, "resolution": resolution,
-                                           "cruise": 0.6, "horizon": 2.0}) for s in seeds]
+                                           "cruise": CRUISE, "horizon": FALSE_ALARM_HORIZON})
+                for s in seeds]
 
     def bare(jobs: list[Job], frames: dict[str, int]) -> list[Job]:
         return [Job(job.key, bare_episode, {
@@ -152,7 +154,7 @@ def run(*, scenario: str = "RoughTerrainObstacles", resolution: str | list[int] 
     names = models.available()
     overhead = measure_overhead(scenario, resolution, names, steps)
     workers = measure_workers(scenario, resolution, episodes)
-    print(f"# lgmd-sim speed closed-loop: {scenario} at {resolution}, {steps} "
+    print(f"# python -m scripts.speed closed-loop: {scenario} at {resolution}, {steps} "
           f"steps per run, {episodes} episodes per worker count; CPU: {cpu_name()}, "
           f"{os.cpu_count()} cores")
     print(format_table(

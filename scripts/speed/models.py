@@ -1,4 +1,4 @@
-"""`lgmd-sim speed models`: frames per second of every LGMD model on one core.
+"""`python -m scripts.speed models`: frames per second of every LGMD model on one core.
 
 For each model of `lgmd_sim.models.available()`: streaming frames/s (one stream, one
 frame per step), batched frames/s (N streams per step; frames counted over all streams),
@@ -27,7 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from lgmd_sim.core.machine import cpu_name
-from lgmd_sim.speed import format_table, met, pin_to_one_core
+from scripts.speed import format_table, met, pin_to_one_core
 
 __all__ = ["Row", "measure", "moving_texture", "run"]
 
@@ -135,7 +135,7 @@ def published_rate(path: Path, frames: np.ndarray) -> float:
     """Frames/s of the published Python LGMD (`PUBLISHED_CLASS` of the file `path`) on
     grey `frames`: written to a lossless video, which it reads and processes whole, as its
     ``run()`` does (one run: it is slow)."""
-    from lgmd_sim.video import video_writer
+    from lgmd_sim.signals.video import video_writer
 
     spec = importlib.util.spec_from_file_location("published_lgmd", path)
     module = importlib.util.module_from_spec(spec)
@@ -199,7 +199,7 @@ def run(*, height: int = 270, width: int = 480, frames: int = 300, streams: int 
         raise ValueError(f"--published {published}: no such file")
     where = pin_to_one_core()
     clip = moving_texture(height, width, 64)
-    print(f"# lgmd-sim speed models: {height}x{width} uint8 frames, best of "
+    print(f"# python -m scripts.speed models: {height}x{width} uint8 frames, best of "
           f"{RUNS} runs of {frames} frames (references: one run), one core")
     print(f"# CPU: {cpu_name()}, {where}; Python {platform.python_version()}, "
           f"numpy {np.__version__}, numba {numba.__version__}")

@@ -19,9 +19,10 @@ from typing import Any
 
 import numpy as np
 
-from lgmd_sim import metrics, models
+from lgmd_sim import models
 from lgmd_sim.core.fileio import write_files
 from lgmd_sim.core.plots import figure, model_style
+from lgmd_sim.signals import metrics
 
 __all__ = ["ARENA_VS_JITTER", "CLOSED_LOOP", "closed_loop", "closed_loop_figures",
            "draw_world", "encounters_figure", "map_bounds", "open_loop"]

@@ -18,7 +18,7 @@ from typing import Any
 import numpy as np
 
 from lgmd_sim.core.params import CheckedParams, int_at_least, one_of, param, positive
-from lgmd_sim.stimuli.clip import (
+from lgmd_sim.signals.stimuli.clip import (
     BACKGROUNDS,
     Stimulus,
     count,

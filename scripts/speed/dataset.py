@@ -1,4 +1,4 @@
-"""`lgmd-sim speed dataset`: dataset generation against the environment alone, and disk
+"""`python -m scripts.speed dataset`: dataset generation against the environment alone, and disk
 per frame.
 
 For each scenario, in one run, with the same workers, episodes, seeds and frame size:
@@ -35,7 +35,7 @@ import cv2
 from lgmd_sim.core.machine import cpu_name
 from lgmd_sim.core.parallel import Job, Pool, run_jobs
 from lgmd_sim.data.generate import GenerateConfig, generate
-from lgmd_sim.speed import format_table, met, on_warm_pool
+from scripts.speed import format_table, met, on_warm_pool
 
 #: The target: dataset generation at this share of the environment's frames per second.
 TARGET = 0.9
@@ -147,7 +147,7 @@ def run(*, scenarios: str = "all", episodes: int = 6, resolution: str | list[int
         workers: int = 2, repeat: int = 2, video: str = "huffyuv",
         markdown: bool = False) -> int:
     """Measure and print the dataset-generation speed table (Markdown with `markdown`)."""
-    from lgmd_sim import options
+    from lgmd_sim.controllers import options
     from lgmd_sim.data.layout import VIDEO_FORMATS
     from lgmd_sim.envs import catalogue
     from lgmd_sim.world.params import frame_size
@@ -156,7 +156,7 @@ def run(*, scenarios: str = "all", episodes: int = 6, resolution: str | list[int
     h, w = frame_size(resolution)
     rows = measure(names, episodes, resolution, workers, video, repeat)
     codec = VIDEO_FORMATS[video].codec
-    print(f"# lgmd-sim speed dataset: {h}x{w}, jitter 1, {episodes} episodes per "
+    print(f"# python -m scripts.speed dataset: {h}x{w}, jitter 1, {episodes} episodes per "
           f"scenario, {workers} workers, best of {repeat} rounds, frames "
           f"{video}; CPU: "
           f"{cpu_name()}, {os.cpu_count()} cores")

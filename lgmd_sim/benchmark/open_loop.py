@@ -24,10 +24,11 @@ from typing import Any
 
 import numpy as np
 
-from lgmd_sim import metrics, options
+from lgmd_sim.controllers import options
 from lgmd_sim.core.fileio import csv_text, write_files, write_text_atomic
 from lgmd_sim.core.parallel import Job, check_parallel, run_jobs
 from lgmd_sim.core.runs import NULL, NUMBER, RunFolder, RunResult
+from lgmd_sim.signals import metrics
 
 __all__ = ["Clip", "OpenLoopConfig", "clip_job", "run", "summarise",
            "summary_markdown"]
@@ -84,8 +85,9 @@ def _frames(clip: Clip, resolution: Any
 def clip_job(clip: Clip, detectors: Sequence[tuple[str, str]], noises: Sequence[str], *,
              resolution: Any, horizon: float, window: float, figure: bool) -> dict[str, Any]:
     """Run every detector on one clip and on each noisy version of it (a job)."""
-    from lgmd_sim import models, noise
+    from lgmd_sim import models
     from lgmd_sim.detect import detect
+    from lgmd_sim.signals import noise
 
     frames, ttc, collision, fps, infos = _frames(clip, resolution)
     record: dict[str, Any] = {
@@ -320,8 +322,8 @@ def run(config: OpenLoopConfig, out: str | Path, *, resume: bool = False,
         workers: int | None = None, ray_address: str | None = None,
         progress: bool | None = None, command: str = "") -> RunResult:
     """Run (or resume) the benchmark of `config` in folder `out`; write its tables and
-    figures (see `lgmd_sim.bench.closed_loop.run` for the arguments)."""
-    from lgmd_sim.bench import figures
+    figures (see `lgmd_sim.benchmark.closed_loop.run` for the arguments)."""
+    from lgmd_sim.benchmark import figures
     from lgmd_sim.models.check import preflight
 
     check_parallel(workers, ray_address)
