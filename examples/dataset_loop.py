@@ -25,6 +25,7 @@ from lgmd_sim import data
 from lgmd_sim.controllers import options
 from lgmd_sim.core.extras import MissingExtra
 from lgmd_sim.core.fileio import error_text, write_text_atomic
+from lgmd_sim.core.parallel import RunOptions
 from lgmd_sim.data.export import ExportConfig, export
 from lgmd_sim.data.generate import GenerateConfig, generate
 from lgmd_sim.detect.outputs import check_out_folder
@@ -43,7 +44,7 @@ def make(out: Path, scenarios: list[str], jitter: list[float], episodes: int,
         scenarios=tuple(scenarios), jitter=tuple(jitter), episodes=episodes,
         resolution=(64, 96),  # small frames: seconds, not minutes (even sizes, for H.264)
         models=(MODEL,))  # its potential and alarm on every frame, as label columns
-    summary = generate(config, out / "dataset", workers=workers, progress=False)
+    summary = generate(config, out / "dataset", RunOptions(workers=workers, progress=False))
     print(f"{summary.episodes} episodes, {summary.frames} frames in {out / 'dataset'}")
     return out / "dataset"
 

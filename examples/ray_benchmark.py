@@ -22,6 +22,7 @@ from lgmd_sim.benchmark.closed_loop import ClosedLoopConfig, run
 from lgmd_sim.benchmark.summary import summary_markdown
 from lgmd_sim.core.extras import MissingExtra
 from lgmd_sim.core.fileio import error_text
+from lgmd_sim.core.parallel import RunOptions
 from lgmd_sim.detect.outputs import check_out_folder
 
 
@@ -56,10 +57,10 @@ def benchmark(out: Path, ray: str, seeds: int, compare: bool) -> None:
                               detectors=(("lgmd1", "robot-image"),), seeds=seeds,
                               resolution="small")
     # resume=True: running the same command again completes an interrupted run
-    on_ray = run(config, out / "ray", ray_address=ray, resume=True, progress=False)
+    on_ray = run(config, out / "ray", RunOptions(ray_address=ray, resume=True, progress=False))
     print(summary_markdown(on_ray.rows))
     if compare:
-        here = run(config, out / "local", workers=1, resume=True, progress=False)
+        here = run(config, out / "local", RunOptions(workers=1, resume=True, progress=False))
         if here.rows != on_ray.rows:
             sys.exit("the local run's rows differ from the Ray run's")
         print(f"the same {len(here.rows)} rows in this process as on Ray")

@@ -20,6 +20,7 @@ from pathlib import Path
 from lgmd_sim.controllers import options
 from lgmd_sim.core.extras import MissingExtra
 from lgmd_sim.core.fileio import error_text
+from lgmd_sim.core.parallel import RunOptions
 from lgmd_sim.detect.outputs import check_out_folder
 from lgmd_sim.training.evaluate import EvalConfig, evaluate
 from lgmd_sim.training.run import TrainConfig, train
@@ -68,7 +69,7 @@ def run(out: Path, scenario: str, steps: int, seeds: int) -> None:
     # ground truth) on the same seeds and jitter level: eval.md holds the table.
     check = EvalConfig(policies=(str(out / "policy"),), controllers=("straight", "oracle"),
                        jitter=(1.0,), seeds=seeds)
-    evaluate(check, out / "eval", workers=1, progress=False)
+    evaluate(check, out / "eval", RunOptions(workers=1, progress=False))
     print((out / "eval" / "eval.md").read_text())
 
 

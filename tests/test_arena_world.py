@@ -14,7 +14,7 @@ from lgmd_sim.envs.catalogue import params_for
 from lgmd_sim.world import JitterWorld, SceneParams
 from lgmd_sim.world.gl import mujoco
 from lgmd_sim.world.params import WALL_GAP
-from lgmd_sim.world.scene import WALLS
+from lgmd_sim.world.pieces import WALLS
 
 TINY = (16, 16)  # frames are not looked at here: the smallest the SSIM allows
 

@@ -11,6 +11,7 @@ import pytest
 
 from lgmd_sim.benchmark import encounters
 from lgmd_sim.controllers.avoid import OracleParams
+from lgmd_sim.core.parallel import RunOptions
 from lgmd_sim.envs.zone import TriggerZone
 from lgmd_sim.signals import metrics
 
@@ -166,7 +167,8 @@ def record(controller: str, seed: int, *, scenario: str = "ArenaRoam", jitter: f
          "collided": collisions > 0, "goal_reached": False, "distance_m": distance,
          "alarms": 3, "false_alarms": 1, "first_alarm_ttc_s": None, "lead_time_s": None,
          "collisions": collisions, "collisions_per_min": float(collisions),
-         "encounters": found, "avoided": avoided, "manoeuvring_share": share}
+         "encounters": found, "avoided": avoided, "manoeuvring_share": share,
+         "fingerprint": {"steps": 1800, "every": 25, "chain": [], "sha256": "0" * 64}}
     if goal:
         r["progress"] = 0.5
     return r
@@ -296,12 +298,13 @@ def test_the_sides_identify_a_run_only_where_a_controller_takes_one():
     both, reversed_ = (ClosedLoopConfig(sides=("halves", "eyes")),
                        ClosedLoopConfig(sides=("eyes", "halves")))
     assert both.as_json() == reversed_.as_json()
-    assert both.as_json()["sides"] == ["halves", "eyes"]  # as runs before the fix wrote it
+    assert both.as_json()["sides"] == ["halves", "eyes"]  # the default first
     # the cells in the order asked for
     assert [c.side for c in reversed_.cells() if c.controller == "reactive"][:2] == [
         "eyes", None]
+    # sides no controller takes make no cell: the same run as without them
     sideless = ClosedLoopConfig(controllers=("straight", "oracle"), sides=("halves", "eyes"))
-    assert "sides" not in sideless.as_json()
+    assert sideless.as_json()["sides"] == [DEFAULT_SIDE]
     assert sideless.as_json() == ClosedLoopConfig(controllers=("straight", "oracle")).as_json()
 
 
@@ -319,7 +322,7 @@ def test_a_run_folders_configuration_reads_back_as_the_one_that_ran():
     back = ClosedLoopConfig.from_json(json.loads(json.dumps(ran.as_json())))
     assert back == ran  # sides in their recorded order: the default first
     assert back.cells() == ran.cells()  # an extra cell's detector too
-    assert "model" not in ran.as_json()["extra"][0]  # as runs before detectors wrote it
+    assert ran.as_json()["extra"][0]["model"] is None  # every key, whatever its value
     no_extra = ClosedLoopConfig(controllers=("straight",))
     assert ClosedLoopConfig.from_json(no_extra.as_json()) == no_extra
 
@@ -355,20 +358,20 @@ def test_the_markdown_has_a_table_per_task_kind_each_with_its_legend(tmp_path):
     assert goal_row["success_rate"] != ""
 
 
-def test_older_records_without_the_arena_fields_still_summarise():
-    """A run folder from before the arena task resumes: its goal records lack the new
-    fields, and read as goal tasks."""
-    from lgmd_sim.benchmark import episode, summary
+def test_a_record_missing_a_field_the_tables_read_is_refused():
+    """Every field of an episode's record is required (a goal task's progress aside): a
+    run folder of an older lgmd-sim is refused by its run.json's schema, never read as
+    if its records were complete."""
+    from lgmd_sim.benchmark import episode
     from lgmd_sim.core.runs import _mismatch
 
-    old = record("straight", 1000, scenario="RoughTerrainObstacles", goal=True)
-    for name in ("side", "task", "collisions", "collisions_per_min", "encounters", "avoided",
-                 "manoeuvring_share"):
-        del old[name]
-    assert _mismatch(old, episode.RECORD_FIELDS) is None
-    (row,) = summary.summarise([old])
-    assert row["task"] == "goal" and row["success_rate"] == 0.0
-    assert row["avoidance_rate"] is None
+    goal = record("straight", 1000, scenario="RoughTerrainObstacles", goal=True)
+    assert _mismatch(goal, episode.RECORD_FIELDS) is None
+    for name in ("side", "task", "collisions", "encounters", "avoided", "manoeuvring_share"):
+        old = {k: v for k, v in goal.items() if k != name}
+        assert name in _mismatch(old, episode.RECORD_FIELDS)
+    roam = roam_records()[0]
+    assert "progress" not in roam and _mismatch(roam, episode.RECORD_FIELDS) is None
 
 
 # --- the two ways of choosing the side ----------------------------------------------------
@@ -408,7 +411,7 @@ def test_a_controller_with_a_side_gets_a_cell_per_detector_and_side(sided):
     assert halves.params == () and halves.side is None
     assert halves.key(1000) == "StationaryApproach-j0-reactive-feedback-paper-s1000"
     assert config.as_json()["sides"] == ["halves", "eyes"]
-    assert "sides" not in ClosedLoopConfig().as_json()  # older run folders resume
+    assert ClosedLoopConfig().as_json()["sides"] == ["halves"]
     assert ClosedLoopConfig().cells() == ClosedLoopConfig(sides=("halves",)).cells()
 
 
@@ -457,7 +460,7 @@ def test_each_example_is_drawn_under_its_own_cells_label(tmp_path, monkeypatch):
     config = closed_loop.ClosedLoopConfig(
         scenarios=("StationaryApproach",), jitter=(0.0,), controllers=("straight", "oracle"),
         seeds=1, resolution="small")
-    closed_loop.run(config, tmp_path / "run", workers=1, progress=False)
+    closed_loop.run(config, tmp_path / "run", RunOptions(workers=1, progress=False))
     assert sorted((e["cell"], e["controller"]) for e in drawn["examples"]) == [
         ("oracle", "oracle"), ("straight", "straight")]
 
@@ -474,7 +477,7 @@ def test_the_arena_run_counts_encounters_and_draws_where_they_happened(tmp_path)
     config = closed_loop.ClosedLoopConfig(
         scenarios=("ArenaRoam",), jitter=(0.0,), controllers=("straight", "oracle"), seeds=1,
         resolution="small")
-    result = closed_loop.run(config, tmp_path / "arena", workers=1, progress=False)
+    result = closed_loop.run(config, tmp_path / "arena", RunOptions(workers=1, progress=False))
     out = result.path
     records = {r["controller"]: r for r in csv.DictReader((out / "episodes.csv").open())}
     assert {r["task"] for r in records.values()} == {"roam"}
@@ -520,7 +523,7 @@ def test_roam_figures_mark_each_encounter_and_report_no_success(tmp_path, monkey
     examples = [roam_example("oracle", [[1.0, 0.0, True], [2.0, 0.5, True]]),
                 roam_example("straight", [[1.0, 0.0, True], [3.0, 1.0, False]])]
     made = {}
-    monkeypatch.setattr(figures, "_save", lambda fig, path: (made.update({path.name: fig}),
+    monkeypatch.setattr(figures, "save_figure", lambda fig, path: (made.update({path.name: fig}),
                                                              path.write_bytes(b"png")))
     figures.closed_loop(tmp_path, rows, examples)
     names = figures.closed_loop_figures(rows, examples)
@@ -564,7 +567,7 @@ def test_a_roam_task_plots_collisions_per_minute_against_false_alarms(tmp_path, 
     roam = [record("straight", s, collisions=c) for s, c in ((1000, 3), (1001, 6))]
     rows = summary.summarise([*goal, *roam])
     made = {}
-    monkeypatch.setattr(figures, "_save", lambda fig, path: made.update({path.name: fig}))
+    monkeypatch.setattr(figures, "save_figure", lambda fig, path: made.update({path.name: fig}))
     figures.closed_loop(tmp_path, rows, [])
     axes = {ax.get_title(): ax for ax in made["false_alarms_vs_collisions.png"].axes}
     roam_ax, goal_ax = axes["ArenaRoam, jitter 0"], axes["RoughTerrainObstacles, jitter 0"]
@@ -576,7 +579,7 @@ def test_a_roam_task_plots_collisions_per_minute_against_false_alarms(tmp_path, 
 
 
 def test_the_world_drawing_helpers_are_public():
-    from lgmd_sim.benchmark import figures
+    from lgmd_sim.benchmark import drawing as figures
 
     assert {"draw_world", "map_bounds"} <= set(figures.__all__)
 
@@ -590,7 +593,7 @@ def test_a_path_that_goes_on_after_a_collision_ends_at_its_end(tmp_path, monkeyp
     example = roam_example("straight", [[1.0, 0.0, False]])
     example["top_view"]["collision_frame"] = 1
     made = {}
-    monkeypatch.setattr(figures, "_save", lambda fig, path: made.update({path.name: fig}))
+    monkeypatch.setattr(figures, "save_figure", lambda fig, path: made.update({path.name: fig}))
     figures.closed_loop(tmp_path, rows, [example])
     (ax,) = [a for a in made["trajectories.png"].axes if a.get_lines()]
     singles = {ln.get_marker(): (float(ln.get_xdata()[0]), float(ln.get_ydata()[0]))

@@ -360,7 +360,7 @@ def test_a_recalibrated_built_in_does_not_take_a_shipped_preset_s_name(tmp_path,
     from lgmd_sim.benchmark import run
     from lgmd_sim.calibration import run as calibration
 
-    def calibrate(config, folder, **_):  # what a calibration leaves, without its minutes
+    def calibrate(config, folder, options):  # what a calibration leaves, without its minutes
         folder.mkdir(parents=True)
         made = {"from": "published", "params": {"c_sig": 1.0, "threshold": 0.5}}
         (folder / "calibrated.json").write_text(json.dumps(

@@ -10,6 +10,8 @@ from pathlib import Path
 
 import pytest
 
+from lgmd_sim.core.parallel import RunOptions
+
 # The research log's tools (docs/experiments/tools/): the slow tier, out of the edit loop.
 pytestmark = pytest.mark.slow
 
@@ -24,7 +26,7 @@ def test_a_wall_driven_into_is_seen_ahead_and_a_replay_that_differs_is_left_out(
     # Straight at the wall of RobotWallAhead, seeds 0 and 1: both end against it.
     run(ClosedLoopConfig(scenarios=("RobotWallAhead",), jitter=(0.0,),
                          controllers=("straight",), seeds=2, first_seed=0),
-        bench, workers=1, progress=False)
+        bench, RunOptions(workers=1, progress=False))
     with (bench / "episodes.csv").open(newline="") as f:
         records = list(csv.DictReader(f))
     assert [r["collided"] for r in records] == ["True", "True"]
@@ -61,7 +63,7 @@ def test_a_loom_steer_collision_keeps_what_its_detector_said_before_it(tmp_path)
                          ("avoid_speed", 0.6)), tag="blind")
     run(ClosedLoopConfig(scenarios=("RobotWallAhead",), jitter=(0.0,), controllers=(),
                          extra=(blind,), seeds=1, first_seed=0),
-        bench, workers=1, progress=False)
+        bench, RunOptions(workers=1, progress=False))
     out = tmp_path / "views"
     subprocess.run([sys.executable, str(TOOLS / "collision_views.py"), str(bench),
                     str(out), "--workers", "1"], check=True, capture_output=True)

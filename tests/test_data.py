@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 
 from lgmd_sim import data
+from lgmd_sim.core.parallel import RunOptions
 from lgmd_sim.data import layout
 from lgmd_sim.data.generate import GenerateConfig, generate
 from lgmd_sim.data.verify import verify
@@ -39,7 +40,7 @@ def tree(root: Path) -> dict[str, bytes]:
 @pytest.fixture(scope="session")
 def dataset(tmp_path_factory) -> Path:
     out = tmp_path_factory.mktemp("data") / "tiny"
-    generate(CONFIG, out, workers=1, progress=False)
+    generate(CONFIG, out, RunOptions(workers=1, progress=False))
     return out
 
 
@@ -99,7 +100,7 @@ def test_clip_sampler_gives_every_window_once(dataset):
 
 @pytest.mark.slow
 def test_same_bytes_from_two_workers(dataset, tmp_path):
-    generate(CONFIG, tmp_path / "two", workers=2, progress=False)
+    generate(CONFIG, tmp_path / "two", RunOptions(workers=2, progress=False))
     assert tree(tmp_path / "two") == tree(dataset)
 
 
@@ -109,7 +110,7 @@ def test_same_bytes_on_ray(dataset, tmp_path):
     ray.init(num_cpus=2, include_dashboard=False, log_to_driver=False,
              configure_logging=False)
     try:
-        generate(CONFIG, tmp_path / "ray", ray_address="auto", progress=False)
+        generate(CONFIG, tmp_path / "ray", RunOptions(ray_address="auto", progress=False))
     finally:
         ray.shutdown()
     assert tree(tmp_path / "ray") == tree(dataset)
@@ -171,14 +172,14 @@ def test_torch_window_dataset(dataset):
 def test_other_video_formats_record_their_codec(tmp_path, video):
     config = GenerateConfig(("StationaryApproach",), (0.0,), 1, (32, 48), video=video,
                             overrides={"time_limit": 0.5})
-    generate(config, tmp_path / video, workers=1, progress=False)
+    generate(config, tmp_path / video, RunOptions(workers=1, progress=False))
     assert verify(tmp_path / video)[0] == []
     ds = data.open(tmp_path / video)
     fmt = layout.VIDEO_FORMATS[video]
     assert ds.info["features"][layout.VIDEO_KEY]["info"]["video.codec"] == fmt.codec
     assert ds[0].video_path.suffix == fmt.suffix
     assert ds[0].frames().shape == (16, 32, 48, 3)
-    generate(config, tmp_path / "again", workers=1, progress=False)
+    generate(config, tmp_path / "again", RunOptions(workers=1, progress=False))
     assert tree(tmp_path / "again") == tree(tmp_path / video)  # the same bytes again
 
 

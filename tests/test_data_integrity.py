@@ -16,6 +16,7 @@ from pathlib import Path
 import pytest
 
 from lgmd_sim import data
+from lgmd_sim.core.parallel import RunOptions
 from lgmd_sim.data import layout
 from lgmd_sim.data.generate import GenerateConfig, generate
 from lgmd_sim.data.verify import verify
@@ -30,7 +31,7 @@ CONFIG = GenerateConfig(("HandheldApproach",), (0.0,), 2, (16, 24), models=("fee
 @pytest.fixture(scope="module")
 def made(tmp_path_factory) -> Path:
     out = tmp_path_factory.mktemp("integrity") / "ds"
-    generate(CONFIG, out, workers=1, progress=False)
+    generate(CONFIG, out, RunOptions(workers=1, progress=False))
     return out
 
 
@@ -278,7 +279,7 @@ def test_two_datasets_in_folders_of_one_name_load_their_own_rows_through_one_cac
         pytest.skip("datasets is not installed here")
     other = tmp_path / "other" / made.name
     generate(replace(CONFIG, episodes=1, seed=7, overrides={"time_limit": 0.3}), other,
-             workers=1, progress=False)
+             RunOptions(workers=1, progress=False))
     columns = ["episode_index", "frame_index", "time", "threat_distance"]
     code = ("import json, sys, datasets; print(json.dumps([datasets.load_dataset(d, "
             "cache_dir=sys.argv[1])['train'].select_columns(sys.argv[2].split(',')).to_dict() "

@@ -17,6 +17,7 @@ import pytest
 from test_data import ARGS, CONFIG, tree  # tests/ is on sys.path
 
 from lgmd_sim.cli import main
+from lgmd_sim.core.parallel import RunOptions
 from lgmd_sim.data import layout
 from lgmd_sim.data.generate import GenerateConfig, _complete, generate
 
@@ -105,7 +106,7 @@ def test_killed_run_resumes_to_the_same_bytes(tmp_path):
     assert result.returncode == 0, result.stderr
     assert f"{len(done)} kept" in result.stdout
     clean = tmp_path / "clean"
-    generate(CONFIG, clean, workers=1, progress=False)
+    generate(CONFIG, clean, RunOptions(workers=1, progress=False))
     assert tree(out) == tree(clean)
 
 

@@ -9,6 +9,8 @@ from pathlib import Path
 
 import pytest
 
+from lgmd_sim.core.parallel import RunOptions
+
 ROOT = Path(__file__).resolve().parents[1]
 PAGES = [ROOT / "README.md", ROOT / "CONTRIBUTING.md", ROOT / "CHANGELOG.md",
          *sorted((ROOT / "docs").rglob("*.md"))]
@@ -135,8 +137,8 @@ def test_the_api_closed_loop_example_s_controllers_differ(tmp_path):
     (the Oracle), as the text below it says."""
     from lgmd_sim.benchmark.closed_loop import run
 
-    rows = run(_closed_loop_example_config(), tmp_path / "run", workers=1,
-               progress=False).rows
+    rows = run(_closed_loop_example_config(), tmp_path / "run",
+               RunOptions(workers=1, progress=False)).rows
     rate = {(r["controller"], r["model"]): r["collision_rate"] for r in rows}
     assert rate["straight", None] == 1.0 and rate["oracle", None] == 0.0, rate
     assert "`straight` collides in both, the Oracle in neither" in " ".join(

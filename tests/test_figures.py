@@ -80,13 +80,13 @@ def examples(cells=CELLS) -> list[dict]:
 
 def draw(folder, rows, tops, monkeypatch) -> dict:
     """The figures drawn from the rows and top views, by file name (and written)."""
-    made, save = {}, figures._save
+    made, save = {}, figures.save_figure
 
     def keep(fig, path):
         save(fig, path)
         made[path.name] = fig
 
-    monkeypatch.setattr(figures, "_save", keep)
+    monkeypatch.setattr(figures, "save_figure", keep)
     figures.closed_loop(folder, rows, tops)
     assert {p.name for p in folder.glob("*.png")} == set(made)
     return made

@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 
 from lgmd_sim import data
+from lgmd_sim.core.parallel import RunOptions
 from lgmd_sim.data import layout
 from lgmd_sim.data.card import configs
 from lgmd_sim.data.generate import GenerateConfig, generate
@@ -30,7 +31,7 @@ QUANTILES = {"q01": 0.01, "q10": 0.10, "q50": 0.50, "q90": 0.90, "q99": 0.99}
 @pytest.fixture(scope="module")
 def dataset(tmp_path_factory) -> Path:
     out = tmp_path_factory.mktemp("lerobot") / "tiny"
-    generate(CONFIG, out, workers=1, progress=False)
+    generate(CONFIG, out, RunOptions(workers=1, progress=False))
     return out
 
 
@@ -78,9 +79,9 @@ def test_stats_json_holds_lerobots_statistics_of_every_label(dataset):
 
 def test_resume_keeps_the_finished_episodes_and_the_same_bytes(dataset, tmp_path):
     again = tmp_path / "again"
-    generate(CONFIG, again, workers=1, progress=False)
+    generate(CONFIG, again, RunOptions(workers=1, progress=False))
     before = {p: p.read_bytes() for p in (again / "data").rglob("*.parquet")}
-    summary = generate(CONFIG, again, workers=1, progress=False)
+    summary = generate(CONFIG, again, RunOptions(workers=1, progress=False))
     assert (summary.made, summary.kept) == (0, 4)
     assert {p: p.read_bytes() for p in (again / "data").rglob("*.parquet")} == before
     for rel in ("meta/stats.json", layout.data_path(3)):
@@ -293,7 +294,7 @@ def test_a_dataset_made_before_the_index_column_resumes_and_gets_it(dataset, tmp
     info = json.loads((old / layout.INFO).read_text())
     del info["features"]["index"]
     (old / layout.INFO).write_text(json.dumps(info))
-    summary = generate(CONFIG, old, workers=1, progress=False)
+    summary = generate(CONFIG, old, RunOptions(workers=1, progress=False))
     assert (summary.made, summary.kept) == (0, 4)
     for rel in (layout.STATS, layout.INFO, layout.data_path(0), layout.data_path(3)):
         assert (old / rel).read_bytes() == (dataset / rel).read_bytes(), rel

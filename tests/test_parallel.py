@@ -8,7 +8,7 @@ import signal
 
 import pytest
 
-from lgmd_sim.core.parallel import Job, Pool, WorkerDied, run_jobs
+from lgmd_sim.core.parallel import Job, Pool, RunOptions, WorkerDied, run_jobs
 
 
 def square(x: int) -> dict[str, int]:  # importable by spawned workers (tests/ is on sys.path)
@@ -19,9 +19,10 @@ def die(x: int) -> None:
     os.kill(os.getpid(), signal.SIGKILL)
 
 
-def _collect(jobs, **kwargs) -> dict[str, dict]:
+def _collect(jobs, pool=None, **options) -> dict[str, dict]:
     results: dict[str, dict] = {}
-    run_jobs(jobs, lambda job, r: results.__setitem__(job.key, r), progress=False, **kwargs)
+    run_jobs(jobs, lambda job, r: results.__setitem__(job.key, r),
+             RunOptions(progress=False, **options), pool=pool)
     return results
 
 
@@ -39,7 +40,7 @@ def test_a_killed_worker_is_named_and_earlier_results_are_kept():
     jobs = [Job("a-first", square, {"x": 1}), Job("b-dies", die, {"x": 2})]
     got: list[str] = []
     with pytest.raises(WorkerDied, match="b-dies"):
-        run_jobs(jobs, lambda job, r: got.append(job.key), workers=2, progress=False)
+        run_jobs(jobs, lambda job, r: got.append(job.key), RunOptions(workers=2, progress=False))
     assert got in ([], ["a-first"])  # a-first may or may not have finished first
 
 
@@ -47,7 +48,7 @@ def test_bad_arguments():
     with pytest.raises(ValueError, match="unique"):
         run_jobs([Job("a", square, {"x": 1})] * 2, lambda *a: None)
     with pytest.raises(ValueError, match="workers"):
-        run_jobs([Job("a", square, {"x": 1})], lambda *a: None, workers=0)
+        run_jobs([Job("a", square, {"x": 1})], lambda *a: None, RunOptions(workers=0))
 
 
 def test_a_pool_keeps_its_workers_from_run_to_run():
@@ -71,6 +72,7 @@ def test_a_failed_run_closes_its_pool():
 def test_a_pool_is_not_given_with_workers_or_ray():
     with Pool(1) as pool:
         with pytest.raises(ValueError, match="not both"):
-            run_jobs([Job("a", square, {"x": 1})], lambda *a: None, pool=pool, workers=2)
+            run_jobs([Job("a", square, {"x": 1})], lambda *a: None, RunOptions(workers=2),
+                     pool=pool)
     with pytest.raises(ValueError, match="workers"):
         Pool(0)

@@ -19,7 +19,7 @@ from pathlib import Path
 import pytest
 
 from lgmd_sim.cli import main
-from lgmd_sim.core.parallel import Job, WorkerDied, run_jobs
+from lgmd_sim.core.parallel import Job, RunOptions, WorkerDied, run_jobs
 
 pytest.importorskip("pyarrow")
 if not sys.platform.startswith("linux"):
@@ -152,12 +152,12 @@ def test_a_job_s_exception_in_a_worker_is_raised_here_with_its_traceback():
     got: list[int] = []
     with pytest.raises(ValueError, match=r"^bad x: 3$") as raised:
         run_jobs([Job(f"j{x}", refuse, {"x": x}) for x in range(4)],
-                 lambda job, result: got.append(result), workers=2, progress=False)
+                 lambda job, result: got.append(result), RunOptions(workers=2, progress=False))
     assert "in refuse" in str(raised.value.__cause__)  # the worker's traceback
     assert set(got) <= {0, 1, 2}
     with pytest.raises(RuntimeError, match="a function cannot be sent back from its worker"):
         run_jobs([Job(f"j{x}", unpicklable, {"x": x}) for x in range(2)],
-                 lambda job, result: None, workers=2, progress=False)
+                 lambda job, result: None, RunOptions(workers=2, progress=False))
 
 
 def stopped_in_a_callback(signum: int) -> str:
@@ -184,7 +184,7 @@ def test_a_worker_stopped_in_a_c_callback_stops_at_once_and_quietly(capfd):
     with pytest.raises(WorkerDied, match=r"while running [ab]$"):  # it stopped, not its job
         run_jobs([Job("a", stopped_in_a_callback, {"signum": signal.SIGTERM}),
                   Job("b", stopped_in_a_callback, {"signum": signal.SIGTERM})],
-                 lambda job, result: None, workers=2, progress=False)
+                 lambda job, result: None, RunOptions(workers=2, progress=False))
     assert time.monotonic() - start < 15
     err = capfd.readouterr().err
     assert "Exception ignored" not in err and "Traceback" not in err, err
@@ -229,12 +229,13 @@ def big_result_then_die(size: int) -> bytes:
 
 def test_a_worker_killed_while_sending_its_result_ends_the_run_in_one_line(tmp_path):
     script = ("import sys\n"
-              "from lgmd_sim.core.parallel import Job, WorkerDied, run_jobs\n"
+              "from lgmd_sim.core.parallel import Job, RunOptions, WorkerDied, run_jobs\n"
               "from test_process_lifetime import big_result_then_die\n"
               "jobs = [Job(f'j{i}', big_result_then_die, {'size': 64 << 20})\n"
               "        for i in range(2)]\n"
               "try:\n"
-              "    run_jobs(jobs, lambda job, result: None, workers=2, progress=False)\n"
+              "    run_jobs(jobs, lambda job, result: None,\n"
+              "             RunOptions(workers=2, progress=False))\n"
               "except WorkerDied as exc:\n"
               "    sys.exit(f'WorkerDied: {exc}')\n")
     for _ in range(2):

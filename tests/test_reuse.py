@@ -13,7 +13,7 @@ import pytest
 from lgmd_sim.benchmark.episode import Cell, episode
 from lgmd_sim.calibration import clips
 from lgmd_sim.core import parallel
-from lgmd_sim.core.parallel import Job, kept, run_jobs
+from lgmd_sim.core.parallel import Job, RunOptions, kept, run_jobs
 
 
 class Thing:
@@ -37,7 +37,8 @@ def _in_a_run(fn, calls: list[dict]) -> list:
     """`fn(**kwargs)` of every call, as the jobs of one in-process run, in order."""
     out: dict[str, object] = {}
     run_jobs([Job(f"{i:03d}", fn, kw) for i, kw in enumerate(calls)],
-             lambda job, result: out.__setitem__(job.key, result), workers=1, progress=False)
+             lambda job, result: out.__setitem__(job.key, result),
+             RunOptions(workers=1, progress=False))
     return [out[f"{i:03d}"] for i in range(len(calls))]
 
 

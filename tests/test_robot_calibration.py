@@ -15,6 +15,7 @@ from lgmd_sim import cli, models
 from lgmd_sim.calibration import clips, robot, run
 from lgmd_sim.calibration.objective import THRESHOLDS
 from lgmd_sim.controllers import options
+from lgmd_sim.core.parallel import RunOptions
 from lgmd_sim.models import presets
 
 #: Frames 0..100 of a straight approach: time to collision (100 - t) / 30 s, so that the
@@ -178,17 +179,22 @@ DETECTORS = ["feedback", "feedback-open-loop", "lgmd1", "lgmd2", "f_on", "f_off"
                                         "f_on", "f_off") for front in ("image", "imu"))]
 
 
-def test_a_walker_run_is_identified_as_before():
-    # as_json before there were tasks (958496c), at the defaults: old folders still resume
+#: What every calibration run records of its clips beyond its groups: plain looks, the
+#: world's field of view, the paper's alarm rule.
+PLAIN = {"alarm": {"frames": 1, "rising": False},
+         "looks": {"": {"noise": "", "scene": {}, "background": "texture"}}, "fovy": None}
+
+
+def test_a_walker_run_is_identified_by_every_key_of_its_configuration():
     assert json.loads(json.dumps(run.CalibrateConfig().as_json())) == {
-        "calibration": 1, "detectors": DETECTORS, "budget": 32, "search_seeds": [0, 8],
-        "heldout_seeds": [100, 8], "resolution": "rl",
+        "calibration": 1, "task": "walker", "cruise": None, "detectors": DETECTORS,
+        "budget": 32, "search_seeds": [0, 8], "heldout_seeds": [100, 8], "resolution": "rl",
         "groups": {"jitter": [["HandheldApproach", [1.0, 1.5]],
                               ["MutualApproach", [1.0, 1.5]]],
                    "stationary": [["StationaryApproach", [0.0]], ["HandheldApproach", [0.0]],
                                   ["MutualApproach", [0.0]]],
                    "near_miss": [["PassBy", [0.0, 1.0]]]},
-        "late": 0.15, "seed": 0}
+        "late": 0.15, **PLAIN, "seed": 0}
 
 
 def test_a_robot_run_is_identified_by_its_clips_cruise_and_window():
@@ -198,7 +204,7 @@ def test_a_robot_run_is_identified_by_its_clips_cruise_and_window():
         "budget": 32, "search_seeds": [0, 8], "heldout_seeds": [100, 8], "resolution": "rl",
         "groups": {"approach": [["RobotApproach", jitters], ["RobotWallAhead", jitters]],
                    "clear": [["RobotOpenGround", jitters], ["RobotPassBy", jitters]]},
-        "window": [0.6, 1.15], "horizon": 2.0, "ahead": 90.0, "seed": 0}
+        "window": [0.6, 1.15], "horizon": 2.0, "ahead": 90.0, **PLAIN, "seed": 0}
 
 
 def test_the_window_is_the_one_the_oracle_measured():
@@ -234,7 +240,7 @@ def test_a_tiny_robot_calibration_end_to_end(tmp_path, monkeypatch):
     out = tmp_path / "cal"
     result = run.calibrate(run.CalibrateConfig(
         task="robot", detectors=("lgmd1", "lgmd1+imu"), budget=2, seeds=1,
-        resolution="small"), out, workers=1, progress=False)
+        resolution="small"), out, RunOptions(workers=1, progress=False))
     data = json.loads((out / "calibrated.json").read_text())
     assert set(data["presets"]["lgmd1"]) == {"robot", "robot-imu"}
     entry = data["presets"]["lgmd1"]["robot-imu"]

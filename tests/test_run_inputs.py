@@ -137,6 +137,25 @@ def test_a_run_record_of_another_shape_is_one_line_naming_it(tmp_path, text):
     assert "\n" not in str(exc.value)
 
 
+def test_a_run_of_an_older_lgmd_sim_is_refused_in_one_line_that_says_to_rerun(
+        closed, tmp_path, capsys):
+    """run.json carries its schema; a run folder written before it (or by another schema)
+    is not converted: resuming it is one line naming the file and saying to run it again."""
+    from lgmd_sim.core.runs import SCHEMA
+
+    out = tmp_path / "old"
+    shutil.copytree(closed, out)
+    record = json.loads((out / "run.json").read_text())
+    assert record["schema"] == SCHEMA
+    del record["schema"]  # as an older lgmd-sim wrote it
+    (out / "run.json").write_text(json.dumps(record))
+    assert cli.main([*CLOSED, "--out", str(out), "--resume"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and str(out / "run.json") in err
+    assert "record schema 1" in err and "run it again into a new folder" in err
+    assert (out / "summary.csv").read_bytes() == (closed / "summary.csv").read_bytes()
+
+
 def test_an_identity_file_of_another_shape_is_one_line_naming_it(tmp_path):
     (tmp_path / "config.json").write_text("[1, 2]")
     with pytest.raises(ValueError, match=r"config\.json"):
@@ -147,8 +166,10 @@ def test_an_identity_file_of_another_shape_is_one_line_naming_it(tmp_path):
 
 # A training run as resuming reads it: its record and its checkpoint's state.json (a state
 # that passes gets as far as loading the checkpoint, which is not there).
-TRAINING = {"config": {"obs": "privileged", "model": None, "env": "lgmd_sim/StationaryApproach-v0",
-                       "resolution": "small", "envs": 1, "steps": 64, "hp": ["n_steps=64"]},
+TRAINING = {"schema": 2,
+            "config": {"obs": "privileged", "model": None,
+                       "env": "lgmd_sim/StationaryApproach-v0", "resolution": "small",
+                       "envs": 1, "steps": 64, "hp": ["n_steps=64"]},
             "sessions": [{"env_seeds": [0, 1], "steps": [0, 64]}]}
 
 
@@ -313,27 +334,34 @@ def test_the_missing_extra_hint_is_a_command_that_works_from_a_checkout(monkeypa
     assert "from a checkout of lgmd-sim: pip install -c constraints.txt '.[rl]'" in message
 
 
-@pytest.mark.parametrize("job", ["closed-loop", "open-loop", "calibrate", "dataset"])
 @pytest.mark.parametrize("how, why", [({"workers": 0}, "workers must be a positive integer"),
-                                      ({"ray_address": "127.0.0.1:1"}, "no Ray cluster")])
-def test_how_the_jobs_run_is_checked_before_the_run_folder(tmp_path, job, how, why):
-    """Through the API: the run folder was made (run.json, "running") before a bad
-    `workers` or a Ray address where nothing answers was refused."""
-    from lgmd_sim.benchmark import closed_loop, open_loop
-    from lgmd_sim.calibration.run import CalibrateConfig, calibrate
-    from lgmd_sim.data.generate import GenerateConfig, generate
+                                      ({"workers": True}, "workers must be a positive integer"),
+                                      ({"ray_address": "127.0.0.1:1"}, "no Ray cluster"),
+                                      ({"ray_address": "nowhere"}, "give local, auto")])
+def test_how_the_jobs_run_is_refused_when_it_is_made(how, why):
+    """Every job that keeps a run folder takes a RunOptions: a bad `workers` or a Ray
+    address where nothing answers is refused when the options are made, so that no job
+    can start (nor make its folder) with them."""
+    from lgmd_sim.core.parallel import RunOptions
 
-    out = tmp_path / "out"
-    run, config = {  # each made only when asked for
-        "closed-loop": lambda: (closed_loop.run, closed_loop.ClosedLoopConfig(
-            scenarios=("StationaryApproach",), controllers=("straight",), seeds=1)),
-        "open-loop": lambda: (open_loop.run, open_loop.OpenLoopConfig(
-            scenarios=("StationaryApproach",), detectors=(("lgmd1", "published"),), seeds=1)),
-        "calibrate": lambda: (calibrate, CalibrateConfig(detectors=("lgmd1",), budget=1,
-                                                         seeds=1)),
-        "dataset": lambda: (generate, GenerateConfig(scenarios=("StationaryApproach",),
-                                                     jitter=(0.0,), episodes=1)),
-    }[job]()
     with pytest.raises(ValueError, match=why):
-        run(config, out, **how)
-    assert not out.exists()
+        RunOptions(**how)
+
+
+def test_every_job_takes_how_it_runs_as_one_run_options():
+    """One RunOptions instead of the tail (workers, ray_address, progress, resume, command)
+    each job's signature repeated."""
+    import inspect
+
+    from lgmd_sim.benchmark import closed_loop, open_loop, run, verify
+    from lgmd_sim.calibration.run import calibrate
+    from lgmd_sim.core.parallel import RunOptions, run_jobs
+    from lgmd_sim.data.generate import generate
+    from lgmd_sim.training.evaluate import evaluate
+
+    jobs = [closed_loop.run, open_loop.run, calibrate, generate, evaluate, run.benchmark,
+            run.calibrated, verify.verify, run_jobs]
+    for job in jobs:
+        parameters = inspect.signature(job).parameters
+        assert parameters["options"].annotation in (RunOptions, "RunOptions"), job
+        assert not {"workers", "ray_address", "progress", "resume", "command"} & set(parameters)

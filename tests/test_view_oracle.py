@@ -16,7 +16,7 @@ from lgmd_sim.controllers import make, rollout
 from lgmd_sim.controllers.avoid import OracleParams
 from lgmd_sim.envs.zone import in_trigger_zone
 from lgmd_sim.world.gl import mujoco
-from lgmd_sim.world.scene import HIDDEN
+from lgmd_sim.world.pieces import HIDDEN
 from lgmd_sim.world.view import CameraView
 
 # RoughTerrainObstacles' obstacles by kind (its obstacle_kinds, cycled)

@@ -150,7 +150,7 @@ def drive(seed: int, jitter: float, detector: str, how: str | None = None,
 
 def _top_view_bounds(ep: AvoidEpisode) -> np.ndarray:
     """(x0, y0), (x1, y1) around the path, the obstacles and the goal."""
-    from lgmd_sim.benchmark.figures import map_bounds
+    from lgmd_sim.benchmark.drawing import map_bounds
 
     return map_bounds([{"top_view": {**ep.view, "path": ep.path}}])
 
@@ -173,7 +173,7 @@ def figure(ep: AvoidEpisode) -> Figure:
     collision against time; each alarm onset numbered on both."""
     from matplotlib import patheffects
 
-    from lgmd_sim.benchmark.figures import draw_world
+    from lgmd_sim.benchmark.drawing import draw_world
     from lgmd_sim.core.plots import COLLISION, figure, model_style
     from lgmd_sim.detect.figure import draw_thresholds
 
@@ -259,7 +259,7 @@ class _Compositor:
     so far, its manoeuvres and alarm onsets (RGB). The map's world is drawn once."""
 
     def __init__(self, ep: AvoidEpisode) -> None:
-        from lgmd_sim.benchmark.figures import draw_world
+        from lgmd_sim.benchmark.drawing import draw_world
         from lgmd_sim.core.plots import figure
 
         self.ep = ep

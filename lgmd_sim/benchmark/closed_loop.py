@@ -25,7 +25,7 @@ from lgmd_sim.benchmark.episode import DEFAULT_SIDE, RECORD_FIELDS, Cell, episod
 from lgmd_sim.benchmark.summary import cell_of, summarise, write_tables
 from lgmd_sim.controllers import options
 from lgmd_sim.core.fileio import atomic_folder_outputs
-from lgmd_sim.core.parallel import Job, check_parallel, run_jobs
+from lgmd_sim.core.parallel import Job, RunOptions, run_jobs
 from lgmd_sim.core.runs import RunFolder, RunResult
 from lgmd_sim.envs.zone import CRUISE, FALSE_ALARM_HORIZON
 
@@ -127,9 +127,9 @@ class ClosedLoopConfig:
     def from_json(cls, config: dict[str, Any]) -> ClosedLoopConfig:
         """The configuration a run folder's run.json records (`as_json`'s inverse)."""
         extra = tuple(Cell(e["scenario"], float(e["jitter"]), e["controller"],
-                           e.get("model"), e.get("preset"),
+                           e["model"], e["preset"],
                            params=tuple(e["params"].items()), tag=e["tag"])
-                      for e in config.get("extra", ()))
+                      for e in config["extra"])
         return cls(
             scenarios=tuple(config["scenarios"]), jitter=tuple(config["jitter"]),
             controllers=tuple(config["controllers"]),
@@ -137,8 +137,7 @@ class ClosedLoopConfig:
             first_seed=config["seeds"][0], seeds=config["seeds"][1],
             resolution=config["resolution"], cruise=config["cruise"],
             horizon=config["horizon"], extra=extra,
-            sides=tuple(config.get("sides", (DEFAULT_SIDE,))),
-            top_views=config.get("top_views", 1))
+            sides=tuple(config["sides"]), top_views=config["top_views"])
 
     def as_json(self) -> dict[str, Any]:
         """The configuration as the run folder records it (what identifies the run)."""
@@ -151,20 +150,15 @@ class ClosedLoopConfig:
             "seeds": [self.first_seed, self.seeds],
             "resolution": self.resolution, "cruise": self.cruise, "horizon": self.horizon,
         }
-        # only where a cell takes a side, so that a run from before sides still resumes;
-        # the default first, then by name: the cells' order is not the run's identity
-        if self.sides != (DEFAULT_SIDE,) and any(
-                "side" in controller_class(c).Params.names() for c in self.controllers):
-            out["sides"] = sorted(self.sides, key=lambda side: (side != DEFAULT_SIDE, side))
-        if self.top_views != 1:  # only then, so that a run from before it still resumes
-            out["top_views"] = self.top_views
-        if self.extra:
-            # a cell's detector only where it has one, so that a run from before still
-            # resumes
-            out["extra"] = [{"scenario": c.scenario, "jitter": c.jitter,
-                             "controller": c.controller,
-                             **({"model": c.model, "preset": c.preset} if c.model else {}),
-                             "params": dict(c.params), "tag": c.tag} for c in self.extra]
+        # the sides only where a cell takes one (they make no other cell); the default
+        # first, then by name: the cells' order is not the run's identity
+        sided = any("side" in controller_class(c).Params.names() for c in self.controllers)
+        out["sides"] = sorted(self.sides if sided else (DEFAULT_SIDE,),
+                              key=lambda side: (side != DEFAULT_SIDE, side))
+        out["top_views"] = self.top_views
+        out["extra"] = [{"scenario": c.scenario, "jitter": c.jitter, "controller": c.controller,
+                         "model": c.model, "preset": c.preset, "params": dict(c.params),
+                         "tag": c.tag} for c in self.extra]
         # every parameter of every detector a cell runs, as its preset resolves today: a
         # preset recalibrated (or a default changed) since the run began is another run
         detectors = sorted({(c.model, c.preset) for c in self.cells() if c.model})
@@ -189,37 +183,32 @@ def _check_side(side: str) -> None:
         raise ValueError(f"--sides {side!r}: {exc}") from None
 
 
-def run(config: ClosedLoopConfig, out: str | Path, *, resume: bool = False,
-        workers: int | None = None, ray_address: str | None = None,
-        progress: bool | None = None, command: str = "") -> RunResult:
+def run(config: ClosedLoopConfig, out: str | Path, options: RunOptions = RunOptions()
+        ) -> RunResult:
     """Run (or resume) the benchmark of `config` in folder `out`; write its tables and
     figures; return the summary rows (one per cell, as in summary.csv) and the files.
 
     Args:
         config: what runs.
-        out: the run folder: new, empty, or (with `resume`) holding this configuration's
-            run, whose finished episodes are kept.
-        workers: local worker processes (default: every core; 1: in this process).
-        ray_address: run the episodes as Ray tasks ("local", "auto" or "HOST:PORT").
-        progress: show a progress bar (None: only on a terminal).
-        command: the command line, for the run's record.
+        out: the run folder: new, empty, or (with ``options.resume``) holding this
+            configuration's run, whose finished episodes are kept.
+        options: how it runs (workers, Ray, progress, resume, the command line).
     """
     from lgmd_sim.benchmark import figures
     from lgmd_sim.models.check import preflight
 
     cells = config.cells()
-    check_parallel(workers, ray_address)
     preflight((c.model, c.preset) for c in cells if c.model)
     seeds = config.seed_list
-    folder = RunFolder(out, config.as_json(), command, resume=resume)
+    folder = RunFolder(out, config.as_json(), options.command, resume=options.resume)
     done = folder.done()
     episode_options = {"resolution": config.resolution, "cruise": config.cruise,
                        "horizon": config.horizon}
     jobs = [Job(cell.key(seed), episode, {"cell": cell, "seed": seed, **episode_options,
                                          "top_view": seed in seeds[:config.top_views]})
             for cell in cells for seed in seeds if cell.key(seed) not in done]
-    run_jobs(jobs, lambda job, record: folder.store(job.key, record), workers=workers,
-             ray_address=ray_address, progress=progress, desc="closed-loop")
+    run_jobs(jobs, lambda job, record: folder.store(job.key, record), options,
+             desc="closed-loop")
     records = folder.records([cell.key(seed) for cell in cells for seed in seeds],
                              RECORD_FIELDS)
     examples = [{**r, "cell": cell_of(r).label} for r in records if "top_view" in r]

@@ -40,8 +40,8 @@ if TYPE_CHECKING:
 __all__ = ["DEFAULT_SIDE", "RECORD_FIELDS", "Cell", "driven", "episode", "plan"]
 
 #: ReactiveParams.side's default (one LGMD over the whole view, the side from its S
-#: layer's halves: the behaviour from before there was a choice). Cells at it carry no
-#: side parameter, so that their labels, keys and run folders stay what they were.
+#: layer's halves). Cells at it carry no side parameter: the default's label and key
+#: are the plain ones.
 DEFAULT_SIDE: str = ReactiveParams().side
 
 
@@ -189,19 +189,16 @@ def episode(cell: Cell, seed: int, *, resolution: Any, cruise: float, horizon: f
 
 
 #: What the tables read of an episode's record: one holding less is refused on resuming.
-#: The fields from before the arena task (side, task, collisions, encounters, ...) may be
-#: missing, so that older run folders still resume: their records are goal tasks.
 RECORD_FIELDS = {
     "scenario": str, "jitter": NUMBER, "controller": str, "model": (str, NULL),
-    "preset": (str, NULL), "tag": Maybe((str, NULL)), "side": Maybe((str, NULL)),
-    "seed": int, "task": Maybe(str), "time_s": NUMBER, "distance_m": (NUMBER, NULL),
+    "preset": (str, NULL), "tag": (str, NULL), "side": (str, NULL),
+    "seed": int, "task": str, "time_s": NUMBER, "distance_m": (NUMBER, NULL),
     "collided": bool, "goal_reached": bool, "false_alarms": int,
-    "progress": Maybe((NUMBER, NULL)),
+    "progress": Maybe((NUMBER, NULL)),  # a goal task's only
     "first_alarm_ttc_s": (NUMBER, NULL), "lead_time_s": (NUMBER, NULL),
-    "collisions": Maybe(int), "encounters": Maybe(int), "avoided": Maybe(int),
-    "manoeuvring_share": Maybe((NUMBER, NULL)),
-    # recorded since fingerprints were (lgmd_sim.benchmark.fingerprint)
-    "fingerprint": Maybe({"steps": int, "every": int, "chain": [str], "sha256": str}),
+    "collisions": int, "encounters": int, "avoided": int,
+    "manoeuvring_share": (NUMBER, NULL),
+    "fingerprint": {"steps": int, "every": int, "chain": [str], "sha256": str},
 }
 
 

@@ -1,4 +1,5 @@
-"""Figures of the model benchmark (the styles are lgmd_sim.core.plots').
+"""Figures of the closed-loop benchmark (the styles are lgmd_sim.core.plots'; those
+of the open-loop benchmark are in `lgmd_sim.benchmark.open_loop_figures`).
 
 A closed-loop run may hold many entries (cells: a controller with its detector; the robot's
 presets make 19), too many for overlaid series told apart by colour. So the rates against
@@ -11,7 +12,6 @@ same number in every figure of a run.
 from __future__ import annotations
 
 import textwrap
-from collections import defaultdict
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -20,12 +20,14 @@ from typing import Any
 import numpy as np
 
 from lgmd_sim import models
-from lgmd_sim.core.fileio import write_files
+
+# save_figure: the one name every closed-loop figure is written through, so that a test
+# can catch them
+from lgmd_sim.benchmark.drawing import draw_world, map_bounds, save_figure
 from lgmd_sim.core.plots import figure, model_style
-from lgmd_sim.signals import metrics
 
 __all__ = ["ARENA_VS_JITTER", "CLOSED_LOOP", "closed_loop", "closed_loop_figures",
-           "draw_world", "encounters_figure", "map_bounds", "open_loop"]
+           "encounters_figure"]
 
 #: The closed-loop benchmark's figures of every task.
 CLOSED_LOOP = ("collisions_vs_jitter.png", "false_alarms_vs_collisions.png",
@@ -82,8 +84,6 @@ _GOAL = {"marker": "*", "ms": 11, "color": "gold", "mec": "black", "mew": 0.6, "
 #: reading on white (contrast at least lgmd_sim.core.plots.MIN_CONTRAST).
 _BASELINE_COLOURS = {"oracle": "black", "straight": "0.6"}
 _EXTRA = ["#17BECF", "#882255", "#8C564B", "#9467BD", "#999933", "#56B4E9"]
-#: Margin of the map panels around the paths, obstacles and goal (m).
-_PAD = 0.4
 
 
 def _entries(rows: Sequence[dict[str, Any]]) -> list[str]:
@@ -125,9 +125,6 @@ def _ink(colour: Any) -> str:
     return "black" if 0.299 * r + 0.587 * g + 0.114 * b > 0.5 else "white"
 
 
-def _save(fig, path: Path) -> None:
-    # tight: an equal-aspect panel beside an outside legend otherwise clips its y label
-    write_files({path: lambda tmp: fig.savefig(tmp, format="png", dpi=110, bbox_inches="tight")})
 
 
 def _is_goal(row: dict[str, Any]) -> bool:
@@ -247,7 +244,7 @@ def _heatmaps(path: Path, rows: Sequence[dict[str, Any]], entries: list[str],
     bar = fig.colorbar(ScalarMappable(cmap=cmap), ax=axes, ticks=[0, 1], shrink=0.4,
                        aspect=15, location="right")
     bar.ax.set_yticklabels(["worse", "better"])
-    _save(fig, path)
+    save_figure(fig, path)
 
 
 def _spread(points: np.ndarray, gap: float) -> np.ndarray:
@@ -336,45 +333,7 @@ def _false_alarms_vs_collisions(path: Path, rows: Sequence[dict[str, Any]],
                     ax.text(x, y, str(entries.index(r["cell"]) + 1), ha="center",
                             va="center_baseline", fontsize=6.5, color=_ink(colour),
                             zorder=4, clip_on=False)
-    _save(fig, path)
-
-
-def draw_world(ax, view: dict[str, Any]) -> None:
-    """Draw an episode's world from above on matplotlib axes `ax`: the terrain's heights
-    (grey, where `view` has "terrain" and its "extent") and the obstacles, arena walls
-    among them (brown; each a "polygon" of (x, y) corners or a "circle" (x, y, radius)).
-
-    `view` is a top view as `lgmd_sim.world.core.JitterWorld.top_view` gives it (the
-    closed-loop records' and the avoidance demo's); the axes keep their limits and aspect.
-    """
-    from matplotlib.patches import Circle, Polygon
-
-    if "terrain" in view:
-        ax.imshow(np.array(view["terrain"]), origin="lower", extent=view["extent"],
-                  cmap="Greys", alpha=0.45, zorder=0)
-    for ob in view["obstacles"]:
-        patch = (Polygon(ob["polygon"]) if "polygon" in ob
-                 else Circle(ob["circle"][:2], ob["circle"][2]))
-        patch.set(facecolor="#8C564B", edgecolor="black", lw=0.6, zorder=1)
-        ax.add_patch(patch)
-
-
-def map_bounds(group: Sequence[dict[str, Any]]) -> np.ndarray:
-    """The box around one map's drawing, [[x0, y0], [x1, y1]] (m), with a margin: every
-    record's path (its ``top_view["path"]``) and the first's obstacles and goal (records
-    of one scenario, jitter level and seed share the world)."""
-    view = group[0]["top_view"]
-    points = [np.array(r["top_view"]["path"]).reshape(-1, 2) for r in group]
-    for ob in view["obstacles"]:
-        if "polygon" in ob:
-            points.append(np.array(ob["polygon"]))
-        else:
-            x, y, radius = ob["circle"]
-            points.append(np.array([[x - radius, y - radius], [x + radius, y + radius]]))
-    if view["goal"]:
-        points.append(np.array([view["goal"]]))
-    xy = np.concatenate(points)
-    return np.array([xy.min(axis=0) - _PAD, xy.max(axis=0) + _PAD])
+    save_figure(fig, path)
 
 
 def _map_panel(ax, record: dict[str, Any], box: np.ndarray) -> np.ndarray:
@@ -449,7 +408,7 @@ def _trajectories(path: Path, examples: Sequence[dict[str, Any]], scenarios: lis
     fig.suptitle(f"Each entry's example episodes from above (obstacles brown, terrain grey; "
                  f"a panel spans {sizes})", fontsize="medium")
     _map_legend(fig, [("first collision", _FAILED), ("goal", _GOAL)])
-    _save(fig, path)
+    save_figure(fig, path)
 
 
 def _encounter_map(path: Path, examples: Sequence[dict[str, Any]], entries: list[str]
@@ -483,83 +442,4 @@ def _encounter_map(path: Path, examples: Sequence[dict[str, Any]], entries: list
                  fontsize="medium")
     _map_legend(fig, [("encounter avoided", _AVOIDED),
                       ("encounter with a collision", _FAILED)])
-    _save(fig, path)
-
-
-def open_loop(folder: Path, rows: Sequence[dict[str, Any]],
-              records: Sequence[dict[str, Any]]) -> list[str]:
-    """The open-loop figures: detection curves per scenario and jitter (clean clips), and
-    MpSI and SI against the noise level; returns the file names written."""
-    made = [_detection_curves(folder / "detection_curves.png", records)]
-    if any(r["noise"] for r in rows):
-        made.append(_noise(folder / "noise.png", rows))
-    return made
-
-
-def _detection_curves(path: Path, records: Sequence[dict[str, Any]]) -> str:
-    groups: dict[tuple, dict[str, list]] = defaultdict(lambda: defaultdict(list))
-    for rec in records:
-        for row in rec["rows"]:
-            if not row["noise"]:
-                pooled = groups[(rec["scenario"], rec["jitter"])][row["detector"]]
-                pooled.append((row["potential"], rec["near"]))
-    panels = sorted(groups)
-    cols = min(3, len(panels))
-    rows_n = -(-len(panels) // cols)
-    fig = figure(figsize=(4.6 * cols + 1.5, 4.2 * rows_n))
-    axes = fig.subplots(rows_n, cols, squeeze=False).ravel()
-    for ax, key in zip(axes, panels, strict=False):
-        for det, pairs in sorted(groups[key].items()):
-            scores = np.concatenate([p for p, _ in pairs])
-            near = np.concatenate([n for _, n in pairs]).astype(bool)
-            auc = metrics.roc_auc(scores, near)
-            if auc is None:  # no dangerous frame (a near miss) or no safe one
-                continue
-            fpr, tpr, _ = metrics.roc_curve(scores, near)
-            style = {k: v for k, v in model_style(det).items() if k != "alpha"}
-            ax.plot(fpr, tpr, label=f"{det} (AUC {auc:.2f})", **style)
-        ax.plot([0, 1], [0, 1], color="0.6", lw=0.8, ls=":")
-        ax.set_title(f"{key[0]}, jitter {key[1]:g}", fontsize="medium")
-        ax.set_xlabel("false positive rate (frames)")
-        ax.set_ylabel("true positive rate")
-        ax.set_aspect("equal")
-        if ax.get_legend_handles_labels()[0]:
-            ax.legend(loc="lower right", fontsize="x-small")
-        else:
-            ax.text(0.5, 0.5, "no frame within the horizon", ha="center", transform=ax.transAxes)
-    for ax in axes[len(panels):]:
-        ax.axis("off")
-    fig.suptitle("Per-frame potential as a detector of an obstacle within the time-to-"
-                 "collision horizon (clean clips)")
-    _save(fig, path)
-    return path.name
-
-
-def _noise(path: Path, rows: Sequence[dict[str, Any]]) -> str:
-    """MpSI and SI against the noise level per model (the paper's Figs. 7-8)."""
-    noisy = [r for r in rows if r["noise"]]
-    scenarios = sorted({r["scenario"] for r in noisy})
-    kinds = sorted({r["noise"].split(":")[0] for r in noisy})
-    fig = figure(figsize=(11, 3.4 * len(scenarios) * len(kinds)))
-    axes = fig.subplots(len(scenarios) * len(kinds), 2, squeeze=False)
-    for i, (sc, kind) in enumerate((s, k) for s in scenarios for k in kinds):
-        for det in sorted({r["detector"] for r in noisy}):
-            clean = [r for r in rows if r["scenario"] == sc and r["detector"] == det
-                     and not r["noise"] and r["jitter"] == 0]
-            pts = sorted(((float(r["noise"].split(":")[1]), r) for r in noisy
-                          if r["scenario"] == sc and r["detector"] == det
-                          and r["noise"].startswith(kind + ":")), key=lambda x: x[0])
-            pts = [(0.0, clean[0])] * bool(clean) + pts
-            style = {k: v for k, v in model_style(det).items() if k != "alpha"}
-            for ax, what in zip(axes[i], ("mpsi", "si"), strict=True):
-                ax.plot([x for x, _ in pts], [r[what] for _, r in pts], marker="o", ms=4,
-                        label=det, **style)
-        for ax, what in zip(axes[i], ("MpSI", "SI"), strict=True):
-            ax.set_title(f"{sc}: {what} with {kind} noise (mean over clips)",
-                         fontsize="medium")
-            ax.set_xlabel("variance" if kind == "gaussian" else "density")
-            ax.set_ylabel(what)
-            ax.grid(alpha=0.3)
-        axes[i, 1].legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize="small")
-    _save(fig, path)
-    return path.name
+    save_figure(fig, path)

@@ -26,7 +26,7 @@ import numpy as np
 
 from lgmd_sim.controllers import options
 from lgmd_sim.core.fileio import csv_text, write_files, write_text_atomic
-from lgmd_sim.core.parallel import Job, check_parallel, run_jobs
+from lgmd_sim.core.parallel import Job, RunOptions, run_jobs
 from lgmd_sim.core.runs import NULL, NUMBER, RunFolder, RunResult
 from lgmd_sim.signals import metrics
 
@@ -318,20 +318,18 @@ def _noisy(clips: Sequence[Clip]) -> set[str]:
     return {c.key for c in clips if c.scenario in tripods and c.jitter == 0}
 
 
-def run(config: OpenLoopConfig, out: str | Path, *, resume: bool = False,
-        workers: int | None = None, ray_address: str | None = None,
-        progress: bool | None = None, command: str = "") -> RunResult:
+def run(config: OpenLoopConfig, out: str | Path, options: RunOptions = RunOptions()
+        ) -> RunResult:
     """Run (or resume) the benchmark of `config` in folder `out`; write its tables and
     figures (see `lgmd_sim.benchmark.closed_loop.run` for the arguments)."""
-    from lgmd_sim.benchmark import figures
+    from lgmd_sim.benchmark import open_loop_figures
     from lgmd_sim.models.check import preflight
 
-    check_parallel(workers, ray_address)
     preflight(config.detectors)
     clips = config.clips()
     noisy = _noisy(clips)
     noises = config.noises()
-    folder = RunFolder(out, config.as_json(clips), command, resume=resume)
+    folder = RunFolder(out, config.as_json(clips), options.command, resume=options.resume)
     done = folder.done()
     first = {}
     for c in clips:  # the figure of each (scenario, jitter): its first clip
@@ -342,8 +340,8 @@ def run(config: OpenLoopConfig, out: str | Path, *, resume: bool = False,
         "resolution": config.resolution, "horizon": config.horizon, "window": config.window,
         "figure": first[(c.scenario, c.jitter)] == c.key,
     }) for c in clips if c.key not in done]
-    run_jobs(jobs, lambda job, record: folder.store(job.key, record), workers=workers,
-             ray_address=ray_address, progress=progress, desc="open-loop", unit="clip")
+    run_jobs(jobs, lambda job, record: folder.store(job.key, record), options,
+             desc="open-loop", unit="clip")
     records = folder.records([c.key for c in clips], RECORD_FIELDS)
     rows = summarise(records)
     write_text_atomic(folder.path / "summary.csv", csv_text(rows, _COLUMNS))
@@ -354,7 +352,7 @@ def run(config: OpenLoopConfig, out: str | Path, *, resume: bool = False,
                     base64.b64decode(r["figure_png"]) for r in records if "figure_png" in r}
     write_files({path: (lambda tmp, png=png: tmp.write_bytes(png))
                  for path, png in clip_figures.items()})
-    made = figures.open_loop(folder.path, rows, records)
+    made = open_loop_figures.open_loop(folder.path, rows, records)
     folder.finish(clips=len(records))
     files = ["summary.csv", "summary.md", *(["noise.md"] if noises else []),
              *sorted(p.name for p in clip_figures), *made, "run.json"]

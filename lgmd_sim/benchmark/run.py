@@ -13,6 +13,7 @@ command again completes an interrupted benchmark.
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import os
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from pathlib import Path
@@ -24,6 +25,7 @@ from lgmd_sim.benchmark.entries import Entry
 from lgmd_sim.benchmark.protocol import CameraTrack, ClosedLoopTrack, DetectionTrack, Protocol
 from lgmd_sim.core.fileio import canonical_json, write_text_atomic
 from lgmd_sim.core.machine import machine
+from lgmd_sim.core.parallel import RunOptions
 from lgmd_sim.core.runs import RunFolder
 
 __all__ = ["EPISODES", "RESULT", "benchmark", "calibrated", "check_entries", "episode_score",
@@ -60,14 +62,14 @@ def track_config(entry: Entry, protocol: Protocol, track: ClosedLoopTrack) -> An
 
 
 def _closed_loop(entry: Entry, protocol: Protocol, track: ClosedLoopTrack, out: Path,
-                 run_options: Mapping[str, Any]
+                 options: RunOptions
                  ) -> tuple[list[dict[str, Any]], list[dict[str, Any]]]:
     """Run the entry's cells of `track` (a closed-loop bench run in `out`); its records and
     the bench's summary rows of them."""
     from lgmd_sim.benchmark import closed_loop
 
     config = track_config(entry, protocol, track)
-    result = closed_loop.run(config, out, resume=True, **run_options)
+    result = closed_loop.run(config, out, options)
     records = RunFolder(out, config.as_json(), "", resume=True, start=False).records(
         [c.key(s) for c in config.cells() for s in config.seed_list])
     return records, result.rows
@@ -75,46 +77,45 @@ def _closed_loop(entry: Entry, protocol: Protocol, track: ClosedLoopTrack, out: 
 
 def _clip_track(entry: Entry, protocol: Protocol, name: str, out: Path,
                 jobs: Mapping[str, tuple[Callable[..., dict[str, Any]], dict[str, Any]]],
-                run_options: Mapping[str, Any]) -> list[dict[str, Any]]:
+                options: RunOptions) -> list[dict[str, Any]]:
     """Run an open-loop track's clips through the entry's detector (a run folder in `out`,
     `jobs`: record name -> (job function, its arguments)); one record per clip."""
     from lgmd_sim.core.parallel import Job, run_jobs
 
     config = {name: protocol.identity(), "model": entry.model, "preset": entry.preset,
               "detector_params": entry.to_json()["params"]}
-    folder = RunFolder(out, config, run_options.get("command", ""), resume=True,
+    folder = RunFolder(out, config, options.command, resume=True,
                        what=f"benchmark {name} track")
     done = folder.done()
     run_jobs([Job(k, fn, {**args, "model": entry.model, "preset": entry.preset,
                           "resolution": protocol.resolution})
               for k, (fn, args) in jobs.items() if k not in done],
-             lambda job, record: folder.store(job.key, record),
-             workers=run_options.get("workers"), ray_address=run_options.get("ray_address"),
-             progress=run_options.get("progress"), desc=f"{entry.label}: {name}", unit="clip")
+             lambda job, record: folder.store(job.key, record), options,
+             desc=f"{entry.label}: {name}", unit="clip")
     records = folder.records(list(jobs))
     folder.finish(clips=len(records))
     return records
 
 
 def _stimuli(entry: Entry, protocol: Protocol, track: DetectionTrack, name: str, out: Path,
-             run_options: Mapping[str, Any]) -> list[dict[str, Any]]:
+             options: RunOptions) -> list[dict[str, Any]]:
     """The synthetic clips' track (`lgmd_sim.benchmark.detection`): version 1's detection,
     version 2's stimuli."""
     approaching = set(track.approaching)
     jobs = {detection.key(c): (detection.clip_job, {
         "clip": c, "approaching": c[0] in approaching, "window_s": track.window_s})
         for c in detection.clips(track)}
-    return _clip_track(entry, protocol, name, out, jobs, run_options)
+    return _clip_track(entry, protocol, name, out, jobs, options)
 
 
 def _camera(entry: Entry, protocol: Protocol, track: CameraTrack, out: Path,
-            run_options: Mapping[str, Any]) -> list[dict[str, Any]]:
+            options: RunOptions) -> list[dict[str, Any]]:
     """The robot camera's detection track (`lgmd_sim.benchmark.camera`)."""
     window = (track.window_s[0], track.window_s[1])
     jobs = {camera.key(c): (camera.clip_job, {
         "clip": c, "cruise": track.cruise_of(c[3]), "window_s": window,
         "horizon": protocol.horizon}) for c in camera.clips(track)}
-    return _clip_track(entry, protocol, "detection", out, jobs, run_options)
+    return _clip_track(entry, protocol, "detection", out, jobs, options)
 
 
 def _rows(records: list[dict[str, Any]], rows: list[dict[str, Any]], columns: tuple[str, ...],
@@ -193,9 +194,8 @@ def _episodes_json(episodes: Mapping[str, Sequence[Mapping[str, Any]]]) -> str:
     return "{\n" + ",\n".join(tracks) + "\n}\n"
 
 
-def calibrated(entry: Entry, protocol: Protocol, out: str | Path, *,
-               workers: int | None = None, ray_address: str | None = None,
-               progress: bool | None = None, command: str = "") -> tuple[Entry, Path]:
+def calibrated(entry: Entry, protocol: Protocol, out: str | Path,
+               options: RunOptions = RunOptions()) -> tuple[Entry, Path]:
     """Tune detector `entry` by the protocol's calibration rule (`lgmd-sim calibrate` with
     its task, budget and seeds, on the entry's front end); return the entry at the preset
     it made and the data folder whose presets file holds it (see `user_presets`).
@@ -203,8 +203,6 @@ def calibrated(entry: Entry, protocol: Protocol, out: str | Path, *,
     Everything goes in the calibrated entry's folder: ``calibration/`` (the calibration's
     run folder) and ``presets/calibrated.json``.
     """
-    import dataclasses
-
     from lgmd_sim.calibration.run import CalibrateConfig, calibrate, preset_name
     from lgmd_sim.core.fileio import read_json
     from lgmd_sim.models.presets import merge_presets
@@ -223,8 +221,7 @@ def calibrated(entry: Entry, protocol: Protocol, out: str | Path, *,
     config = CalibrateConfig(task=rule.task, detectors=(detector,),
                              budget=rule.budget, seeds=rule.seeds, first_seed=rule.first_seed,
                              heldout_seed=rule.heldout_seed, resolution=protocol.resolution)
-    calibrate(config, folder / "calibration", resume=True, workers=workers,
-              ray_address=ray_address, progress=progress, command=command)
+    calibrate(config, folder / "calibration", dataclasses.replace(options, resume=True))
     calibration = read_json(folder / "calibration" / "calibrated.json")
     calibration["presets"] = {model: {preset: calibration["presets"][model][made]}}
     merge_presets(folder / "presets" / "calibrated.json", calibration)
@@ -269,54 +266,53 @@ def _wall_time(folder: Path) -> float:
                      for s in read_json(run).get("sessions", [])), 1)
 
 
-def benchmark(entry: Entry, protocol: Protocol, out: str | Path, *,
-              workers: int | None = None, ray_address: str | None = None,
-              progress: bool | None = None, command: str = "") -> dict[str, Any]:
+def benchmark(entry: Entry, protocol: Protocol, out: str | Path,
+              options: RunOptions = RunOptions()) -> dict[str, Any]:
     """Run (or complete) `entry` through every track of `protocol` in ``out/<entry.key>``
     and write its ``result.json``; return the result.
 
     A detector runs every track; a controller the closed-loop ones (it has no detector to
     run on clips), a policy the goal track (it observes the goal, which the arena has not).
-    The arguments are `lgmd_sim.benchmark.closed_loop.run`'s.
+    `options` as `lgmd_sim.benchmark.closed_loop.run` takes them; a row always resumes
+    (its finished episodes are kept, whatever ``options.resume`` says).
     """
     folder = Path(out) / entry.key
     folder.mkdir(parents=True, exist_ok=True)
-    run_options = {"workers": workers, "ray_address": ray_address, "progress": progress,
-                   "command": command}
+    options = dataclasses.replace(options, resume=True)
     # version 2 keeps each jitter level's episodes apart: the dose-response, J50
     levels = protocol.goal.jitter if protocol.version >= 2 else None
     arena_score = episode_score("arena", protocol)
-    goal, rows = _closed_loop(entry, protocol, protocol.goal, folder / "goal", run_options)
+    goal, rows = _closed_loop(entry, protocol, protocol.goal, folder / "goal", options)
     parts = {"goal": scores.parts_of(goal, scores.goal_score, levels)}
     metrics = {"goal": _rows(goal, rows, _GOAL_COLUMNS, scores.goal_score)}
     traces = {"goal": _fingerprint(goal)}
     if entry.kind != "policy":  # a policy observes the goal, which the arena has not
         arena, rows = _closed_loop(entry, protocol, protocol.arena, folder / "arena",
-                                   run_options)
+                                   options)
         parts["arena"] = scores.parts_of(arena, arena_score, levels)
         metrics["arena"] = _rows(arena, rows, _ARENA_COLUMNS, arena_score)
         traces["arena"] = _fingerprint(arena)
     if entry.kind == "detector":
         if isinstance(protocol.detection, CameraTrack):
             clips = _camera(entry, protocol, protocol.detection, folder / "detection",
-                            run_options)
+                            options)
             parts["detection"] = camera.parts(clips, protocol.detection.jitter)
             metrics["detection"] = camera.metrics(clips)
         else:
             clips = _stimuli(entry, protocol, protocol.detection, "detection",
-                             folder / "detection", run_options)
+                             folder / "detection", options)
             parts["detection"] = scores.detection_parts(clips)
             metrics["detection"] = detection.metrics(clips)
         if protocol.stimuli is not None:
             clips = _stimuli(entry, protocol, protocol.stimuli, "stimuli", folder / "stimuli",
-                             run_options)
+                             options)
             parts["stimuli"] = scores.detection_parts(clips)
             metrics["stimuli"] = detection.metrics(clips)
     episodes = {"goal": goal, **({"arena": arena} if entry.kind != "policy" else {})}
     write_text_atomic(folder / EPISODES, _episodes_json(episodes))
     summary = scores.summarise(parts, protocol.bootstrap, protocol.bootstrap_seed)
     result = {"protocol": protocol.identity(), "entry": entry.to_json(),
-              "lgmd_sim": __version__, "machine": machine(), "command": command,
+              "lgmd_sim": __version__, "machine": machine(), "command": options.command,
               "scores": summary.scores, "intervals": summary.intervals, "metrics": metrics,
               "parts": {t: p.to_json() for t, p in parts.items()},
               "fingerprints": traces, "timing": {"wall_time_s": _wall_time(folder)}}

@@ -22,9 +22,9 @@ __all__ = ["cell_of", "summarise", "summary_markdown", "write_tables"]
 
 def cell_of(record: dict[str, Any]) -> Cell:
     """The cell of an episode's record, as far as its label goes (not a policy's path)."""
-    side = record.get("side")
+    side = record["side"]
     return Cell(record["scenario"], record["jitter"], record["controller"], record["model"],
-                record["preset"], (("side", side),) if side else (), record.get("tag"))
+                record["preset"], (("side", side),) if side else (), record["tag"])
 
 
 def _median(values: Sequence[float | None]) -> float | None:
@@ -49,11 +49,11 @@ def summarise(records: Sequence[dict[str, Any]]) -> list[dict[str, Any]]:
     groups: dict[tuple, list[dict[str, Any]]] = defaultdict(list)
     for r in records:
         groups[(r["scenario"], r["jitter"], r["controller"], r["model"], r["preset"],
-                r.get("tag"), r.get("side"))].append(r)
+                r["tag"], r["side"])].append(r)
     rows = []
     for (sc, j, ctrl, model, preset, tag, side), rs in groups.items():
         n = len(rs)
-        goal = rs[0].get("task", "goal") == "goal"  # records from before roam tasks: goal
+        goal = rs[0]["task"] == "goal"
         collided = sum(r["collided"] for r in rs)
         reached = sum(r["goal_reached"] for r in rs)
         minutes = sum(r["time_s"] for r in rs) / 60
@@ -148,8 +148,8 @@ _ROAM_LEGEND = (f"_{encounters.LEGEND}; avoided %: of the cell's pooled encounte
 def summary_markdown(rows: Sequence[dict[str, Any]]) -> str:
     """The summary as Markdown: a table of the goal tasks' cells and one of the roam
     tasks' (rates in percent with their 95% intervals), each with its legend."""
-    goal = [r for r in sorted(rows, key=_order) if r.get("task", "goal") == "goal"]
-    roam = [r for r in sorted(rows, key=_order) if r.get("task") == "roam"]
+    goal = [r for r in sorted(rows, key=_order) if r["task"] == "goal"]
+    roam = [r for r in sorted(rows, key=_order) if r["task"] == "roam"]
     blocks = []
     if goal:
         lines = ["| scenario | jitter | controller | episodes | collisions % [95% CI] | "

@@ -22,6 +22,7 @@ from lgmd_sim.benchmark.episode import RECORD_FIELDS, episode
 from lgmd_sim.benchmark.fingerprint import first_difference
 from lgmd_sim.benchmark.protocol import Protocol
 from lgmd_sim.benchmark.run import EPISODES, track_config
+from lgmd_sim.core.parallel import RunOptions
 
 __all__ = ["Replayed", "verify"]
 
@@ -68,7 +69,7 @@ def _sample(keys: Sequence[str], n: int | None, seed: int) -> list[str]:
 
 
 def verify(result: str | Path, protocol: Protocol, episodes: int | None = None, *,
-           seed: int = 0, workers: int | None = None, progress: bool | None = None,
+           seed: int = 0, options: RunOptions = RunOptions(),
            on_episode: Callable[[Replayed], None] | None = None) -> list[Replayed]:
     """Replay `episodes` of each closed-loop track of the entry whose ``result.json`` (or
     folder) is `result`, of `protocol` (None: every episode; a sample drawn by `seed`
@@ -83,21 +84,19 @@ def verify(result: str | Path, protocol: Protocol, episodes: int | None = None, 
     from lgmd_sim.benchmark import scores
     from lgmd_sim.benchmark.leaderboard import load_result, parts
     from lgmd_sim.benchmark.run import user_presets
-    from lgmd_sim.core.parallel import check_parallel
 
     path = Path(result)
     file = path / "result.json" if path.is_dir() else path
     claimed = load_result(file, protocol)
     if episodes is not None and episodes < 1:
         raise ValueError(f"--episodes must be a positive integer, got {episodes}")
-    check_parallel(workers)
     presets = file.parent / "presets"  # a calibrated entry's
     out: list[Replayed] = []
     with user_presets(presets if presets.is_dir() else None):
         for track, part in parts(claimed).items():
             if track in scores.CLOSED_LOOP:
                 out += _track(file, track, part, protocol, (episodes, seed),
-                              {"workers": workers, "progress": progress}, on_episode, claimed)
+                              options, on_episode, claimed)
     return out
 
 
@@ -111,7 +110,7 @@ def _entry(entry: Mapping[str, Any]) -> Entry:
 
 
 def _track(file: Path, track: str, part: Any, protocol: Protocol,
-           sample: tuple[int | None, int], run_options: Mapping[str, Any],
+           sample: tuple[int | None, int], options: RunOptions,
            on_episode: Callable[[Replayed], None] | None, claimed: Mapping[str, Any]
            ) -> list[Replayed]:
     """`verify` of one closed-loop track: its run folder beside `file` (a published row's:
@@ -153,7 +152,7 @@ def _track(file: Path, track: str, part: Any, protocol: Protocol,
 
     jobs = [Job(k, episode, {"cell": cells[k][0], "seed": cells[k][1], **options})
             for k in _sample(keys, *sample)]
-    run_jobs(jobs, store, **run_options, desc=f"verify {track}", unit="episode")
+    run_jobs(jobs, store, options, desc=f"verify {track}", unit="episode")
     return out
 
 

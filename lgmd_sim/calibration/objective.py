@@ -147,9 +147,8 @@ class Objective(ABC):
 
 class _Walker(Objective):
     def identity(self) -> dict[str, Any]:
-        # a longer alarm is another objective; older runs (one frame) resume
-        return {"late": LATE, **({"alarm": dataclasses.asdict(self.alarm)}
-                                 if self.alarm != PAPER_ALARM else {})}
+        # a longer alarm is another objective
+        return {"late": LATE, "alarm": dataclasses.asdict(self.alarm)}
 
     def label(self, record: Mapping[str, Any], truth: Mapping[str, np.ndarray]) -> ClipLabel:
         return ClipLabel(record["kind"], record["frames"], record["collision_frame"])

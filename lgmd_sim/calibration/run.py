@@ -46,7 +46,7 @@ from lgmd_sim.calibration.search import (
 )
 from lgmd_sim.controllers import options
 from lgmd_sim.core.fileio import write_files, write_text_atomic
-from lgmd_sim.core.parallel import Job, check_parallel, run_jobs
+from lgmd_sim.core.parallel import Job, RunOptions, run_jobs
 from lgmd_sim.core.pngtext import png_text
 from lgmd_sim.core.runs import NULL, Fields, RunFolder, RunResult
 from lgmd_sim.envs.zone import CRUISE
@@ -94,14 +94,9 @@ class Task:
     at_clip_size: bool = False
 
     def identity(self) -> dict[str, Any]:
-        """What a run folder records of the task beyond its groups and objective (nothing
-        for a task of plain looks and the world's field of view: older runs resume)."""
-        out: dict[str, Any] = {}
-        if self.looks != {"": clip_mod.Looks()}:
-            out["looks"] = {name: dataclasses.asdict(v) for name, v in self.looks.items()}
-        if self.fovy:
-            out["fovy"] = self.fovy
-        return out
+        """What a run folder records of the task beyond its groups and objective."""
+        return {"looks": {name: dataclasses.asdict(v) for name, v in self.looks.items()},
+                "fovy": self.fovy}
 
     def preset_params(self, front: str | None, resolution: str | Sequence[int]
                       ) -> dict[str, Any]:
@@ -220,11 +215,10 @@ class CalibrateConfig:
         return list(range(self.heldout_seed, self.heldout_seed + self.seeds))
 
     def as_json(self) -> dict[str, Any]:
-        """The configuration as the run folder records it (what identifies the run); a
-        walker run's as before there were tasks, so that its folder still resumes."""
+        """The configuration as the run folder records it (what identifies the run)."""
         task = TASKS[self.task]
-        named = {} if self.task == "walker" else {"task": self.task, "cruise": task.cruise}
-        return {"calibration": 1, **named, "detectors": list(self.detectors),
+        return {"calibration": 1, "task": self.task, "cruise": task.cruise,
+                "detectors": list(self.detectors),
                 "budget": self.budget, "search_seeds": [self.first_seed, self.seeds],
                 "heldout_seeds": [self.heldout_seed, self.seeds],
                 "resolution": self.resolution, "groups": task.groups,
@@ -481,9 +475,8 @@ def redraw(source: str | Path, out: str | Path | None = None, command: str | Non
     return Path(out)
 
 
-def calibrate(config: CalibrateConfig, out: str | Path, *, resume: bool = False,
-              workers: int | None = None, ray_address: str | None = None,
-              progress: bool | None = None, command: str = "") -> RunResult:
+def calibrate(config: CalibrateConfig, out: str | Path, options: RunOptions = RunOptions()
+              ) -> RunResult:
     """Run (or resume) the calibration of `config` in folder `out` (the arguments as
     `lgmd_sim.benchmark.closed_loop.run`'s); return one row per detector: the chosen
     candidate and threshold, with its scores on the search and held-out sets."""
@@ -491,10 +484,9 @@ def calibrate(config: CalibrateConfig, out: str | Path, *, resume: bool = False,
 
     task = TASKS[config.task]
     objective = task.objective
-    check_parallel(workers, ray_address)
     preflight((s.model, f"{s.preset}+{s.front}" if s.front else s.preset)
               for s in map(space, config.detectors))
-    folder = RunFolder(out, config.as_json(), command, resume=resume)
+    folder = RunFolder(out, config.as_json(), options.command, resume=options.resume)
     clip_dir = folder.path / "clips"
     clip_dir.mkdir(exist_ok=True)
     sets = {"search": clip_mod.specs(task.groups, config.search_seeds),
@@ -508,27 +500,26 @@ def calibrate(config: CalibrateConfig, out: str | Path, *, resume: bool = False,
                  "cruise": task.cruise, "fronts": task.fronts,
                  "looks": task.looks[s.looks], "fovy": task.fovy})
             for s in all_specs if f"clip-{s.key}" not in done]
-    common = {"workers": workers, "ray_address": ray_address, "progress": progress}
     run_jobs(jobs, lambda job, rec: folder.store(job.key, {**rec, "key": job.key[5:]}),
-             desc="recording clips", unit="clip", **common)
+             options, desc="recording clips", unit="clip")
     clip_sets = {name: folder.records([f"clip-{s.key}" for s in specs], CLIP_FIELDS)
                  for name, specs in sets.items()}
     cands = [c for d in config.detectors for c in candidates(d, config.budget, config.seed)]
     jobs = [Job(c.key, evaluate, {"candidate": c, "folder": str(clip_dir),
                                   "clip_sets": clip_sets, "objective": objective})
             for c in cands if c.key not in done]
-    run_jobs(jobs, lambda job, rec: folder.store(job.key, rec), desc="candidates",
-             unit="candidate", **common)
+    run_jobs(jobs, lambda job, rec: folder.store(job.key, rec), options, desc="candidates",
+             unit="candidate")
     chosen = [choose(folder.records([c.key for c in cands if c.detector == d],
                                     _candidate_fields(objective)), clip_sets, objective)
               for d in config.detectors]
     write_text_atomic(folder.path / "summary.md", summary_markdown(chosen, objective))
     fig = calibration_figure(chosen, objective)
-    text = png_text(command or None, {"run": folder.path.name})
+    text = png_text(options.command or None, {"run": folder.path.name})
     write_files({folder.path / "calibration.png":
                  lambda tmp: fig.savefig(tmp, format="png", dpi=110, metadata=text)})
     calibration = {
-        "command": command, "objective": objective.text,
+        "command": options.command, "objective": objective.text,
         "search_seeds": [config.first_seed, config.seeds],
         "heldout_seeds": [config.heldout_seed, config.seeds],
         "resolution": folder.config["resolution"], "budget": config.budget,

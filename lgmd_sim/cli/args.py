@@ -6,9 +6,12 @@ printout of a job that keeps a run folder."""
 from __future__ import annotations
 
 import argparse
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from lgmd_sim.envs.zone import CRUISE, FALSE_ALARM_HORIZON
+
+if TYPE_CHECKING:
+    from lgmd_sim.core.parallel import RunOptions
 
 #: What an option helper adds its arguments to: a parser, or one of its groups.
 Options = argparse._ActionsContainer
@@ -83,11 +86,14 @@ def add_run_folder_options(p: Options, default: str) -> None:
                    "kept")
 
 
-def run_folder_kwargs(args: argparse.Namespace) -> dict[str, Any]:
-    """How a job given the options of `add_run_folder_options` and `add_parallel_options`
-    runs: the keyword arguments of its ``run(config, out, ...)``."""
-    return {"resume": args.resume, "workers": args.workers, "ray_address": args.ray,
-            "progress": False if args.no_progress else None, "command": args.command_line}
+def run_options(args: argparse.Namespace) -> RunOptions:
+    """How a job given the options of `add_parallel_options` (and `add_run_folder_options`,
+    where it has them) runs, checked before it starts."""
+    from lgmd_sim.core.parallel import RunOptions
+
+    return RunOptions(workers=args.workers, ray_address=args.ray,
+                      progress=False if args.no_progress else None,
+                      resume=getattr(args, "resume", False), command=args.command_line)
 
 
 def print_result(table: str, result: Any) -> int:

@@ -20,7 +20,7 @@ from lgmd_sim.cli.args import (
     positive_int,
     print_result,
     resolution,
-    run_folder_kwargs,
+    run_options,
 )
 from lgmd_sim.controllers import options
 
@@ -140,5 +140,5 @@ def run(args: argparse.Namespace) -> int:
         (closed_loop, closed_loop_config(args), summary.summary_markdown)
         if args.what == "closed-loop" else
         (open_loop, open_loop_config(args), open_loop.summary_markdown))
-    result = job.run(config, args.out, **run_folder_kwargs(args))
+    result = job.run(config, args.out, run_options(args))
     return print_result(markdown(result.rows), result)

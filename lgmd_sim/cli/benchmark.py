@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from lgmd_sim.cli.args import add_parallel_options, advanced
+from lgmd_sim.cli.args import add_parallel_options, advanced, run_options
 
 
 def add(sub: argparse._SubParsersAction) -> None:
@@ -69,7 +69,6 @@ def run(args: argparse.Namespace) -> int:
     from lgmd_sim.benchmark import entries, protocol
     from lgmd_sim.benchmark.run import RESULT, benchmark, calibrated, check_entries, user_presets
     from lgmd_sim.core.fileio import held_lock
-    from lgmd_sim.core.parallel import check_parallel
 
     proto = protocol.load(args.protocol)
     if args.smoke:
@@ -77,12 +76,10 @@ def run(args: argparse.Namespace) -> int:
     out = args.out or ("benchmark-smoke" if args.smoke else "benchmark-out")
     parsed = [entries.parse(e) for e in args.entries]  # every entry checked before any runs
     check_entries(parsed, proto)
-    # the jobs check these before their run folders, the entries' folders come first
-    check_parallel(args.workers, args.ray)
+    # checked before the entries' folders are made
+    options = run_options(args)
     if args.calibrate and any(e.kind != "detector" for e in parsed):
         raise ValueError("--calibrate tunes detectors: give detectors only")
-    options = {"workers": args.workers, "ray_address": args.ray,
-               "progress": False if args.no_progress else None, "command": args.command_line}
     for entry in parsed:
         # two runs of one entry into one folder would both compute everything, and one's
         # record of its sessions would lose the other's
@@ -91,9 +88,9 @@ def run(args: argparse.Namespace) -> int:
         with held_lock(Path(out) / f".{entry.key}.lock", busy):
             presets = None
             if args.calibrate:
-                entry, presets = calibrated(entry, proto, out, **options)
+                entry, presets = calibrated(entry, proto, out, options)
             with user_presets(presets):
-                result = benchmark(entry, proto, out, **options)
+                result = benchmark(entry, proto, out, options)
         s = result["scores"]
         shown = ", ".join(f"{k} {v:.2f}" for k, v in s.items())
         smoke = " (a smoke result: not a row)" if args.smoke else ""

@@ -13,7 +13,7 @@ from lgmd_sim.cli.args import (
     positive_int,
     print_result,
     resolution,
-    run_folder_kwargs,
+    run_options,
 )
 from lgmd_sim.controllers import options
 
@@ -110,5 +110,5 @@ def run(args: argparse.Namespace) -> int:
     from lgmd_sim.calibration.run import TASKS, calibrate, summary_markdown
 
     config = config_from_args(args)
-    result = calibrate(config, args.out, **run_folder_kwargs(args))
+    result = calibrate(config, args.out, run_options(args))
     return print_result(summary_markdown(result.rows, TASKS[config.task].objective), result)

@@ -13,6 +13,7 @@ from lgmd_sim.cli.args import (
     non_negative_int,
     positive_int,
     resolution,
+    run_options,
 )
 from lgmd_sim.controllers import options
 
@@ -135,9 +136,7 @@ def run(args: argparse.Namespace) -> int:
     from lgmd_sim.data.generate import generate
 
     try:
-        s = generate(config_from_args(args), args.out, workers=args.workers,
-                     ray_address=args.ray, progress=False if args.no_progress else None,
-                     command=args.command_line)
+        s = generate(config_from_args(args), args.out, run_options(args))
     except WorkerDied as exc:
         print(f"lgmd-sim dataset: error: {exc}; the complete episodes are kept in {args.out}: "
               "run the same command again to resume", file=sys.stderr)

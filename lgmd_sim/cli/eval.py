@@ -12,7 +12,7 @@ from lgmd_sim.cli.args import (
     add_run_folder_options,
     advanced,
     print_result,
-    run_folder_kwargs,
+    run_options,
 )
 from lgmd_sim.controllers import options
 from lgmd_sim.core.extras import install_command
@@ -74,5 +74,5 @@ def run(args: argparse.Namespace) -> int:
     from lgmd_sim.benchmark.summary import summary_markdown
     from lgmd_sim.training.evaluate import evaluate
 
-    result = evaluate(config_from_args(args), args.out, **run_folder_kwargs(args))
+    result = evaluate(config_from_args(args), args.out, run_options(args))
     return print_result(summary_markdown(result.rows), result)

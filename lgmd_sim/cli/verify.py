@@ -39,6 +39,7 @@ def run(args: argparse.Namespace) -> int:
     from lgmd_sim.benchmark import protocol
     from lgmd_sim.benchmark.verify import Replayed, verify
     from lgmd_sim.core.numerics import mode
+    from lgmd_sim.core.parallel import RunOptions
 
     def say(checked: Replayed) -> None:
         print(f"{checked.track} {checked.key}: {checked.difference or 'identical'}",
@@ -46,7 +47,8 @@ def run(args: argparse.Namespace) -> int:
 
     checked = verify(args.result, protocol.load(args.protocol),
                      None if args.all else args.episodes, seed=args.seed,
-                     workers=args.workers, progress=False if args.no_progress else None,
+                     options=RunOptions(workers=args.workers,
+                                        progress=False if args.no_progress else None),
                      on_episode=say)
     same = sum(c.difference is None for c in checked)
     print(f"{same} of {len(checked)} episodes identical, numerics {mode()} "

@@ -22,7 +22,7 @@ parent's death or a stop (measured in docs/experiments/house.md), hence a pool o
 
 >>> from lgmd_sim.core.parallel import Job, run_jobs
 >>> jobs = [Job(f"seed{s}", my_episode, {"seed": s}) for s in range(50)]
->>> run_jobs(jobs, lambda job, result: store(job.key, result), workers=2)
+>>> run_jobs(jobs, lambda job, result: store(job.key, result), RunOptions(workers=2))
 """
 
 from __future__ import annotations
@@ -45,7 +45,8 @@ from typing import Any, TypeVar
 
 from lgmd_sim.core.stops import STOPPING, catch_swallowed_stops, held_stops, stop_raised
 
-__all__ = ["KEEP", "Job", "Pool", "WorkerDied", "default_workers", "kept", "run_jobs"]
+__all__ = ["KEEP", "Job", "Pool", "RunOptions", "WorkerDied", "default_workers", "kept",
+           "run_jobs"]
 
 T = TypeVar("T")
 
@@ -64,6 +65,37 @@ class Job:
     key: str
     fn: Callable[..., Any]
     kwargs: Mapping[str, Any] = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class RunOptions:
+    """How a job runs, never what it computes: every job's results are the same whatever
+    these are. Checked when made, so that a bad value fails before any work starts.
+
+    Args:
+        workers: local worker processes (None: every core; 1: in this process, in order).
+        ray_address: run the jobs as Ray tasks instead: "local" starts a Ray instance on
+            this machine, "auto" or [ray://]HOST:PORT joins a running cluster (needs the
+            ``ray`` extra); checked to answer (`check_ray_address`).
+        progress: show a progress bar on stderr (None: only on a terminal).
+        resume: complete the run in the job's folder (the same configuration): its
+            finished jobs are kept.
+        command: the command line, for the run's record.
+    """
+
+    workers: int | None = None
+    ray_address: str | None = None
+    progress: bool | None = None
+    resume: bool = False
+    command: str = ""
+
+    def __post_init__(self) -> None:
+        workers = self.workers
+        if workers is not None and (not isinstance(workers, int) or isinstance(workers, bool)
+                                    or workers < 1):
+            raise ValueError(f"workers must be a positive integer, got {workers!r}")
+        if self.ray_address is not None:
+            check_ray_address(self.ray_address)
 
 
 class WorkerDied(RuntimeError):
@@ -176,9 +208,8 @@ class _Progress:
         self.bar.close()
 
 
-def run_jobs(jobs: Sequence[Job], on_result: Callable[[Job, Any], None], *,
-             workers: int | None = None, ray_address: str | None = None,
-             pool: Pool | None = None, progress: bool | None = None,
+def run_jobs(jobs: Sequence[Job], on_result: Callable[[Job, Any], None],
+             options: RunOptions = RunOptions(), *, pool: Pool | None = None,
              desc: str = "running", unit: str = "episode",
              count: Callable[[Any], int] | None = None, item_unit: str = "frame") -> None:
     """Run every job; call ``on_result(job, result)`` here as each finishes.
@@ -186,14 +217,9 @@ def run_jobs(jobs: Sequence[Job], on_result: Callable[[Job, Any], None], *,
     Args:
         jobs: the jobs, keys unique.
         on_result: stores a result; called in this process, one call at a time.
-        workers: local worker processes (default: every core); 1 runs the jobs in this
-            process, in order.
-        ray_address: run the jobs as Ray tasks instead: "local" starts a Ray instance
-            on this machine, "auto" or "HOST:PORT" joins a running cluster (needs the
-            ``ray`` extra).
-        pool: run the jobs on this started `Pool` (not with `workers` or
-            `ray_address`), which stays up for the caller's next runs.
-        progress: show a progress bar on stderr (None: only on a terminal).
+        options: where the jobs run (workers, Ray) and whether a progress bar shows.
+        pool: run the jobs on this started `Pool` (not with `options.workers` or
+            `options.ray_address`), which stays up for the caller's next runs.
         desc, unit: the progress bar's label and what a job is called.
         count: the number of items (frames) in a result: the bar then shows items/s too.
         item_unit: what an item is called.
@@ -201,19 +227,19 @@ def run_jobs(jobs: Sequence[Job], on_result: Callable[[Job, Any], None], *,
     Raises:
         WorkerDied: a worker ended while running a job (the job is named); the results
             of the jobs that finished before have been handed to ``on_result``.
-        ValueError: duplicate keys, a bad ``workers`` value, or `pool` with `workers`
-            or `ray_address`.
+        ValueError: duplicate keys, or `pool` with `options.workers` or
+            `options.ray_address`.
     """
     keys = [job.key for job in jobs]
     if len(set(keys)) != len(keys):
         raise ValueError("run_jobs: job keys must be unique")
-    check_parallel(workers)
+    workers, ray_address = options.workers, options.ray_address
     if pool is not None and (workers is not None or ray_address is not None):
         raise ValueError("run_jobs: a pool runs the jobs on its own workers: give pool, "
                          "or workers or ray_address, not both")
     if not jobs:
         return
-    bar = _Progress(len(jobs), desc, unit, progress, item_unit if count else None)
+    bar = _Progress(len(jobs), desc, unit, options.progress, item_unit if count else None)
 
     def store(job: Job, result: Any) -> None:
         on_result(job, result)
@@ -427,20 +453,6 @@ def _stop(pool: Sequence[_Worker]) -> None:
         if worker.process.exitcode is None:
             worker.process.kill()
             worker.process.join(1)
-
-
-def check_parallel(workers: int | None, ray_address: str | None = None) -> None:
-    """How a job's jobs are to run, checked before the job makes anything: `workers`
-    None or a positive integer, `ray_address` None or one `check_ray_address` takes.
-
-    Raises:
-        ValueError: either is not, in one line.
-    """
-    if workers is not None and (not isinstance(workers, int) or isinstance(workers, bool)
-                                or workers < 1):
-        raise ValueError(f"workers must be a positive integer, got {workers!r}")
-    if ray_address is not None:
-        check_ray_address(ray_address)
 
 
 #: How long a Ray cluster's HOST:PORT may take to answer before it is taken for none (s).

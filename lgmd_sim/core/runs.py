@@ -4,11 +4,11 @@ job, resuming.
 Every resumable job keeps its results this way (the benchmarks, the calibration,
 training, dataset generation). Layout of ``DIR``:
 
-- ``run.json`` (or the job's own `record` path): the configuration (what identifies the
-  run), the package version, the machine of the latest session, the command that started
-  the run, and every session (the first run and each resume: its command, start, wall
-  time and machine, and the facts the job adds); ``status`` is "running" until the job
-  calls `RunFolder.finish`;
+- ``run.json`` (or the job's own `record` path): its `SCHEMA`, the configuration (what
+  identifies the run), the package version, the machine of the latest session, the
+  command that started the run, and every session (the first run and each resume: its
+  command, start, wall time and machine, and the facts the job adds); ``status`` is
+  "running" until the job calls `RunFolder.finish`;
 - ``records/<key>.json``: one record per finished job, written atomically as it
   finishes, so that an interrupted run keeps them and resuming runs only the rest; a
   record read back must be a JSON object holding the fields its job declares
@@ -16,8 +16,9 @@ training, dataset generation). Layout of ``DIR``:
 - whatever the job writes beside them.
 
 A folder that is not empty is used only to continue the same configuration: another
-configuration, a folder that holds no run, or (without ``resume``) a run already there is
-refused with one line naming the difference or the way to resume.
+configuration, a folder that holds no run, a run recorded by another schema (an older
+lgmd-sim's, which is not converted: run it again) or (without ``resume``) a run already
+there is refused with one line naming the difference or the way to resume.
 """
 
 from __future__ import annotations
@@ -39,8 +40,13 @@ __all__ = ["NULL", "NUMBER", "RECORD", "Fields", "Maybe", "RunFolder", "RunResul
 
 #: The run's record, relative to its folder.
 RECORD = "run.json"
+#: The layout of a run's record and of its configuration. 2: since lgmd-sim's house
+#: reorganisation (every configuration key recorded, whatever its value); a record without
+#: it is older. A run of another schema is refused, never converted.
+SCHEMA = 2
 #: What the record says of every run; a job's own facts come beside them.
-_OWN_KEYS = ("config", "command", "version", "machine", "sessions", "status", "wall_time_s")
+_OWN_KEYS = ("schema", "config", "command", "version", "machine", "sessions", "status",
+             "wall_time_s")
 
 #: What a record (or a field of one) must hold: a type (isinstance); a mapping of field
 #: names to what each holds (a JSON object with those fields); a one-item list (a JSON
@@ -136,8 +142,6 @@ class RunFolder:
             what it ships); None: run.json's "config" identifies the run.
         changeable: configuration keys a resumed session may change (e.g. a training
             run's step budget); the record keeps the latest value.
-        defaults: configuration keys added since some runs were recorded, each at the
-            value those runs ran at: a record without the key holds it.
         start: write the record now (see `start`); the folder is checked either way.
     """
 
@@ -145,7 +149,7 @@ class RunFolder:
                  *, resume: bool = False, what: str = "run",
                  resume_hint: str = "add --resume to complete it", record: str = RECORD,
                  identity: str | None = None, changeable: Collection[str] = (),
-                 defaults: Mapping[str, Any] | None = None, start: bool = True) -> None:
+                 start: bool = True) -> None:
         self.path = Path(path)
         self.config = json.loads(json.dumps(config))  # as it will read back
         self.records_dir = self.path / "records"
@@ -153,8 +157,7 @@ class RunFolder:
         self._identity = self.path / identity if identity else None
         if self.path.exists() and not self.path.is_dir():
             raise ValueError(f"output folder {self.path} is a file, not a folder")
-        earlier, self._facts = self._earlier(what, resume, resume_hint, changeable,
-                                             json.loads(json.dumps(defaults or {})))
+        earlier, self._facts = self._earlier(what, resume, resume_hint, changeable)
         self.started = time.time()
         self.session: dict[str, Any] = {"command": command,
                                         "started": time.strftime("%Y-%m-%d %H:%M:%S"),
@@ -179,12 +182,16 @@ class RunFolder:
         file = Path(path) / record
         if not file.is_file():
             return None
-        # a record from before sessions were kept has none
-        return read_record(file, {"config": dict, "sessions": Maybe([dict])},
-                           "choose another folder or remove it")
+        remedy = "choose another folder or remove it"
+        schema = read_record(file, dict, remedy).get("schema")
+        if schema != SCHEMA:
+            raise ValueError(f"{file} was written by another lgmd-sim (record schema "
+                             f"{schema or 1}, this one's {SCHEMA}): run it again into a new "
+                             "folder")
+        return read_record(file, {"config": dict, "sessions": [dict]}, remedy)
 
-    def _earlier(self, what: str, resume: bool, resume_hint: str, changeable: Collection[str],
-                 defaults: Mapping[str, Any]) -> tuple[list[dict[str, Any]], dict[str, Any]]:
+    def _earlier(self, what: str, resume: bool, resume_hint: str, changeable: Collection[str]
+                 ) -> tuple[list[dict[str, Any]], dict[str, Any]]:
         """The earlier sessions of the run in the folder and the facts recorded of it,
         after checking it is this run."""
         if not (self.path.is_dir() and any(self.path.iterdir())):
@@ -197,7 +204,6 @@ class RunFolder:
         else:
             raise ValueError(f"output folder {self.path} is not empty and holds no {what}: "
                              "choose a new or empty folder")
-        held = {**defaults, **held}
         diff = difference({k: v for k, v in held.items() if k not in changeable},
                           {k: v for k, v in self.config.items() if k not in changeable})
         if diff:
@@ -208,10 +214,9 @@ class RunFolder:
         if not resume:
             raise ValueError(f"output folder {self.path} already holds this {what}: "
                              f"{resume_hint}, or choose another folder")
-        recorded = recorded or {}
-        sessions = recorded.get("sessions") or [  # a record from before sessions were kept
-            {k: recorded[k] for k in ("command", "wall_time_s") if k in recorded}]
-        return list(sessions), {k: v for k, v in recorded.items() if k not in _OWN_KEYS}
+        recorded = recorded or {"sessions": []}
+        return (list(recorded["sessions"]),
+                {k: v for k, v in recorded.items() if k not in _OWN_KEYS})
 
     @property
     def sessions(self) -> list[dict[str, Any]]:
@@ -251,7 +256,8 @@ class RunFolder:
 
     def _write(self, status: str) -> None:
         total = sum(s.get("wall_time_s", 0.0) for s in self._sessions)
-        record = {"config": self.config, "command": self._sessions[0]["command"],
+        record = {"schema": SCHEMA, "config": self.config,
+                  "command": self._sessions[0]["command"],
                   "version": __version__, "machine": self.session["machine"],
                   "sessions": self._sessions,
                   "status": status, **({"wall_time_s": round(total, 1)}

@@ -47,7 +47,7 @@ from lgmd_sim.core.fileio import (
     write_files,
     write_text_atomic,
 )
-from lgmd_sim.core.parallel import Job, Pool, check_parallel, default_workers, run_jobs
+from lgmd_sim.core.parallel import Job, Pool, RunOptions, default_workers, run_jobs
 from lgmd_sim.core.runs import RunFolder
 from lgmd_sim.data import layout
 from lgmd_sim.data.manifest import write_manifest
@@ -425,20 +425,19 @@ def _full_folder(out: Path, exc: OSError) -> Path:
     return out
 
 
-def generate(config: GenerateConfig, out: str | Path, *, workers: int | None = None,
-             ray_address: str | None = None, pool: Pool | None = None,
-             progress: bool | None = None, command: str = "") -> Summary:
+def generate(config: GenerateConfig, out: str | Path, options: RunOptions = RunOptions(), *,
+             pool: Pool | None = None) -> Summary:
     """Generate (or resume) the dataset of `config` in folder `out`.
 
     Args:
         config: what the dataset holds.
-        out: the dataset folder: new, empty, or holding this configuration's dataset.
-        workers: local worker processes (default: every core; 1: in this process).
-        ray_address: run the episodes as Ray tasks ("local", "auto" or "HOST:PORT").
+        out: the dataset folder: new, empty, or holding this configuration's dataset (it
+            always resumes: its complete episodes are kept).
+        options: how it runs (workers, Ray, progress, the command line for
+            ``meta/run.json``).
         pool: run the episodes on this started `lgmd_sim.core.parallel.Pool` instead (not with
-            `workers` or `ray_address`): its workers keep their environments.
-        progress: show a progress bar (None: only on a terminal).
-        command: the command line, for the run's record (``meta/run.json``).
+            ``options.workers`` or ``options.ray_address``): its workers keep their
+            environments.
 
     Raises:
         ValueError: a bad option or a folder holding something else (one line).
@@ -449,19 +448,19 @@ def generate(config: GenerateConfig, out: str | Path, *, workers: int | None = N
     from lgmd_sim.core.extras import require
 
     require("pyarrow", "data")
-    if ray_address is not None:
+    if options.ray_address is not None:
         require("ray", "ray")
     from lgmd_sim import models
     from lgmd_sim.models.check import preflight
 
     out = Path(out)
-    check_parallel(workers, ray_address)
     preflight(models.parse_spec(m) for m in config.models)
     start = time.monotonic()
     specs = config.specs()
     metas: dict[int, dict[str, Any]] = {}
     try:
-        folder = RunFolder(out, config.as_json(), command, resume=True, what="lgmd-sim dataset",
+        folder = RunFolder(out, config.as_json(), options.command, resume=True,
+                           what="lgmd-sim dataset",
                            record=layout.RUNS, identity=layout.CONFIG)
         todo = []
         for spec in specs:
@@ -481,17 +480,16 @@ def generate(config: GenerateConfig, out: str | Path, *, workers: int | None = N
             _store(out, job.kwargs["spec"], result)
             metas[job.kwargs["spec"].index] = result.meta
 
-        run_jobs([Job(s.key, make_episode, {"spec": s}) for s in todo], store,
-                 workers=workers, ray_address=ray_address, pool=pool, progress=progress,
-                 desc=f"dataset {out.name}", count=lambda r: r.meta["length"])
+        run_jobs([Job(s.key, make_episode, {"spec": s}) for s in todo], store, options,
+                 pool=pool, desc=f"dataset {out.name}", count=lambda r: r.meta["length"])
         _finish_episodes(out, specs)
         write_manifest(out, config, [metas[s.index] for s in specs])
         seconds = time.monotonic() - start
         frames = sum(m["length"] for m in metas.values())
         summary = Summary(out, len(specs), frames, len(specs) - kept, kept, seconds)
         folder.session.update(episodes_made=summary.made, episodes_kept=kept, frames=frames,
-                              workers=pool.size if pool else workers or default_workers(),
-                              ray=ray_address)
+                              workers=pool.size if pool else options.workers
+                              or default_workers(), ray=options.ray_address)
         folder.finish()
         return summary
     except OSError as exc:

@@ -23,6 +23,7 @@ implementations apart (docs/reference/models.md, "Baselines"):
 - Spike-frequency adaptation (SFA) of K: the reported potential.
 
 The F(ON)/F(OFF) LGMDs (`lgmd_sim.models.ffi`) are this model with the oLGMD's values.
+The kernels that run a frame are in `lgmd_sim.models.onoff_kernels`.
 """
 
 from __future__ import annotations
@@ -31,7 +32,6 @@ from dataclasses import dataclass
 from typing import Any, ClassVar
 
 import numpy as np
-from numba import njit
 
 from lgmd_sim.core.params import (
     because,
@@ -51,16 +51,12 @@ from lgmd_sim.models.baseline import (
     BaselineParams,
     boolean,
     border_code,
-    diff_row,
-    finish_s_row,
-    g_row,
-    g_sum,
-    persist_row,
     persistence_weights,
     sigmoid_potential,
     take_first_frames,
 )
-from lgmd_sim.models.kernels import JIT, fill_borders_as, row_index, staggered_arrays
+from lgmd_sim.models.kernels import staggered_arrays
+from lgmd_sim.models.onoff_kernels import onoff_frames, rectified_sums
 from lgmd_sim.models.search import SearchRange
 from lgmd_sim.models.sources import SOURCES
 
@@ -286,7 +282,7 @@ class LGMD2(LGMDModel):
         weights, persist = persistence_weights(p.persistence, p.persistence_weights,
                                                self._frame_index)
         sums = np.empty((n, 2))
-        _rectified_sums(grey, self._prev, self._p_hist, weights, persist, self._lines[0], sums)
+        rectified_sums(grey, self._prev, self._p_hist, weights, persist, self._lines[0], sums)
         # Means of |P|, ON(t), OFF(t); those of ON and OFF follow from the sums, since
         # ON(t) = [P]+ + carry ON(t-1).
         m = np.column_stack([sums[:, 0] + sums[:, 1], sums[:, 0], sums[:, 1]]) / n_cells
@@ -308,7 +304,7 @@ class LGMD2(LGMDModel):
         hist = gates if p.ffi_gates_history else np.ones_like(gates)
         maps = [layers[k] for k in self.layer_names] if layers else [NO_MAP] * 5
         g_total = np.empty(n)
-        _onoff_frames(
+        onoff_frames(
             grey, self._prev, self._on, self._off, self._lp, self._mix, self._p_hist,
             weights, persist, w_on, w_off, gates, hist, self._hist, f32(p.carry),
             self._weights, self._alphas, p.inhibition_filter == "two-frame",
@@ -327,188 +323,3 @@ class LGMD2(LGMDModel):
             k, self._k, self._adapted, p.t_sfa, self._decay_sfa, p.sfa_rise == "follow")
         self._k = k
         return self._adapted.copy()
-
-
-# --- kernels ------------------------------------------------------------------------------
-
-
-@njit(**JIT)
-def _p_row(frames, prev, p_hist, n, y, c1, c2, persist, out):
-    """Row y of stream n's P into ``out`` (P(t-1), P(t-2) from ``p_hist`` where persisting)."""
-    if persist:
-        persist_row(frames[n, y], prev[n, y], p_hist[n, 0, y], p_hist[n, 1, y], c1, c2, out)
-    else:
-        diff_row(frames[n, y], prev[n, y], out)
-
-
-@njit(**JIT)
-def _rectified_sums(frames, prev, p_hist, persist_w, persist_on, line, out):
-    """out[n] = (sum [P]+, sum [-P]+) of stream n's P (nothing is written back)."""
-    n_streams, height, width = frames.shape
-    zero = np.float32(0.0)
-    for n in range(n_streams):
-        pos = 0.0
-        neg = 0.0
-        for y in range(height):
-            _p_row(frames, prev, p_hist, n, y, persist_w[n, 0], persist_w[n, 1],
-                   persist_on[n], line)
-            acc_pos = zero
-            acc_neg = zero
-            for x in range(width):
-                acc_pos += max(line[x], zero)
-                acc_neg += max(-line[x], zero)
-            pos += acc_pos
-            neg += acc_neg
-        out[n, 0] = pos
-        out[n, 1] = neg
-
-
-@njit(**JIT)
-def _inhibition(c1, n0, n1, n2, d0, d2, wc, wn, wd, x):
-    """I at column x: the 3x3 kernel over the centre (c), near (n) and diagonal (d)
-    delayed copies, given as padded rows (index 0, 1, 2: rows y-1, y, y+1)."""
-    return wc * c1[x + 1] + wn * (n0[x + 1] + n2[x + 1] + n1[x] + n1[x + 2]) + wd * (
-        d0[x] + d0[x + 2] + d2[x] + d2[x + 2])
-
-
-#: Decaying state (ON, OFF, the low-passes) below this many grey levels is set to 0: left
-#: alone it would sink into subnormal floats, which x86 processes about 100 times slower,
-#: and a first-order decay sticks at the smallest subnormal for good. Far below the input's
-#: resolution of one grey level; the float64 reference does not need it.
-_FLUSH = np.float32(1e-6)
-
-
-@njit(**JIT)
-def _low_pass_row(lp_row, source, alpha, gain, border):
-    """One padded row of a first-order low-pass: lp += alpha (gain source - lp)."""
-    width = source.shape[0]
-    zero = np.float32(0.0)
-    for x in range(width):
-        v = lp_row[x + 1] + alpha * (gain * source[x] - lp_row[x + 1])
-        lp_row[x + 1] = v if v >= _FLUSH else zero
-    fill_borders_as(lp_row, 1, width, border)
-
-
-@njit(**JIT)
-def _channel_row(p, channel, carry, sign):
-    """One row of ON = [P]+ + carry ON(t-1) (sign 1) or OFF = [-P]+ + carry OFF(t-1) (-1).
-
-    A loop of its own: fused with P and the previous frame's update, it measured slower.
-    """
-    zero = np.float32(0.0)
-    for x in range(p.shape[0]):
-        v = max(sign * p[x], zero) + carry * channel[x]
-        channel[x] = v if v >= _FLUSH else zero
-
-
-@njit(**JIT)
-def _mix_row(out, current, previous, a, b, border):
-    """One padded row of a two-frame delayed copy: out = a X(t) + b X(t-1)."""
-    width = current.shape[0]
-    for x in range(width):
-        out[x + 1] = a * current[x] + b * previous[x]
-    fill_borders_as(out, 1, width, border)
-
-
-@njit(**JIT)
-def _onoff_frames(frames, prev, on, off, lp, mix, p_hist, persist_w, persist_on, w_on, w_off,
-                  gates, hist_now, hist_prev, carry, weights, alphas, two_frame, onoff, border,
-                  interior, delta_c, c_w, c_de, t_de, s_ring, lines, vsum, q, ce_cols,
-                  want, l_p, l_on, l_off, l_s, l_g, g_total):
-    """One frame per stream of the ON/OFF models, up to sum G.
-
-    Row pipeline: row y's P, ON and OFF (and, "two-frame", its delayed copies, into the
-    3-row ring ``mix``); then S of row y-1, whose inhibition reads the delayed copies of
-    rows y-2..y; then G of row y-2. "Low-pass": the low-passes ``lp`` hold the previous
-    frames (delay of at least one frame), and row y-2 is advanced to ON(t) / OFF(t) once
-    S of row y-1 has read it.
-    """
-    n_streams, height, width = frames.shape
-    zero = np.float32(0.0)
-    one = np.float32(1.0)
-    wc_on, wn_on, wd_on = weights[0], weights[1], weights[2]
-    wc_off, wn_off, wd_off = weights[3], weights[4], weights[5]
-    pl, old_on, old_off = lines[0], lines[1], lines[2]
-    for n in range(n_streams):
-        won = w_on[n]
-        woff = w_off[n]
-        g_on = gates[n, 0]
-        g_off = gates[n, 1]
-        persist = persist_on[n]
-        c1 = persist_w[n, 0]
-        c2 = persist_w[n, 1]
-        delayed = mix if two_frame else lp[n]
-        n_rows = delayed.shape[1] - 1  # image rows it holds; then a zero row
-        ce_cols[:] = zero
-        for y in range(height + 2):
-            if y < height:  # P, ON, OFF of row y
-                fr = frames[n, y]
-                pr = prev[n, y]
-                onr = on[n, y]
-                offr = off[n, y]
-                _p_row(frames, prev, p_hist, n, y, c1, c2, persist, pl)
-                if persist:  # P(t-2) <- P(t-1) <- P(t)
-                    p_hist[n, 1, y] = p_hist[n, 0, y]
-                    p_hist[n, 0, y] = pl
-                for x in range(width):
-                    pr[x] = fr[x]
-                if two_frame:  # the last frame's values, for the mix
-                    old_on[:] = onr
-                    old_off[:] = offr
-                _channel_row(pl, onr, carry, one)  # ON
-                _channel_row(pl, offr, carry, -one)  # OFF
-                if two_frame:  # a E(t) + (1 - a) E(t-1), E = the channel while its gate passes
-                    slot = y % 3
-                    for k in range(3):
-                        a_on = alphas[k]
-                        a_off = alphas[k + 3]
-                        _mix_row(mix[k, slot], onr, old_on, a_on * hist_now[n, 0],
-                                 (one - a_on) * hist_prev[n, 0], border)
-                        _mix_row(mix[k + 3, slot], offr, old_off, a_off * hist_now[n, 1],
-                                 (one - a_off) * hist_prev[n, 1], border)
-                if want:
-                    l_p[n, y] = pl
-                    l_on[n, y] = onr
-                    l_off[n, y] = offr
-            if 1 <= y <= height:  # S of row r
-                r = y - 1
-                above = row_index(r - 1, n_rows, height, border)
-                here = r % n_rows
-                below = row_index(r + 1, n_rows, height, border)
-                c_on = delayed[0, here]
-                n0_on, n1_on, n2_on = delayed[1, above], delayed[1, here], delayed[1, below]
-                d0_on, d2_on = delayed[2, above], delayed[2, below]
-                c_of = delayed[3, here]
-                n0_of, n1_of, n2_of = delayed[4, above], delayed[4, here], delayed[4, below]
-                d0_of, d2_of = delayed[5, above], delayed[5, below]
-                onr = on[n, r]
-                offr = off[n, r]
-                sr = s_ring[r % 3]
-                for x in range(width):
-                    i_on = _inhibition(c_on, n0_on, n1_on, n2_on, d0_on, d2_on, wc_on, wn_on,
-                                       wd_on, x)
-                    i_off = _inhibition(c_of, n0_of, n1_of, n2_of, d0_of, d2_of, wc_off, wn_off,
-                                        wd_off, x)
-                    s_on = max(onr[x] - won * i_on, zero) * g_on  # S_on = [ON - W_on I_on]+
-                    s_off = max(offr[x] - woff * i_off, zero) * g_off  # [OFF - W_off I_off]+
-                    sr[x + 1] = s_on + s_off + onoff * (s_on * s_off)
-                finish_s_row(sr, r, height, width, interior, border)
-                if want:
-                    l_s[n, r] = sr[1:width + 1]
-                if not two_frame and r >= 1:
-                    _advance_low_passes(lp, on, off, alphas, hist_now, n, r - 1, border)
-            if y >= 2:
-                g_row(s_ring[row_index(y - 3, 3, height, border)], s_ring[(y - 2) % 3],
-                      s_ring[row_index(y - 1, 3, height, border)], vsum, q[y - 2], ce_cols)
-        if not two_frame:
-            _advance_low_passes(lp, on, off, alphas, hist_now, n, height - 1, border)
-        g_total[n] = g_sum(q, ce_cols, delta_c, c_w, c_de, t_de, want,
-                           l_g[n] if want else q)
-
-
-@njit(**JIT)
-def _advance_low_passes(lp, on, off, alphas, hist_now, n, row, border):
-    """Row ``row`` of stream n's six low-passes takes in ON(t) / OFF(t) (their E)."""
-    for k in range(3):
-        _low_pass_row(lp[n, k, row], on[n, row], alphas[k], hist_now[n, 0], border)
-        _low_pass_row(lp[n, k + 3, row], off[n, row], alphas[k + 3], hist_now[n, 1], border)

@@ -19,6 +19,7 @@ from typing import Any
 from lgmd_sim.benchmark.closed_loop import ClosedLoopConfig
 from lgmd_sim.benchmark.episode import Cell
 from lgmd_sim.core.fileio import write_text_atomic
+from lgmd_sim.core.parallel import RunOptions
 from lgmd_sim.core.runs import RunResult
 from lgmd_sim.envs.zone import CRUISE, FALSE_ALARM_HORIZON
 from lgmd_sim.policies import EVAL_SEEDS, EVAL_TOP_VIEWS
@@ -118,10 +119,9 @@ class EvalConfig:
         scenario = {s.env_id: name for name, s in scenarios().items()}[trained.env_id]
         observed = [c.model if c.preset is None else f"{c.model}/{c.preset}"
                     for _, c, _ in loaded if c.model]
-        # the plug-ins only where there are any, so that a run from before them resumes
-        trusted = (("plugins", ",".join(self.plugins)),) if self.plugins else ()
         extra = tuple(Cell(scenario, float(j), "policy",
-                           params=(("path", str(folder.resolve())), *trusted), tag=name)
+                           params=(("path", str(folder.resolve())),
+                                   ("plugins", ",".join(self.plugins))), tag=name)
                       for j in self.jitter
                       for (folder, _, _), name in zip(loaded, names, strict=True))
         return ClosedLoopConfig(
@@ -132,15 +132,13 @@ class EvalConfig:
             extra=extra, top_views=self.top_views)
 
 
-def evaluate(config: EvalConfig, out: str | Path, *, resume: bool = False,
-             workers: int | None = None, ray_address: str | None = None,
-             progress: bool | None = None, command: str = "") -> RunResult:
+def evaluate(config: EvalConfig, out: str | Path, options: RunOptions = RunOptions()
+             ) -> RunResult:
     """Run the policies of `config` in the closed-loop benchmark (its tables and figures
     in `out`, see `lgmd_sim.benchmark.closed_loop.run` for the arguments), then ``eval.md``."""
     from lgmd_sim.benchmark import closed_loop
 
-    result = closed_loop.run(config.bench(), out, resume=resume, workers=workers,
-                             ray_address=ray_address, progress=progress, command=command)
+    result = closed_loop.run(config.bench(), out, options)
     write_text_atomic(result.path / "eval.md", eval_markdown(result.path))
     return RunResult(result.path, result.rows, [*result.files, "eval.md"])
 

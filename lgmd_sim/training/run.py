@@ -29,7 +29,6 @@ continue each environment's generator), below `VALIDATION_SEED`; validation uses
 from __future__ import annotations
 
 import copy
-import dataclasses
 import functools
 import math
 import platform
@@ -136,9 +135,7 @@ def _train(out: Path, config: TrainConfig, kwargs: dict[str, Any], first_seed: i
     folder = RunFolder(out, config.as_json(), command, resume=bool(resumed),
                        what="training run",
                        resume_hint=f"add --resume {out} to continue it",
-                       changeable=RESUMABLE, start=False,
-                       # a run recorded before an option existed ran at its default
-                       defaults={f.name: f.default for f in dataclasses.fields(TrainConfig)})
+                       changeable=RESUMABLE, start=False)
     curriculum, stage = config.stages, resumed.get("stage", 0)
     live = phases.TrainingEnvs(policy, config, kwargs, stage)
     validation = None

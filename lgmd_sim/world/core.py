@@ -40,6 +40,7 @@ from lgmd_sim.world import scene as scene_mod
 from lgmd_sim.world.carriers import HeldPath, wheel_speeds
 from lgmd_sim.world.gl import mujoco
 from lgmd_sim.world.params import SceneParams
+from lgmd_sim.world.pieces import HIDDEN
 from lgmd_sim.world.render import OffscreenRenderer, SSIMStream
 from lgmd_sim.world.truth import Threats, bearing
 
@@ -359,8 +360,8 @@ class JitterWorld:
                                                     < spread)
         fine = visible & (dist - self._tile_radius < self._lod_distance)
         groups = m.geom_group
-        groups[sc.tile_geoms[:, 0]] = np.where(fine, 0, scene_mod.HIDDEN)
-        groups[sc.tile_geoms[:, 1]] = np.where(visible & ~fine, 0, scene_mod.HIDDEN)
+        groups[sc.tile_geoms[:, 0]] = np.where(fine, 0, HIDDEN)
+        groups[sc.tile_geoms[:, 1]] = np.where(visible & ~fine, 0, HIDDEN)
 
     def _observe(self, touched: frozenset[int]) -> None:
         ssim = math.nan  # no frames, no similarity between them

@@ -43,7 +43,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from lgmd_sim.world.gl import mujoco
-from lgmd_sim.world.scene import HIDDEN
+from lgmd_sim.world.pieces import HIDDEN
 from lgmd_sim.world.truth import FAR, Threats
 
 if TYPE_CHECKING:
@@ -187,7 +187,7 @@ class CameraView:
         if sc.mover_body >= 0:
             owner_of[sc.mover_geoms] = sc.n_threats - 1
         # Each arena wall is drawn as a checkered plane just in front of its box's inner
-        # face (`lgmd_sim.world.scene`): a ray meets that plane first.
+        # face (`lgmd_sim.world.pieces`): a ray meets that plane first.
         faces = [g for g in np.flatnonzero((m.geom_bodyid == 0)
                                            & (m.geom_type == mujoco.mjtGeom.mjGEOM_PLANE))
                  if g != sc.ground_geom]

@@ -362,7 +362,7 @@ def scene_picture(name: str, height: int = PICTURE_SIZE[0], width: int = PICTURE
     frames of the carrier's camera are rendered).
     """
     from lgmd_sim.envs.jitter_env import JitterEnv
-    from lgmd_sim.world.scene import HIDDEN
+    from lgmd_sim.world.pieces import HIDDEN
 
     env = JitterEnv(name, frame="none")
     try:

@@ -23,10 +23,15 @@ import time
 from collections.abc import Callable
 from typing import TYPE_CHECKING, TypeVar
 
+from lgmd_sim.core.parallel import RunOptions
+
 if TYPE_CHECKING:
     from lgmd_sim.core.parallel import Pool
 
 T = TypeVar("T")
+
+#: How the timed runs run: no progress bar in the tables' output.
+QUIET = RunOptions(progress=False)
 
 
 def pin_to_one_core() -> str:

@@ -20,6 +20,7 @@ from pathlib import Path
 
 from lgmd_sim.core.fileio import read_json, scratch_folder
 from lgmd_sim.core.machine import cpu_name
+from lgmd_sim.core.parallel import RunOptions
 from scripts.speed import format_table, met
 
 #: The targets: the benchmark's episodes per second over the bench's, and one row's
@@ -51,11 +52,11 @@ def run(*, entry: str = "lgmd1/robot-image", episodes: int = 4, markdown: bool =
         start = time.perf_counter()
         for t in tracks:  # one bench run per scenario: its seeds and levels
             closed_loop.run(track_config(chosen, short, t), tmp / f"bench-{t.scenario}",
-                            workers=workers, progress=False)
+                            RunOptions(workers=workers, progress=False))
         return time.perf_counter() - start
 
     def timed_benchmark(tmp: Path, workers: int) -> float:
-        benchmark(chosen, short, tmp / "benchmark", workers=workers, progress=False)
+        benchmark(chosen, short, tmp / "benchmark", RunOptions(workers=workers, progress=False))
         folder = tmp / "benchmark" / chosen.key
         return _wall(folder / "goal") + _wall(folder / "arena")
 

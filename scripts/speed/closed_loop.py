@@ -31,7 +31,7 @@ import numpy as np
 
 from lgmd_sim.core.machine import cpu_name
 from lgmd_sim.envs.zone import CRUISE, FALSE_ALARM_HORIZON
-from scripts.speed import format_table, met, on_warm_pool
+from scripts.speed import QUIET, format_table, met, on_warm_pool
 
 #: The targets: the environment's share of the closed loop's time, the benchmark's two
 #: workers against one, and against the environment alone on two.
@@ -129,10 +129,9 @@ def measure_workers(scenario: str, resolution: str | list[int], episodes: int) -
         frames: dict[str, int] = {}
         _, wall, startup = on_warm_pool(
             workers,
-            lambda pool: run_jobs(warm[:workers], lambda job, record: None, pool=pool,
-                                  progress=False),
+            lambda pool: run_jobs(warm[:workers], lambda job, record: None, QUIET, pool=pool),
             lambda pool: run_jobs(jobs, lambda job, record: frames.__setitem__(
-                job.key, record["frames"]), pool=pool, progress=False))
+                job.key, record["frames"]), QUIET, pool=pool))
         return sum(frames.values()) / wall, startup, frames
 
     jobs, warm = jobs_of(range(episodes)), jobs_of(range(episodes, episodes + 2))

@@ -35,7 +35,7 @@ import cv2
 from lgmd_sim.core.machine import cpu_name
 from lgmd_sim.core.parallel import Job, Pool, run_jobs
 from lgmd_sim.data.generate import GenerateConfig, generate
-from scripts.speed import format_table, met, on_warm_pool
+from scripts.speed import QUIET, format_table, met, on_warm_pool
 
 #: The target: dataset generation at this share of the environment's frames per second.
 TARGET = 0.9
@@ -60,7 +60,7 @@ def _pool_cpu(pool: Pool) -> float:
     every worker)."""
     cpu: dict[int, float] = {}
     run_jobs([Job(f"cpu {i}", _worker_cpu) for i in range(pool.size)],
-             lambda job, r: cpu.__setitem__(*r), pool=pool, progress=False)
+             lambda job, r: cpu.__setitem__(*r), QUIET, pool=pool)
     if len(cpu) != pool.size:
         raise RuntimeError("speed dataset: a worker took two CPU-time jobs")
     return sum(cpu.values())
@@ -87,14 +87,14 @@ def _env_run(config: GenerateConfig, pool: Pool) -> int:
     jobs = [Job(s.key, drive, {"scenario": s.scenario, "overrides": dict(s.overrides),
                                "seed": s.seed, "controller": s.controller})
             for s in config.specs()]
-    run_jobs(jobs, lambda job, n: frames.append(n), pool=pool, progress=False)
+    run_jobs(jobs, lambda job, n: frames.append(n), QUIET, pool=pool)
     return sum(frames)
 
 
 def _generate_run(config: GenerateConfig, out: Path, pool: Pool) -> int:
     """Dataset generation into a new folder `out` (removed first): its frames."""
     shutil.rmtree(out, ignore_errors=True)
-    return generate(config, out, pool=pool, progress=False).frames
+    return generate(config, out, QUIET, pool=pool).frames
 
 
 def _disk(root: Path, video: str) -> dict[str, float]:

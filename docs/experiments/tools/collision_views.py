@@ -45,7 +45,7 @@ from lgmd_sim.benchmark.summary import cell_of
 from lgmd_sim.controllers import options
 from lgmd_sim.core.extras import MissingExtra
 from lgmd_sim.core.fileio import atomic_outputs, error_text, read_text
-from lgmd_sim.core.parallel import Job, run_jobs
+from lgmd_sim.core.parallel import Job, RunOptions, run_jobs
 from lgmd_sim.core.runs import NULL, NUMBER, RECORD, Fields, Maybe, read_record
 from lgmd_sim.detect.outputs import check_out_folder
 from lgmd_sim.envs.catalogue import params_for
@@ -168,8 +168,8 @@ def replay(folder: Path, out: Path, workers: int | None) -> None:
         controllers.controller_class(cell.controller)
     preflight((cell.model, cell.preset) for cell in replayed if cell.model)
     results: dict[str, dict[str, Any]] = {}
-    run_jobs(jobs, lambda job, r: results.__setitem__(job.key, r), workers=workers,
-             progress=None, desc="collisions replayed")
+    run_jobs(jobs, lambda job, r: results.__setitem__(job.key, r), RunOptions(workers=workers),
+             desc="collisions replayed")
     rows = sorted(((job.kwargs["cell"], job.kwargs["seed"], results[job.key]) for job in jobs),
                   key=lambda r: (r[0].jitter, r[0].label, r[1]))
     command = shlex.join(["python", *sys.argv])

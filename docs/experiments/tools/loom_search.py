@@ -26,7 +26,8 @@ from typing import Any
 from lgmd_sim.benchmark.episode import Cell, episode
 from lgmd_sim.controllers import options
 from lgmd_sim.core.fileio import write_text_atomic
-from lgmd_sim.core.parallel import Job, run_jobs
+from lgmd_sim.core.parallel import Job, RunOptions, run_jobs
+from lgmd_sim.envs.zone import CRUISE, FALSE_ALARM_HORIZON
 from lgmd_sim.signals.metrics import wilson_interval
 
 ROOT = Path(__file__).resolve().parents[3]
@@ -87,10 +88,10 @@ def _run(detector: str, settings: list[dict[str, Any]], records: dict[str, Any],
     jobs = {f"{_name(setting, j)}-s{seed}": Job(
         f"{_name(setting, j)}-s{seed}", episode, {"cell": _cell(detector, setting, j),
                                                   "seed": seed, "resolution": "rl",
-                                                  "cruise": 0.6, "horizon": 2.0})
+                                                  "cruise": CRUISE, "horizon": FALSE_ALARM_HORIZON})
             for j in jitters for setting in settings for seed in SEEDS}
-    run_jobs([j for k, j in jobs.items() if k not in records], store, workers=workers,
-             desc=detector)
+    run_jobs([j for k, j in jobs.items() if k not in records], store,
+             RunOptions(workers=workers), desc=detector)
 
 
 def _rates(records: dict[str, Any], setting: dict[str, Any], jitter: float = JITTER

@@ -21,6 +21,7 @@ import sys
 
 from lgmd_sim.benchmark.closed_loop import ClosedLoopConfig, run
 from lgmd_sim.benchmark.episode import Cell
+from lgmd_sim.core.parallel import RunOptions
 
 HORIZONS = (0.3, 0.45, 0.6, 0.8, 1.0, 1.15, 1.3, 1.7, 2.2)
 #: Seeds 200 and up: not the calibration's (0-7, 100-107) nor the benchmark's (1000-1049).
@@ -43,8 +44,8 @@ def main() -> None:
                   for j in jitters for h in HORIZONS)
     config = ClosedLoopConfig(scenarios=(args.scenario,), jitter=jitters, controllers=(),
                               seeds=args.seeds, first_seed=FIRST_SEED, extra=cells)
-    result = run(config, args.out, resume=True, workers=args.workers, progress=False,
-                 command=shlex.join(["python", *sys.argv]))
+    result = run(config, args.out, RunOptions(workers=args.workers, progress=False, resume=True,
+                                              command=shlex.join(["python", *sys.argv])))
     rows = sorted(result.rows, key=lambda r: (r["jitter"], horizon(r)))
     for row in rows:
         print(f"jitter {row['jitter']:g} {row['tag']:>12}: success {row['success_rate']:.2f} "
