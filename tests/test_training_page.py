@@ -164,13 +164,43 @@ def test_the_page_is_the_research_log_s_and_its_figures_resolve_from_it(tmp_path
     monkeypatch.syspath_prepend(str(TOOLS))
     page = importlib.import_module("training_page")
     assert page.PAGE == ROOT / "docs" / "experiments" / "training-runs.md"
-    figure = tmp_path / "learning_curve.png"
+    figure = tmp_path / "trajectories.png"
     figure.write_bytes(b"png")
-    figures: dict[Path, Path] = {}
-    link = page._copy(figure, "learning_curve_x.png", figures)
-    assert link == "../training/learning_curve_x.png"
-    assert (page.PAGE.parent / link).resolve() == page.FIGURES / "learning_curve_x.png"
-    assert figures == {page.FIGURES / "learning_curve_x.png": figure}
+    figures: dict[Path, Path | list[Path]] = {}
+    link = page._copy(figure, "trajectories.png", figures)
+    assert link == "../training/trajectories.png"
+    assert (page.PAGE.parent / link).resolve() == page.FIGURES / "trajectories.png"
+    assert figures == {page.FIGURES / "trajectories.png": figure}
+
+
+def test_the_runs_learning_curves_are_one_figure_their_pixels_one_above_the_other(
+        tmp_path, monkeypatch):
+    """The page shows every run's learning curve in one file of the repository: the runs'
+    own PNGs, in the order of --train, stacked as they are (a narrower one padded white)."""
+    import cv2
+    import numpy as np
+
+    monkeypatch.syspath_prepend(str(TOOLS))
+    page = importlib.import_module("training_page")
+    rng = np.random.default_rng(0)
+    curves = []
+    for name, (height, width) in (("a", (3, 5)), ("b", (2, 4))):
+        (tmp_path / name).mkdir()
+        curves.append(tmp_path / name / "learning_curve.png")
+        cv2.imwrite(str(curves[-1]), rng.integers(0, 256, (height, width, 3), np.uint8))
+    figures: dict[Path, Path | list[Path]] = {}
+    link = page._stack(curves, "learning_curves.png", figures)
+    assert link == "../training/learning_curves.png"
+    assert figures == {page.FIGURES / "learning_curves.png": curves}
+    out = tmp_path / "written"  # as write_files gives it: no suffix
+    page._copier(curves)(out)
+    sheet = cv2.imread(str(out), cv2.IMREAD_UNCHANGED)
+    a, b = (cv2.imread(str(c)) for c in curves)
+    assert sheet.shape == (5, 5, 3)
+    assert np.array_equal(sheet[:3], a) and np.array_equal(sheet[3:, :4], b)
+    assert (sheet[3:, 4] == 255).all()
+    with pytest.raises(SystemExit, match="missing"):
+        page._stack([tmp_path / "c" / "learning_curve.png"], "learning_curves.png", figures)
 
 
 def test_each_shipped_policy_s_policy_md_names_the_page_of_all_its_rows(monkeypatch):

@@ -16,7 +16,10 @@ task's calibration command made, each of which records the command, in the order
         --task robot --out docs/results/calibration-robot/calibration.png
 
 The last two are docs/results/calibration's and docs/results/calibration-robot's figures:
-those runs' folders were not kept, the presets they made were shipped.
+those runs' folders were not kept, the presets they made were shipped. The first draws
+each run's own calibration.png into its folder: no page shows those two, and the
+repository does not keep them (docs/video/calibration.png, the second, is the video run's
+figure a page shows).
 """
 
 from __future__ import annotations
@@ -26,7 +29,8 @@ import shlex
 from collections.abc import Sequence
 from pathlib import Path
 
-from lgmd_sim.calibration.run import TASKS, redraw
+from lgmd_sim.calibration.redraw import redraw
+from lgmd_sim.calibration.tasks import TASKS
 from lgmd_sim.models.presets import CALIBRATED
 
 

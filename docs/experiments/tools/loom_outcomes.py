@@ -3,7 +3,8 @@ figures issue 43's targets name (goal track at jitter 1 and 2, arena track at ji
 from each entry's result.json), and how the goal episodes at jitter 1 end: the goal
 reached, timed out, or a collision, split by when the last alarm before it came (none;
 less than 0.6 s before; 0.6-1.15 s, the robot objective's window; more than 1.15 s;
-from each goal track's kept episodes.csv). Prints them as markdown tables, with the
+from each goal track's episodes.csv: a record the repository does not keep; the command
+in the row's result.json makes it again). Prints them as markdown tables, with the
 student policies' figures and the paired differences the page quotes, and writes the
 outcomes as docs/experiments/figures/loom_outcomes.png.
 

@@ -161,6 +161,34 @@ def _copy(run: Path, names: list[str], tag: str, figures: Figures) -> list[str]:
     return out
 
 
+def stacked(sources: Sequence[Path]) -> Callable[[Path], None]:
+    """What writes `sources` (PNG figures, each with its own title) into one PNG, one
+    above the other in their order, a narrower one padded white on its right, their pixels
+    as they are: a set of figures a page shows together is one file of the repository."""
+    def write(path: Path) -> None:
+        import cv2
+        import numpy as np
+
+        panels = []
+        for source in sources:
+            image = cv2.imread(str(source), cv2.IMREAD_UNCHANGED)
+            if image is None:
+                raise SystemExit(f"{source}: no PNG")
+            if image.ndim == 2:
+                image = cv2.cvtColor(image, cv2.COLOR_GRAY2BGR)
+            elif image.shape[2] == 4:  # over white
+                alpha = image[..., 3:].astype(np.uint32)
+                image = ((image[..., :3] * alpha + 255 * (255 - alpha) + 127) // 255
+                         ).astype(np.uint8)
+            panels.append(image)
+        width = max(p.shape[1] for p in panels)
+        sheet = np.vstack([np.pad(p, ((0, 0), (0, width - p.shape[1]), (0, 0)),
+                                  constant_values=255) for p in panels])
+        path.write_bytes(cv2.imencode(".png", sheet, [cv2.IMWRITE_PNG_COMPRESSION, 9])[1]
+                         .tobytes())
+    return write
+
+
 def _resolution(value: str | list[int]) -> str:
     height, width = RESOLUTIONS[value] if isinstance(value, str) else value
     return f"{height} x {width}"
@@ -399,9 +427,12 @@ def open_loop_section(run: Path, figures: Figures) -> list[str]:
     if (run / "noise.md").is_file():
         lines += ["", "### Noise (the paper's dataset d: stationary clips with Gaussian and "
                   "salt-and-pepper noise)", "", (run / "noise.md").read_text().strip(), ""]
-    clip_figures = sorted(p.name for p in run.glob("clip_*.png"))
-    for fig in _copy(run, [*clip_figures, "detection_curves.png", "noise.png"], "open-loop",
-                     figures):
+    clips = sorted(run.glob("clip_*.png"))
+    if clips:  # one figure, a clip a panel: one file of the repository, not one a clip
+        figures[FIGURES / "open-loop" / "clips.png"] = stacked(clips)
+        fig = f"{FIGURES_LINK}/open-loop/clips.png"
+        lines += [f"![{fig}]({fig})", ""]
+    for fig in _copy(run, ["detection_curves.png", "noise.png"], "open-loop", figures):
         lines += [f"![{fig}]({fig})", ""]
     return lines
 

@@ -14,6 +14,11 @@ successes) stands beside the policies, on the evaluation's seeds only. The page 
 its figures are written as one set (`lgmd_sim.core.fileio.write_files`). --collisions adds
 docs/experiments/tools/collision_views.py's table and figure. Releasing a run's
 policy as the shipped one is docs/experiments/tools/ship_policy.py.
+
+The run folders are records the repository does not keep (.gitignore): they stay on the
+machine that made them, and each run's commands (on the page, and the runs' index,
+docs/training/runs/README.md) make them again. The repository keeps the page, its figures
+(the runs' learning curves as one, learning_curves.png) and the index.
 """
 
 from __future__ import annotations
@@ -29,7 +34,7 @@ from collections import defaultdict
 from collections.abc import Callable
 from pathlib import Path
 
-from results_page import seed_ranges
+from results_page import seed_ranges, stacked
 
 from lgmd_sim import policies
 from lgmd_sim.core.fileio import write_files
@@ -430,11 +435,22 @@ def run_summary(run: Path) -> str:
     return summary_markdown(run).strip().split("\n", 1)[1].strip()
 
 
-def _copy(src: Path, name: str, figures: dict[Path, Path]) -> str:
+def _copy(src: Path, name: str, figures: dict[Path, Path | list[Path]]) -> str:
     """Add a figure to those to write under docs/training/; its path relative to the page."""
     if not src.is_file():
         raise SystemExit(f"training_page.py: {src} is missing")
     figures[FIGURES / name] = src
+    return Path(os.path.relpath(FIGURES / name, PAGE.parent)).as_posix()
+
+
+def _stack(sources: list[Path], name: str, figures: dict[Path, Path | list[Path]]) -> str:
+    """Add one figure of `sources`, one above the other, to those to write under
+    docs/training/ (one file of the repository for the runs' curves); its path relative to
+    the page."""
+    for src in sources:
+        if not src.is_file():
+            raise SystemExit(f"training_page.py: {src} is missing")
+    figures[FIGURES / name] = sources
     return Path(os.path.relpath(FIGURES / name, PAGE.parent)).as_posix()
 
 
@@ -522,7 +538,7 @@ def main() -> None:
                         help="docs/experiments/tools/collision_views.py's output on the "
                         "evaluation: what the collisions hit, and whether the camera saw it")
     args = parser.parse_args()
-    figures: dict[Path, Path] = {}
+    figures: dict[Path, Path | list[Path]] = {}
     records = {run.name: json.loads((run / "run.json").read_text()) for run in args.train}
     evaluations = [json.loads((e / "run.json").read_text()) for e in args.eval]
     if len({(tuple(e["config"]["seeds"]), tuple(e["config"]["jitter"]))
@@ -544,9 +560,13 @@ def main() -> None:
         record = records[run.name]
         # run folders written before lgmd_sim.core.runs.RunFolder kept them under "options"
         trained_at = (record.get("config") or record["options"])["jitter"]
-        curve = _copy(run / "learning_curve.png", f"learning_curve_{run.name}.png", figures)
         lines += ["```bash", *(s["command"] for s in record["sessions"]), "```", "",
-                  run_summary(run), "", f"![learning curve of {run.name}]({curve})", ""]
+                  run_summary(run), ""]
+    curves = _stack([run / "learning_curve.png" for run in args.train], "learning_curves.png",
+                    figures)
+    lines += ["The runs' learning curves, one panel each (titled with its run), in the order "
+              "above:", "", f"![learning curves of {', '.join(r.name for r in args.train)}]"
+              f"({curves})", ""]
     lines += fine_tuning(args.train, records)
     configs = {name: record.get("config") or record["options"]
                for name, record in records.items()}
@@ -584,7 +604,9 @@ def main() -> None:
     print(f"wrote {PAGE.relative_to(ROOT)} and {FIGURES.relative_to(ROOT)}/")
 
 
-def _copier(source: Path) -> Callable[[Path], None]:
+def _copier(source: Path | list[Path]) -> Callable[[Path], None]:
+    if isinstance(source, list):
+        return stacked(source)
     return lambda tmp: shutil.copyfile(source, tmp)
 
 
