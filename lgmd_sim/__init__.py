@@ -2,8 +2,9 @@
 
 Packages, in floors (each imports only from the floors below it; CONTRIBUTING.md draws them):
     core     lgmd_sim.core: params (checked parameters), fileio (atomic outputs), runs (the
-             one resumable run folder), parallel (jobs on a pool or on Ray), registry,
-             extras, machine, numerics, resources, frames, plots
+             one resumable run folder), parallel (jobs on a pool or on Ray), jobs (a
+             job and what it keeps), pool (the worker processes), registry, extras,
+             machine, numerics, resources, frames, plots
     signals  lgmd_sim.signals (stimuli, video, noise, metrics), lgmd_sim.models (the LGMD
              family: feedback LGMD, LGMD1, LGMD2, F(ONn), F(OFFp), front ends, presets)
     world    lgmd_sim.world (the MuJoCo jitter world), envs (Gymnasium environments, the

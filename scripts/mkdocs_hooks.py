@@ -2,7 +2,7 @@
 
 Links to repository files that are no page of the site: on GitHub a relative link to
 `../../examples/eta_lgmd.py`, to `../CHANGELOG.md` or to a folder of docs/ opens that file
-or folder, and tests/test_findings.py reads a finding's numbers from the files it links. So
+or folder, and tests/docs/test_findings.py reads a finding's numbers from the files it links. So
 the Markdown keeps those links, and the site rewrites them: to the file on the repository's
 site when mkdocs.yml names a `repo_url`, else to its path as code text (the repository has
 no public address yet). A link to a file that does not exist is left alone, for MkDocs'

@@ -50,6 +50,26 @@ def installed(wheel, tmp_path_factory) -> dict[str, str]:
 
 
 @pytest.fixture
+def distribution(tmp_path, monkeypatch):
+    """Install a distribution "myplug" on sys.path: ``distribution(entry_points)`` with the
+    text of its entry points in the group lgmd_sim.models."""
+    def install(entry_points: str) -> None:
+        info = tmp_path / "myplug-0.1.dist-info"
+        info.mkdir()
+        (info / "METADATA").write_text("Metadata-Version: 2.1\nName: myplug\nVersion: 0.1\n")
+        (info / "entry_points.txt").write_text(f"[lgmd_sim.models]\n{entry_points}")
+        monkeypatch.syspath_prepend(str(tmp_path))
+    return install
+
+
+@pytest.fixture
+def test_plugins_on_path(monkeypatch):
+    """tests/plugins on sys.path: the test plug-ins by their specs (hostile:Mutating,
+    lgmd_plug:..., eta_broken:...)."""
+    monkeypatch.syspath_prepend(str(ROOT / "tests" / "plugins"))
+
+
+@pytest.fixture
 def examples_on_path(monkeypatch):
     """examples/ on sys.path, as `PYTHONPATH=examples` puts it for a user: the worked
     plug-in by its spec, eta_lgmd:EtaLGMD."""

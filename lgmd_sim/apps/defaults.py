@@ -17,6 +17,6 @@ AVOIDER = "lgmd1/robot-image,loom-steer"
 #: An episode (a search seed of LoomSteer's, docs/experiments/loom-steer.md) in which it
 #: reaches the goal at frame 609 with five alarms, in the replay mode on any x86-64
 #: processor with AVX2 (`lgmd_sim.core.numerics`; recorded on an AMD EPYC, and checked,
-#: potentials to the bit, by tests/test_replay.py on whichever processor runs the suite).
+#: potentials to the bit, by tests/benchmark/test_replay.py on whichever processor runs the suite).
 #: Not every episode goes so: the leaderboard gives the rates.
 AVOID_SEED = 2002

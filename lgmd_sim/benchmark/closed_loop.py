@@ -25,7 +25,8 @@ from lgmd_sim.benchmark.episode import DEFAULT_SIDE, RECORD_FIELDS, Cell, episod
 from lgmd_sim.benchmark.summary import cell_of, summarise, write_tables
 from lgmd_sim.controllers import options
 from lgmd_sim.core.fileio import atomic_folder_outputs
-from lgmd_sim.core.parallel import Job, RunOptions, run_jobs
+from lgmd_sim.core.jobs import Job
+from lgmd_sim.core.parallel import RunOptions, run_jobs
 from lgmd_sim.core.runs import RunFolder, RunResult
 from lgmd_sim.envs.zone import CRUISE, FALSE_ALARM_HORIZON
 

@@ -26,7 +26,8 @@ import numpy as np
 
 from lgmd_sim.controllers import options
 from lgmd_sim.core.fileio import csv_text, write_files, write_text_atomic
-from lgmd_sim.core.parallel import Job, RunOptions, run_jobs
+from lgmd_sim.core.jobs import Job
+from lgmd_sim.core.parallel import RunOptions, run_jobs
 from lgmd_sim.core.runs import NULL, NUMBER, RunFolder, RunResult
 from lgmd_sim.signals import metrics
 

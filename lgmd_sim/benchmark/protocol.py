@@ -224,7 +224,7 @@ def _table(data: Any, shape: Mapping[str, Any], where: str) -> dict[str, Any]:
 
 def _check(p: Protocol) -> None:
     """The values a well-formed protocol may not hold: one line naming the key."""
-    from lgmd_sim.calibration.run import TASKS
+    from lgmd_sim.calibration.tasks import TASKS
     from lgmd_sim.controllers import options
     from lgmd_sim.envs.catalogue import scenarios
 

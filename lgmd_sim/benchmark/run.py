@@ -80,7 +80,8 @@ def _clip_track(entry: Entry, protocol: Protocol, name: str, out: Path,
                 options: RunOptions) -> list[dict[str, Any]]:
     """Run an open-loop track's clips through the entry's detector (a run folder in `out`,
     `jobs`: record name -> (job function, its arguments)); one record per clip."""
-    from lgmd_sim.core.parallel import Job, run_jobs
+    from lgmd_sim.core.jobs import Job
+    from lgmd_sim.core.parallel import run_jobs
 
     config = {name: protocol.identity(), "model": entry.model, "preset": entry.preset,
               "detector_params": entry.to_json()["params"]}
@@ -203,7 +204,8 @@ def calibrated(entry: Entry, protocol: Protocol, out: str | Path,
     Everything goes in the calibrated entry's folder: ``calibration/`` (the calibration's
     run folder) and ``presets/calibrated.json``.
     """
-    from lgmd_sim.calibration.run import CalibrateConfig, calibrate, preset_name
+    from lgmd_sim.calibration.run import CalibrateConfig, calibrate
+    from lgmd_sim.calibration.tasks import preset_name
     from lgmd_sim.core.fileio import read_json
     from lgmd_sim.models.presets import merge_presets
 

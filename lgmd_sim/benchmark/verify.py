@@ -117,7 +117,8 @@ def _track(file: Path, track: str, part: Any, protocol: Protocol,
     the protocol's for the result's entry, its records from ``episodes.json``), the
     episodes `sample` (how many, the draw's seed) of it."""
     from lgmd_sim.benchmark.closed_loop import ClosedLoopConfig
-    from lgmd_sim.core.parallel import Job, run_jobs
+    from lgmd_sim.core.jobs import Job
+    from lgmd_sim.core.parallel import run_jobs
     from lgmd_sim.core.runs import RunFolder, read_record
 
     run = file.parent / track

@@ -54,7 +54,7 @@ ROBOT_GROUPS: dict[str, list[tuple[str, tuple[float, ...]]]] = {
 }
 
 
-#: The video task's clips (`lgmd_sim.calibration.run`, "video"): the walker's kinds, with
+#: The video task's clips (`lgmd_sim.calibration.tasks`, "video"): the walker's kinds, with
 #: synthetic looming among the collisions, and a fourth kind that must stay silent:
 #: stimuli that move, flicker or drift without looming (`STIMULI`).
 VIDEO_GROUPS: dict[str, list[tuple[str, tuple[float, ...]]]] = {

@@ -23,7 +23,7 @@ from lgmd_sim import __version__
 from lgmd_sim.core import numerics
 from lgmd_sim.core.extras import MissingExtra
 from lgmd_sim.core.fileio import error_text
-from lgmd_sim.core.parallel import WorkerDied
+from lgmd_sim.core.jobs import WorkerDied
 from lgmd_sim.core.stops import catch_swallowed_stops, stop_raised
 
 #: The subcommands, in the order `--help` lists them.

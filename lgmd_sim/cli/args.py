@@ -49,16 +49,6 @@ def resolution(text: str) -> str | tuple[int, int]:
         raise argparse.ArgumentTypeError(str(exc)) from None
 
 
-def grid(text: str) -> tuple[int, int]:
-    """ROWSxCOLUMNS of positive integers (a grid of cells over the frame)."""
-    from lgmd_sim.world.params import parse_pair
-
-    cells = parse_pair(text)
-    if cells is None or min(cells) < 1:
-        raise argparse.ArgumentTypeError(f"must be ROWSxCOLUMNS (e.g. 3x5), got {text!r}")
-    return cells
-
-
 def advanced(p: argparse.ArgumentParser, about: str) -> argparse._ArgumentGroup:
     """`p`'s research and tuning options: --help lists them under "advanced", after the
     options a user needs first, with `about` saying what they are for. Where an option is

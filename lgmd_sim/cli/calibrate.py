@@ -107,7 +107,9 @@ def config_from_args(args: argparse.Namespace) -> Any:
 
 
 def run(args: argparse.Namespace) -> int:
-    from lgmd_sim.calibration.run import TASKS, calibrate, summary_markdown
+    from lgmd_sim.calibration.report import summary_markdown
+    from lgmd_sim.calibration.run import calibrate
+    from lgmd_sim.calibration.tasks import TASKS
 
     config = config_from_args(args)
     result = calibrate(config, args.out, run_options(args))

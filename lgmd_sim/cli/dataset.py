@@ -132,7 +132,7 @@ def run(args: argparse.Namespace) -> int:
               f"({s.codec} MP4) in {s.seconds:.1f} s; open it with "
               f"LeRobotDataset('local/{s.path.name}', root='{s.path}')")
         return 0
-    from lgmd_sim.core.parallel import WorkerDied
+    from lgmd_sim.core.jobs import WorkerDied
     from lgmd_sim.data.generate import generate
 
     try:

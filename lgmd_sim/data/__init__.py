@@ -1,7 +1,7 @@
 """Labelled jitter datasets: generate, verify, load.
 
 - ``lgmd-sim dataset generate`` (`lgmd_sim.data.generate`: `GenerateConfig` ->
-  `generate`): episodes of the scenarios at
+  `generate`; one episode: `lgmd_sim.data.episode`): episodes of the scenarios at
   several jitter levels, frames stored losslessly, per-frame ground truth in Parquet,
   resumable, byte-identical whatever runs it (local pool or Ray);
 - ``lgmd-sim dataset verify`` (`lgmd_sim.data.verify`): counts, checksums and labels;

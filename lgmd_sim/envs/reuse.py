@@ -16,7 +16,7 @@ from typing import Any
 
 import gymnasium as gym
 
-from lgmd_sim.core.parallel import kept
+from lgmd_sim.core.jobs import kept
 from lgmd_sim.envs.catalogue import scenario
 
 __all__ = ["episode_env"]
@@ -25,7 +25,7 @@ __all__ = ["episode_env"]
 @contextmanager
 def episode_env(name: str, **overrides: Any) -> Iterator[gym.Env]:
     """``gym.make`` of catalogue scenario `name` with `overrides`, kept for the run's later
-    episodes with the same arguments (`lgmd_sim.core.parallel.kept`); outside a run, made for
+    episodes with the same arguments (`lgmd_sim.core.jobs.kept`); outside a run, made for
     this episode and closed after it. Reset it with the episode's seed; do not close it."""
     env_id = scenario(name).env_id
     key = ("episode_env", env_id, repr(sorted(overrides.items())))

@@ -1,14 +1,20 @@
 """What `lgmd-sim train` trains: `TrainConfig`, every option of a run checked when it is made
-(a bad value is a one-line ValueError naming it, before anything starts), and the seeds
-a run validates on (`VALIDATION_SEED`).
+(a bad value is a one-line ValueError naming it, before anything starts), the seeds a run
+validates on (`VALIDATION_SEED`), and the TOML file of its keys that ``lgmd-sim train
+--config FILE.toml`` reads (`read_toml`; `config_toml` writes a run's, `keys_markdown` lists
+the keys).
 """
 
 from __future__ import annotations
 
 import dataclasses
+import difflib
 import functools
 import json
+import tomllib
+from collections.abc import Mapping
 from dataclasses import dataclass
+from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from lgmd_sim.controllers import options
@@ -19,10 +25,17 @@ from lgmd_sim.training.dagger import FIT_EPOCHS, STUDENT_ACTIONS
 if TYPE_CHECKING:
     from lgmd_sim.training.curriculum import Curriculum
 
-__all__ = ["VALIDATION_SEED", "TrainConfig"]
+__all__ = ["VALIDATION_SEED", "TrainConfig", "config_toml", "keys_markdown", "read_toml"]
 
 #: The first validation seed; training seeds stay below it, test seeds start at 1000.
 VALIDATION_SEED = 900
+
+
+def _key(default: Any, doc: str) -> Any:
+    """A field of `TrainConfig`: its default and what it means, declared here once (the
+    training guide's list of keys is `keys_markdown`, the command line's --config reads
+    them)."""
+    return dataclasses.field(default=default, metadata={"doc": doc})
 
 
 @dataclass(frozen=True)
@@ -30,77 +43,95 @@ class TrainConfig:
     """What a training run trains, checked when it is made (a bad value raises a
     one-line ValueError naming it).
 
-    Attributes:
-        algo: a key of `lgmd_sim.policies.folder.ALGOS` ("ppo", "sac").
-        env: the Gymnasium id of the environment.
-        obs: "features" (an LGMD model's signals with the proprioception and goal),
-            "pixels" (small stacked grey frames) or "privileged" (the threat's ground
-            truth that the Oracle reads, with the proprioception and goal).
-        model, preset: the LGMD model of "features", MODEL or MODEL/PRESET (with front
-            ends), and its preset (None: the model's default); both None otherwise.
-        grid: (rows, columns) of the S-layer grid of "features"
-            (`lgmd_sim.envs.wrappers.LGMDFeatures`; a plug-in without an S layer: its
-            last layer's, and one without layers is refused: `lgmd_sim.models.layers`).
-        grid_history: how many of the last grids "features" observes (1: the present).
-        memory: frames the per-column memory of the excitation of "features" lasts, 0
-            for none (`lgmd_sim.envs.wrappers.LGMDFeatures`).
-        resolution: the frame size the environment renders.
-        jitter: the jitter level of the training episodes.
-        steps: environment steps in all, over every environment and session.
-        envs: environments stepped in parallel (worker processes).
-        seed: seed of the model and of the first training environment.
-        eval_every, eval_seeds: validate every N steps on this many held-out seeds (from
-            `VALIDATION_SEED`).
-        checkpoint_every: write a checkpoint every N steps.
-        hp: hyperparameter overrides, each "KEY=VALUE" (`lgmd_sim.training.algos`); a
-            resumed run may add some (a later one wins), not ``policy_kwargs`` (the
-            checkpoint's network has its shape).
-        reward: reward parameters of the training environments, each "KEY=VALUE"
-            (`lgmd_sim.training.envs.parse_reward`); validation keeps the environment's.
-        curriculum: a curriculum (`lgmd_sim.training.curriculum`: a built-in name or a
-            TOML file) the training environments go through before the task itself;
-            None: the task from the start.
-        teacher: "oracle", "steer" (the Oracle's inputs without its memory,
-            `lgmd_sim.controllers.steer`), "reactive" (ReactiveAvoid's rule on the
-            policy's own LGMD features) or a privileged policy (a folder or a shipped
-            name) the policy first learns from by DAgger (`lgmd_sim.training.dagger`),
-            before RL; None: RL from the start. PPO only.
-        imitation_steps: environment steps of the DAgger rounds (part of `steps`).
-        dagger_rounds: DAgger rounds, each ``imitation_steps / dagger_rounds`` steps.
-        dagger_epochs: cloning's epochs over the labels kept after each round.
-        dagger_student: how the student acts on the steps it drives in the rounds,
-            "sample" or "mean" (`lgmd_sim.training.dagger.STUDENT_ACTIONS`).
-        value_warmup: environment steps of PPO after the DAgger rounds in which only the
-            value function learns (`lgmd_sim.training.dagger.critic_only`), part of
-            `steps`; 0: none. Given when resuming a run past its DAgger rounds that had
-            none, the warm-up starts there; it runs once.
+    Every field is a key of ``lgmd-sim train --config FILE.toml`` (some are options of the
+    command too); what each means is its ``doc`` metadata (`keys_markdown` lists them with
+    their defaults, as docs/guides/training.md does).
     """
 
-    algo: str = "ppo"
-    env: str = "lgmd_sim/RoughTerrainObstacles-v0"
-    obs: str = "features"
-    model: str | None = "feedback"
-    preset: str | None = None
-    grid: tuple[int, int] = PolicyConfig.grid
-    grid_history: int = PolicyConfig.grid_history
-    memory: int = PolicyConfig.memory
-    resolution: str | tuple[int, int] = "rl"
-    jitter: float = 1.0
-    steps: int = 300_000
-    envs: int = 2
-    seed: int = 0
-    eval_every: int = 25_000
-    eval_seeds: int = 10
-    checkpoint_every: int = 25_000
-    hp: tuple[str, ...] = ()
-    reward: tuple[str, ...] = ()
-    curriculum: str | None = None
-    teacher: str | None = None
-    imitation_steps: int = 100_000
-    dagger_rounds: int = 10
-    dagger_epochs: int = FIT_EPOCHS
-    dagger_student: str = "sample"
-    value_warmup: int = 0
+    algo: str = _key("ppo", 'the algorithm, a key of `lgmd_sim.policies.folder.ALGOS`: "ppo" '
+                     'or "sac"')
+    env: str = _key("lgmd_sim/RoughTerrainObstacles-v0",
+                    "the Gymnasium id of the environment (`lgmd-sim envs` lists them)")
+    obs: str = _key("features", 'what the policy sees: "features" (an LGMD model\'s '
+                    "potential history, alarm and S-layer grid, with the proprioception and "
+                    'goal; an MLP), "pixels" (small stacked grey frames with the '
+                    'proprioception and goal; a CNN) or "privileged" (the ground truth the '
+                    "Oracle reads: the threat's distance, bearing, time to collision and "
+                    "closing speed, with the proprioception and goal; an MLP, the upper bound "
+                    "for the others)")
+    model: str | None = _key("feedback", 'the LGMD model of "features", MODEL or MODEL/PRESET '
+                             "(with front ends); none for the other observations")
+    preset: str | None = _key(None, "the model's preset (unset: the model's default)")
+    grid: tuple[int, int] = _key(
+        PolicyConfig.grid, '[rows, columns] of the S-layer grid of "features", each cell '
+        "holding its share of the layer's activity ([1, 3]: left, centre, right; "
+        "`lgmd_sim.envs.wrappers.LGMDFeatures`; a plug-in without an S layer: its last "
+        "layer's, and one without layers is refused: `lgmd_sim.models.layers`)")
+    grid_history: int = _key(
+        PolicyConfig.grid_history, 'how many of the last grids "features" observes, oldest '
+        "first (1: the present frame's; more show where the activity grows)")
+    memory: int = _key(
+        PolicyConfig.memory, '"features" also observes, per column of the grid, the '
+        "potential's excitation seen there lately, fading over this many frames (30: a "
+        "second), for what has left the frame; 0: none "
+        "(`lgmd_sim.envs.wrappers.LGMDFeatures`)")
+    resolution: str | tuple[int, int] = _key(
+        "rl", 'the frame size the environment renders: "rl" (120x160, as the benchmark), '
+        '"paper", "small" or "HxW"')
+    jitter: float = _key(1.0, "the jitter level of the training episodes")
+    steps: int = _key(300_000, "environment steps in all, over every environment and "
+                      "session (with --resume, the new total)")
+    envs: int = _key(2, "environments stepped in parallel, one worker process each")
+    seed: int = _key(0, "seed of the model and of the first training environment "
+                     "(training seeds stay below 900, `VALIDATION_SEED`)")
+    eval_every: int = _key(25_000, "validate every this many environment steps (and at the "
+                           "end)")
+    eval_seeds: int = _key(10, "validation episodes, on the held-out seeds 900 "
+                           "(`VALIDATION_SEED`) to 900 + eval_seeds - 1")
+    checkpoint_every: int = _key(25_000, "write a checkpoint every this many environment "
+                                 "steps (and at the end)")
+    hp: tuple[str, ...] = _key(
+        (), 'hyperparameter overrides of the algorithm, each "KEY=VALUE" '
+        '(`lgmd_sim.training.algos`), e.g. ["n_steps=512", "learning_rate=1e-4"]; a resumed '
+        "run adds them to its own (a later one wins), not policy_kwargs (the checkpoint's "
+        'network has its shape), e.g. ["target_kl=0.02"] for gentler fine-tuning')
+    reward: tuple[str, ...] = _key(
+        (), 'reward parameters of the training environments, each "KEY=VALUE" with KEY one '
+        "of progress_reward, collision_penalty, effort_penalty, goal_bonus, time_penalty or "
+        "proximity_penalty (`lgmd-sim envs NAME` lists them; the shaping ones are off by "
+        "default; `lgmd_sim.training.envs.parse_reward`), e.g. [\"goal_bonus=5\"]; "
+        "validation and `lgmd-sim eval` keep the environment's own reward")
+    curriculum: str | None = _key(
+        None, "go through easier versions of the task first, each stage passed at a success "
+        "rate of its training episodes: a built-in curriculum (\"obstacles\": no obstacle "
+        "and the goal 4 m away, then 2 obstacles at 6 m, 4 at 8 m, then the task) or a TOML "
+        "file of stages (`lgmd_sim.training.curriculum`); validation always runs on the "
+        "task; unset: the task from the start")
+    teacher: str | None = _key(
+        None, "learn from a teacher first, by DAgger (`lgmd_sim.training.dagger`; PPO only): "
+        "\"oracle\" (the Oracle controller), \"steer\" (the Oracle's inputs without its "
+        "memory, `lgmd_sim.controllers.steer`: what a policy can copy), \"reactive\" "
+        "(ReactiveAvoid's manoeuvre on the policy's own LGMD alarm; obs \"features\") or a "
+        "privileged policy (a folder trained with obs \"privileged\", or a shipped name) "
+        "labels the states the policy visits, the policy is fitted to the labels, then RL "
+        "fine-tunes it; unset: RL from the start")
+    imitation_steps: int = _key(100_000, "environment steps of the DAgger rounds, part of "
+                                "steps")
+    dagger_rounds: int = _key(10, "DAgger rounds, of imitation_steps / dagger_rounds steps "
+                              "each: the teacher drives round 0, then less and less, none "
+                              "from half the rounds on")
+    dagger_epochs: int = _key(FIT_EPOCHS, "cloning's epochs over all the labels kept, after "
+                              "each DAgger round")
+    dagger_student: str = _key(
+        "sample", "how the student acts on the steps it drives in the DAgger rounds: "
+        "\"sample\" its Gaussian or take its \"mean\", the action validation and `lgmd-sim "
+        "eval` execute (`lgmd_sim.training.dagger.STUDENT_ACTIONS`)")
+    value_warmup: int = _key(
+        0, "after DAgger, this many environment steps of PPO in which only the value "
+        "function learns (`lgmd_sim.training.dagger.critic_only`), so that fine-tuning "
+        "starts from advantages that mean something; part of steps, 0: none. Given when "
+        "resuming a run past its DAgger rounds that had none, the warm-up starts there; it "
+        "runs once")
 
     def __post_init__(self) -> None:
         # in this order: the message names the first bad option
@@ -119,10 +150,10 @@ class TrainConfig:
         for key in ("algo", "obs", "env"):
             if not isinstance(getattr(self, key), str):
                 raise ValueError(f"--{key} must be a string, got {getattr(self, key)!r}")
-        for key in ("hp", "reward"):
-            items = getattr(self, key)
+        for key in ("--hp", "reward"):
+            items = getattr(self, key.lstrip("-"))
             if not (isinstance(items, list | tuple) and all(isinstance(v, str) for v in items)):
-                raise ValueError(f"--{key} must be a list of KEY=VALUE strings, got {items!r}")
+                raise ValueError(f"{key} must be a list of KEY=VALUE strings, got {items!r}")
         if self.algo not in ALGOS:
             raise ValueError(f"unknown algorithm {self.algo!r}; available: {', '.join(ALGOS)}")
         if self.obs not in OBS:
@@ -145,18 +176,18 @@ class TrainConfig:
         grid = tuple(self.grid) if isinstance(self.grid, list | tuple) else ()
         if not (len(grid) == 2 and all(isinstance(v, int) and not isinstance(v, bool)
                                        and v >= 1 for v in grid)):
-            raise ValueError(f"--grid must be rows x columns of positive integers, got "
+            raise ValueError(f"grid must be [rows, columns] of positive integers, got "
                              f"{self.grid!r}")
         if self.obs != "features" and grid != PolicyConfig.grid:
-            raise ValueError(f"--grid is the S-layer grid of --obs features, not {self.obs}")
+            raise ValueError(f"grid is the S-layer grid of --obs features, not {self.obs}")
         object.__setattr__(self, "grid", grid)
         for key, least, what in (("grid_history", 1, "a positive integer"),
                                  ("memory", 0, "a non-negative integer (frames)")):
-            value, option = getattr(self, key), f"--{key.replace('_', '-')}"
+            value = getattr(self, key)
             if not (isinstance(value, int) and not isinstance(value, bool) and value >= least):
-                raise ValueError(f"{option} must be {what}, got {value!r}")
+                raise ValueError(f"{key} must be {what}, got {value!r}")
             if self.obs != "features" and value != getattr(PolicyConfig, key):
-                raise ValueError(f"{option} is of --obs features, not {self.obs}")
+                raise ValueError(f"{key} is of --obs features, not {self.obs}")
         object.__setattr__(self, "model", model)
         object.__setattr__(self, "preset", preset)
         object.__setattr__(self, "resolution", options.resolution(self.resolution))
@@ -167,11 +198,12 @@ class TrainConfig:
         from lgmd_sim.training import algos
         from lgmd_sim.training.envs import parse_reward
 
-        for key in ("steps", "envs", "eval_every", "checkpoint_every", "eval_seeds"):
-            options.check_positive(getattr(self, key), f"--{key.replace('_', '-')}",
-                                   integer=True)
+        for key in ("steps", "envs"):
+            options.check_positive(getattr(self, key), f"--{key}", integer=True)
+        for key in ("eval_every", "checkpoint_every", "eval_seeds"):
+            options.check_positive(getattr(self, key), key, integer=True)
         if self.eval_seeds > 1000 - VALIDATION_SEED:
-            raise ValueError(f"--eval-seeds must be at most {1000 - VALIDATION_SEED} "
+            raise ValueError(f"eval_seeds must be at most {1000 - VALIDATION_SEED} "
                              f"(validation seeds are {VALIDATION_SEED} to 999), got "
                              f"{self.eval_seeds}")
         options.check_seed(self.seed, "--seed")
@@ -185,40 +217,53 @@ class TrainConfig:
     def _check_teacher(self) -> None:
         """DAgger's options, and the teacher (loaded: a bad one is one line now)."""
         for key in ("imitation_steps", "dagger_rounds", "dagger_epochs"):
-            options.check_positive(getattr(self, key), f"--{key.replace('_', '-')}",
-                                   integer=True)
+            options.check_positive(getattr(self, key), key, integer=True)
         if self.dagger_student not in STUDENT_ACTIONS:
-            raise ValueError(f"--dagger-student must be one of {', '.join(STUDENT_ACTIONS)}, "
+            raise ValueError(f"dagger_student must be one of {', '.join(STUDENT_ACTIONS)}, "
                              f"got {self.dagger_student!r}")
         if not (isinstance(self.value_warmup, int) and not isinstance(self.value_warmup, bool)
                 and self.value_warmup >= 0):
-            raise ValueError(f"--value-warmup must be a non-negative integer, got "
+            raise ValueError(f"value_warmup must be a non-negative integer, got "
                              f"{self.value_warmup!r}")
         if self.value_warmup and self.teacher is None:
-            raise ValueError("--value-warmup warms the value function up after DAgger: it "
-                             "needs --teacher")
+            raise ValueError("value_warmup warms the value function up after DAgger: it "
+                             "needs a teacher")
         if self.teacher is not None:
             from lgmd_sim.training.dagger import Teacher
 
             if self.algo != "ppo":
-                raise ValueError(f"--teacher needs --algo ppo (its policy is fitted to the "
+                raise ValueError(f"teacher needs --algo ppo (its policy is fitted to the "
                                  f"teacher's actions), not {self.algo}")
             if self.imitation_steps + self.value_warmup >= self.steps:
-                warmup = f" and --value-warmup {self.value_warmup}" if self.value_warmup else ""
-                raise ValueError(f"--imitation-steps {self.imitation_steps}{warmup} must be "
+                warmup = f" and value_warmup {self.value_warmup}" if self.value_warmup else ""
+                raise ValueError(f"imitation_steps {self.imitation_steps}{warmup} must be "
                                  f"fewer than --steps {self.steps} (RL fine-tuning takes the "
                                  "rest)")
             if self.imitation_steps < self.dagger_rounds * self.envs:
-                raise ValueError(f"--imitation-steps {self.imitation_steps} must be at least "
-                                 f"--dagger-rounds x --envs ({self.dagger_rounds * self.envs}): "
+                raise ValueError(f"imitation_steps {self.imitation_steps} must be at least "
+                                 f"dagger_rounds x --envs ({self.dagger_rounds * self.envs}): "
                                  "a step per environment and round")
-            Teacher(self.teacher, 1, self.policy())  # loads: a bad teacher is one line now
+            if not isinstance(self.teacher, str):
+                raise ValueError(f"teacher must be oracle, steer, reactive or a policy, got "
+                                 f"{self.teacher!r}")
+            try:
+                Teacher(self.teacher, 1, self.policy())  # loads: a bad teacher is one line now
+            except ValueError as exc:
+                # a policy's own refusals name its folder, not the key that gave it
+                text = str(exc)
+                raise ValueError(text if text.startswith("teacher")
+                                 else f"teacher {self.teacher}: {text}") from None
 
     def policy(self) -> PolicyConfig:
         """The configuration of the policy it trains."""
         return PolicyConfig(self.algo, self.obs, self.env, self.resolution,
                             float(self.jitter), self.model, self.preset, grid=self.grid,
                             grid_history=self.grid_history, memory=self.memory)
+
+    @staticmethod
+    def defaults() -> dict[str, Any]:
+        """Every field's default, as JSON records it (tuples as lists)."""
+        return {f.name: json.loads(json.dumps(f.default)) for f in dataclasses.fields(TrainConfig)}
 
     def as_json(self) -> dict[str, Any]:
         """The configuration as the run folder records it."""
@@ -244,3 +289,61 @@ class TrainConfig:
         from lgmd_sim.training.envs import parse_reward
 
         return {**parse_reward(self.reward), **self.stage_overrides(stage)}
+
+
+def _toml(value: Any) -> str:
+    """`value` as TOML writes it (a string, a number, an array of them)."""
+    if isinstance(value, list | tuple):
+        return "[" + ", ".join(_toml(v) for v in value) + "]"
+    if isinstance(value, bool) or not isinstance(value, str | int | float):
+        raise ValueError(f"{value!r} is not a value of a TrainConfig key")
+    return json.dumps(value)  # JSON's strings and numbers are TOML's too
+
+
+def keys_markdown() -> str:
+    """The keys of a ``--config`` file as a Markdown list, each with its default (where it
+    has one) and meaning: docs/guides/training.md holds this list."""
+    lines = []
+    for f in dataclasses.fields(TrainConfig):
+        default = "" if f.default is None else f" = {_toml(f.default)}"
+        lines.append(f"- `{f.name}{default}`: {f.metadata['doc']}")
+    return "\n".join(lines) + "\n"
+
+
+def config_toml(config: Mapping[str, Any]) -> str:
+    """The ``--config`` file of a run's recorded configuration (`TrainConfig.as_json`): the
+    keys whose values are not the defaults, one a line. A key recorded as null is left out
+    (TOML has no null): its default is null, or TrainConfig sets it so (the model of an
+    observation that reads none)."""
+    defaults = TrainConfig.defaults()
+    if unknown := sorted(set(config) - set(defaults)):
+        raise ValueError(f"{', '.join(unknown)}: not TrainConfig's keys (another lgmd-sim's "
+                         "record?)")
+    return "".join(f"{key} = {_toml(value)}\n" for key, value in config.items()
+                   if value is not None and json.loads(json.dumps(value)) != defaults[key])
+
+
+def read_toml(path: str | Path) -> dict[str, Any]:
+    """The keys of the ``--config`` file `path`: TrainConfig's fields, unchecked (making the
+    TrainConfig checks their values).
+
+    Raises:
+        ValueError: a file that cannot be read or is not TOML, a key that is not a field
+            (one line naming the file, and the key).
+    """
+    from lgmd_sim.core.fileio import read_text
+
+    try:
+        data = tomllib.loads(read_text(path))
+    except tomllib.TOMLDecodeError as exc:
+        raise ValueError(f"{path}: not a TOML file ({exc})") from None
+    # read_text's own refusals name the file already
+    fields = TrainConfig.defaults()
+    for key in data:
+        if key not in fields:
+            near = difflib.get_close_matches(key, fields, 1)
+            raise ValueError(f"{path}: unknown key {key!r}"
+                             + (f" (did you mean {near[0]}?)" if near else "")
+                             + "; the keys are TrainConfig's fields, listed in "
+                             "docs/guides/training.md")
+    return data

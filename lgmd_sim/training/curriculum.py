@@ -1,11 +1,12 @@
-"""A curriculum for `lgmd-sim train --curriculum`: easier versions of the task first, each
-stage left once the policy succeeds often enough in its training episodes.
+"""A curriculum for `lgmd-sim train` (the ``curriculum`` key of its --config file): easier
+versions of the task first, each stage left once the policy succeeds often enough in its
+training episodes.
 
 A goal 8 m away behind six obstacles is never reached by chance, so a policy that starts
 there never sees the reward of arriving. A curriculum's stages change the environment
 (fewer obstacles, less jitter, a nearer goal: a parameter of
 `lgmd_sim.envs.params.EnvParams`, but neither what the policy observes or what its actions
-mean, nor the reward, which ``--reward`` sets for every stage), and after the last
+mean, nor the reward, which the ``reward`` key sets for every stage), and after the last
 one the policy trains on the task as the environment defines it until the step budget is
 spent. Validation always runs on that task, so the learning curve and the best policy are
 the real task's.
@@ -93,7 +94,7 @@ def load(spec: str, env_id: str) -> Curriculum:
             stage).
     """
     if not isinstance(spec, str):  # open() would take a number for a file descriptor
-        raise ValueError(f"--curriculum must be a curriculum's name or a TOML file's path, "
+        raise ValueError(f"curriculum must be a curriculum's name or a TOML file's path, "
                          f"got {spec!r}")
     if spec in CURRICULA:
         data = CURRICULA[spec]
@@ -102,7 +103,7 @@ def load(spec: str, env_id: str) -> Curriculum:
             data = tomllib.loads(read_text(spec))
         except ValueError as exc:  # read_text's refusals and TOML's
             # read_text's name the file, which this line names once
-            raise ValueError(f"--curriculum {spec}: not a built-in curriculum "
+            raise ValueError(f"curriculum {spec}: not a built-in curriculum "
                              f"({', '.join(CURRICULA)}) nor a readable TOML file "
                              f"({str(exc).removeprefix(f'{spec}: ')})") from None
     return _parse(data, env_id, spec)
@@ -119,13 +120,13 @@ def _parse(data: Mapping[str, Any], env_id: str, name: str) -> Curriculum:
     raw = data.get("stage", [])
     # the parameters' checks: TOML's true and false are no numbers, though Python's are
     if unknown or int_at_least(1)(window) or not isinstance(raw, list) or not raw:
-        raise ValueError(f"--curriculum {name}: needs a positive integer `window` and one "
+        raise ValueError(f"curriculum {name}: needs a positive integer `window` and one "
                          "or more [[stage]] tables" + (f", not {', '.join(unknown)}"
                                                        if unknown else ""))
     scenario = gym.spec(env_id).kwargs.get("scenario")
     stages = []
     for i, table in enumerate(raw, 1):
-        where = f"--curriculum {name}: stage {i}"
+        where = f"curriculum {name}: stage {i}"
         if not isinstance(table, dict):
             raise ValueError(f"{where} is {type(table).__name__}, not a table of parameters "
                              "([[stage]])")
@@ -138,7 +139,7 @@ def _parse(data: Mapping[str, Any], env_id: str, name: str) -> Curriculum:
                              "the policy observes or what its actions mean)")
         if reward := sorted(set(overrides) & set(REWARD_KEYS)):
             raise ValueError(f"{where}: {', '.join(reward)} is the reward's: set it for every "
-                             "stage with --reward")
+                             "stage with the reward key")
         try:
             params_for(scenario, overrides)
         except ValueError as exc:

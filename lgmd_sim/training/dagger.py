@@ -105,7 +105,7 @@ class Teacher:
             self.controllers = [controllers.make(spec) for _ in range(n_envs)]
         elif spec == "reactive":
             if student.obs != "features":
-                raise ValueError("--teacher reactive acts on the student's LGMD alarm: it "
+                raise ValueError("teacher reactive acts on the student's LGMD alarm: it "
                                  f"needs --obs features, not {student.obs}")
             self.controllers = [AlarmAvoid(student.grid) for _ in range(n_envs)]
         else:
@@ -114,11 +114,11 @@ class Teacher:
             self.controllers = [controllers.make("policy", path=spec) for _ in range(n_envs)]
             trained = self.controllers[0].policy
             if trained.config.obs != "privileged":
-                raise ValueError(f"--teacher {spec}: a teacher policy must see privileged "
+                raise ValueError(f"teacher {spec}: a teacher policy must see privileged "
                                  "observations (lgmd-sim train --obs privileged), not "
                                  f"{trained.config.obs}")
             if trained.config.env_id != student.env_id:
-                raise ValueError(f"--teacher {spec}: trained in {trained.config.env_id}, not "
+                raise ValueError(f"teacher {spec}: trained in {trained.config.env_id}, not "
                                  f"the student's {student.env_id}")
             keys = list(trained.network.observation_space.spaces)
 
@@ -252,12 +252,12 @@ def fit(policy: Any, obs: Mapping[str, np.ndarray], actions: np.ndarray, *, epoc
 
 
 #: Cloning's epochs over the aggregate after each round (the default of
-#: ``--dagger-epochs``), minibatch size and Adam's step size (imitation's BC defaults but
+#: ``dagger_epochs``), minibatch size and Adam's step size (imitation's BC defaults but
 #: the epochs: the aggregate grows each round, so a few passes over all of it refit every
 #: label).
 FIT_EPOCHS, FIT_BATCH, FIT_LEARNING_RATE = 4, 256, 3e-4
 
-#: How the student acts on the steps it drives in a round (``--dagger-student``): "sample"
+#: How the student acts on the steps it drives in a round (``dagger_student``): "sample"
 #: draws from its Gaussian, as RL explores; "mean" takes its mean, the action validation
 #: and evaluation execute, so the rounds visit the states the deterministic policy
 #: reaches (imitation's DAgger samples; a wide Gaussian then drives elsewhere).

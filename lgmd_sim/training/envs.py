@@ -10,9 +10,9 @@ the LGMD models run batched across the environments in this process
 Observation normalisation (`VecNormalize`) sits on top during training; the policy folder
 keeps its statistics and the controller applies them frozen (`Normalizer`).
 
-Reward shaping (`parse_reward`, ``lgmd-sim train --reward KEY=VALUE``) changes the training
-environments' reward parameters only: validation, ``lgmd-sim eval`` and the benchmark keep
-the environment's own reward and success.
+Reward shaping (`parse_reward`, the key ``reward = ["KEY=VALUE"]`` of ``lgmd-sim train
+--config``) changes the training environments' reward parameters only: validation,
+``lgmd-sim eval`` and the benchmark keep the environment's own reward and success.
 """
 
 from __future__ import annotations
@@ -32,7 +32,7 @@ from lgmd_sim.policies.observe import base_env, observe
 __all__ = ["REWARD_KEYS", "VecEnvs", "bare_speed", "make_vec_env", "normalized",
            "normalized_keys", "parse_reward"]
 
-#: The environment parameters ``--reward`` may change (`lgmd_sim.envs.params.EnvParams`).
+#: The environment parameters the ``reward`` key may change (`lgmd_sim.envs.params.EnvParams`).
 REWARD_KEYS = ("progress_reward", "collision_penalty", "effort_penalty", "goal_bonus",
                "time_penalty", "proximity_penalty")
 
@@ -51,18 +51,18 @@ def parse_reward(items: Iterable[str]) -> dict[str, float]:
     for item in items:
         key, sep, text = item.partition("=")
         if not sep or key not in REWARD_KEYS:
-            raise ValueError(f"--reward {item!r}: not KEY=VALUE with KEY one of "
+            raise ValueError(f"reward {item!r}: not KEY=VALUE with KEY one of "
                              f"{', '.join(REWARD_KEYS)}")
         if key in out:
-            raise ValueError(f"--reward {key} is given twice")
+            raise ValueError(f"reward {key} is given twice")
         try:
             out[key] = float(text)
         except ValueError:
-            raise ValueError(f"--reward {item}: {text!r} is not a number") from None
+            raise ValueError(f"reward {item}: {text!r} is not a number") from None
         try:
             EnvParams(**{key: out[key]})
         except ValueError as exc:
-            raise ValueError(f"--reward {item}: {exc}") from None
+            raise ValueError(f"reward {item}: {exc}") from None
     return out
 
 

@@ -102,7 +102,7 @@ def train(config: TrainConfig, out: str | Path, *, resume: bool = False,
     curriculum = config.stages
     stage = resumed.get("stage", 0)
     if curriculum and resume and recorded.get("curriculum") != curriculum.as_json():
-        raise ValueError(f"--curriculum {config.curriculum}: its stages changed since the run "
+        raise ValueError(f"curriculum {config.curriculum}: its stages changed since the run "
                          "started")
     sessions = recorded["sessions"] if recorded else []
     first_seed = config.seed + sum(s["env_seeds"][1] for s in sessions)

@@ -26,7 +26,7 @@ from typing import TYPE_CHECKING, TypeVar
 from lgmd_sim.core.parallel import RunOptions
 
 if TYPE_CHECKING:
-    from lgmd_sim.core.parallel import Pool
+    from lgmd_sim.core.pool import Pool
 
 T = TypeVar("T")
 
@@ -53,7 +53,7 @@ def on_warm_pool(workers: int, warm: Callable[[Pool], object], run: Callable[[Po
     """``run(pool)`` on a pool of `workers` started and then warmed by ``warm(pool)``, as a
     long run's later jobs find their workers (imports done, environments built): its
     result, its wall seconds, and the seconds the pool's start and the warming took."""
-    from lgmd_sim.core.parallel import Pool
+    from lgmd_sim.core.pool import Pool
 
     start = time.perf_counter()
     with Pool(workers) as pool:

@@ -18,7 +18,7 @@ In one run, on the same scenario and frame size:
 
 Each pool is started and warmed (an episode on each worker) before its timing: a
 benchmark's pool starts once and its workers keep their environments from episode to
-episode (`lgmd_sim.core.parallel.kept`), so its throughput is that of its episodes; the
+episode (`lgmd_sim.core.jobs.kept`), so its throughput is that of its episodes; the
 seconds the start-up took are reported beside.
 """
 
@@ -108,7 +108,8 @@ def measure_workers(scenario: str, resolution: str | list[int], episodes: int) -
     kernels), before the timing starts: a benchmark of a thousand episodes pays that once,
     and the seconds it took are reported beside."""
     from lgmd_sim.benchmark.episode import Cell, episode
-    from lgmd_sim.core.parallel import Job, run_jobs
+    from lgmd_sim.core.jobs import Job
+    from lgmd_sim.core.parallel import run_jobs
 
     cell = Cell(scenario, 1.0, "reactive", "feedback", "paper")
 

@@ -32,8 +32,10 @@ from typing import Any
 
 import cv2
 
+from lgmd_sim.core.jobs import Job
 from lgmd_sim.core.machine import cpu_name
-from lgmd_sim.core.parallel import Job, Pool, run_jobs
+from lgmd_sim.core.parallel import run_jobs
+from lgmd_sim.core.pool import Pool
 from lgmd_sim.data.generate import GenerateConfig, generate
 from scripts.speed import QUIET, format_table, met, on_warm_pool
 

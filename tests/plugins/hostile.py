@@ -1,5 +1,5 @@
 """Plug-ins that break the contract in the ways a hostile or careless author would, for
-the trust-boundary tests (tests/test_plugin_trust.py): each is `lgmd_plug.Blink` with one
+the trust-boundary tests (tests/models/test_plugin_trust.py): each is `lgmd_plug.Blink` with one
 fault."""
 
 from __future__ import annotations

@@ -45,7 +45,8 @@ from lgmd_sim.benchmark.summary import cell_of
 from lgmd_sim.controllers import options
 from lgmd_sim.core.extras import MissingExtra
 from lgmd_sim.core.fileio import atomic_outputs, error_text, read_text
-from lgmd_sim.core.parallel import Job, RunOptions, run_jobs
+from lgmd_sim.core.jobs import Job
+from lgmd_sim.core.parallel import RunOptions, run_jobs
 from lgmd_sim.core.runs import NULL, NUMBER, RECORD, Fields, Maybe, read_record
 from lgmd_sim.detect.outputs import check_out_folder
 from lgmd_sim.envs.catalogue import params_for

@@ -1,4 +1,4 @@
-"""Why lgmd_sim.core.parallel keeps its own worker pool: what the standard library's
+"""Why lgmd_sim.core.pool is a worker pool of its own: what the standard library's
 `concurrent.futures.ProcessPoolExecutor` (spawn workers, this Python) does at the three
 places the pool's hostile tests (tests/test_parallel.py, tests/test_process_lifetime.py)
 poke, and `multiprocessing.Pool` at one of them, printed as one line each. Recorded in

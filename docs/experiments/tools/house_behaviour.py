@@ -24,6 +24,7 @@ import json
 import re
 import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
 from typing import Any
@@ -31,7 +32,8 @@ from typing import Any
 ROOT = Path(__file__).resolve().parents[3]
 TRAIN_ENV = "lgmd_sim/StationaryApproach-v0"
 
-#: name -> arguments of `lgmd-sim`, with {out} for the run's folder
+#: name -> arguments of `lgmd-sim`, with {out} for the run's folder and {config} for a file
+#: holding `TRAIN_KEYS`
 COMMANDS: dict[str, list[str]] = {
     "smoke": ["benchmark", "--smoke", "--out", "{out}/smoke", "--no-progress",
               "lgmd1/robot-image@loom-steer"],
@@ -43,9 +45,8 @@ COMMANDS: dict[str, list[str]] = {
     "detect": ["detect", "{out}/clip.mkv", "--out", "{out}/detect", "--models", "lgmd1",
                "--no-progress"],
     "train": ["train", "--algo", "ppo", "--env", TRAIN_ENV, "--resolution", "small", "--hp",
-              "n_steps=64", "--hp", "batch_size=64", "--eval-every", "128", "--eval-seeds",
-              "2", "--checkpoint-every", "128", "--steps", "128", "--no-progress", "--out",
-              "{out}/train"],
+              "n_steps=64", "--hp", "batch_size=64", "--config", "{config}", "--steps", "128",
+              "--no-progress", "--out", "{out}/train"],
     "bench": ["bench", "closed-loop", "--scenarios", "StationaryApproach", "--jitter", "0",
               "--controllers", "straight,loom-steer", "--models", "lgmd1", "--seeds", "2",
               "--resolution", "small", "--no-progress", "--out", "{out}/bench"],
@@ -53,6 +54,10 @@ COMMANDS: dict[str, list[str]] = {
                                            (ROOT / "docs/benchmark/v2/runs").glob("*/result.json")),
                     "--out", "{out}/leaderboard.md"],
 }
+
+#: the short training's `lgmd-sim train --config` keys (outside OUT: not a file a command
+#: wrote)
+TRAIN_KEYS = "eval_every = 128\neval_seeds = 2\ncheckpoint_every = 128\n"
 
 #: keys whose values change from run to run whatever the code does
 VOLATILE = re.compile(r"time|seconds|wall|date|when|elapsed|started|finished|host|machine|"
@@ -136,14 +141,18 @@ def run(out: Path) -> None:
     out.mkdir(parents=True, exist_ok=False)
     lgmd = [sys.executable, "-m", "lgmd_sim.cli"]
     exits = {}
-    for name, arguments in COMMANDS.items():
-        start = time.time()
-        done = subprocess.run([*lgmd, *(a.format(out=out) for a in arguments)], cwd=ROOT,
-                              capture_output=True, text=True)
-        exits[name] = done.returncode
-        print(f"{name}: exit {done.returncode} in {time.time() - start:.0f} s", flush=True)
-        if done.returncode:
-            print(done.stderr[-2000:], file=sys.stderr)
+    with tempfile.TemporaryDirectory() as folder:
+        config = Path(folder) / "train.toml"
+        config.write_text(TRAIN_KEYS)
+        for name, arguments in COMMANDS.items():
+            start = time.time()
+            done = subprocess.run([*lgmd, *(a.format(out=out, config=config)
+                                            for a in arguments)],
+                                  cwd=ROOT, capture_output=True, text=True)
+            exits[name] = done.returncode
+            print(f"{name}: exit {done.returncode} in {time.time() - start:.0f} s", flush=True)
+            if done.returncode:
+                print(done.stderr[-2000:], file=sys.stderr)
     (out / "exits.json").write_text(json.dumps(exits))
     digest(out)
 

@@ -1,5 +1,5 @@
 """How much of the Oracle's decision a DAgger student's observation carries: the imitation
-gap of a run trained with ``--teacher oracle`` (``lgmd-sim train``), measured on the
+gap of a run trained with ``teacher = "oracle"`` (``lgmd-sim train --config``), measured on the
 states it labelled (its ``checkpoints/dagger.npz``).
 
 The Oracle's manoeuvre starts when the ground truth puts the threat in its trigger zone;
@@ -88,7 +88,7 @@ def gap(run: Path) -> Gap:
     config = record["config"]
     if config.get("teacher") != "oracle" or config.get("obs") != "features":
         raise SystemExit(f"imitation_gap.py: {run} is not a run on features with "
-                         "--teacher oracle")
+                         "teacher = \"oracle\"")
     labels = Labels.load(run / "checkpoints" / "dagger.npz")
     obs = {k: v.reshape(len(v), -1) for k, v in labels.obs.items()}
     actions = labels.actions

@@ -26,7 +26,8 @@ from typing import Any
 from lgmd_sim.benchmark.episode import Cell, episode
 from lgmd_sim.controllers import options
 from lgmd_sim.core.fileio import write_text_atomic
-from lgmd_sim.core.parallel import Job, RunOptions, run_jobs
+from lgmd_sim.core.jobs import Job
+from lgmd_sim.core.parallel import RunOptions, run_jobs
 from lgmd_sim.envs.zone import CRUISE, FALSE_ALARM_HORIZON
 from lgmd_sim.signals.metrics import wilson_interval
 

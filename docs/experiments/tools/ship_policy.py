@@ -6,7 +6,8 @@ lgmd_sim/policies/NAME/.
 
 Copies the run's policy.npz and policy.json (with --best, those of RUN/best, its best
 validation; a policy folder: arrays and JSON, no pickle) into the package and writes
-POLICY.md beside them: the command that started the training, the run's summary (its
+POLICY.md beside them: the command that started the training, how to train it again (a
+`lgmd-sim train --config` file of its settings), the run's summary (its
 sessions and validation), and that policy's rows of the evaluation's table (the rows of
 docs/experiments/training-runs.md, which docs/experiments/tools/training_page.py writes from the
 same runs). NAME
@@ -15,7 +16,7 @@ same runs). NAME
 files move into place together (lgmd_sim.core.fileio.write_files): a failed release leaves
 the shipped policy as it was.
 Run the tests afterwards (tests/test_training.py checks the shipped policy acts in its
-environment; tests/test_packaging.py that it travels in the wheel).
+environment; tests/cli/test_packaging.py that it travels in the wheel).
 """
 
 from __future__ import annotations
@@ -25,12 +26,14 @@ import json
 import shutil
 from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 from training_page import PAGE, ROOT, run_summary, table
 
 from lgmd_sim.core.fileio import write_files
 from lgmd_sim.policies import DEFAULT
 from lgmd_sim.policies.folder import CONFIG_FILE, MODEL_FILE, name_of
+from lgmd_sim.training.config import config_toml
 
 POLICIES = ROOT / "lgmd_sim" / "policies"
 
@@ -46,13 +49,23 @@ def policy_md(run: Path, eval_run: Path, name: str, best: bool = False) -> str:
         raise SystemExit(f"ship_policy.py: {eval_run} holds no rows of {tag} (its "
                          f"controllers); evaluate it with `lgmd-sim eval "
                          f"{run / 'best' if best else run}` first")
-    command = json.loads((run / "run.json").read_text())["sessions"][0]["command"]
+    record = json.loads((run / "run.json").read_text())
+    command = record["sessions"][0]["command"]
     which = "The best policy by validation (`best/`)" if best else "The final policy"
     return (f"# {name}\n\n{which} of the training run started by\n\n```bash\n{command}\n"
-            f"```\n\n{run_summary(run)}\n\n"
+            f"```\n\n{retrain(record['config'], name)}\n\n{run_summary(run)}\n\n"
             "Evaluated on held-out seeds by `lgmd-sim eval` (all rows: "
             f"{PAGE.relative_to(ROOT).as_posix()}):\n\n"
             + "\n".join([*rows[:2], *mine]) + "\n")
+
+
+def retrain(config: dict[str, Any], name: str) -> str:
+    """How to train `name` again (Markdown): the run's recorded configuration, where it is
+    not the defaults, as a --config file, and the command that reads it; the command that
+    started the run may name options lgmd-sim no longer has."""
+    return (f"To train it again, save its settings (those that are not the defaults) as "
+            f"`{name}.toml`:\n\n```toml\n{config_toml(config)}```\n\n```bash\n"
+            f"lgmd-sim train --config {name}.toml --out runs/train/{name}\n```")
 
 
 def ship(run: Path, eval_run: Path, name: str = DEFAULT, best: bool = False) -> Path:

@@ -32,8 +32,10 @@ import numpy as np
 from lgmd_sim import models
 from lgmd_sim.calibration import clips as clip_mod
 from lgmd_sim.calibration.objective import THRESHOLDS, VIDEO, unpack_hits
-from lgmd_sim.calibration.run import TASKS, choose, preset_name, summary_markdown
+from lgmd_sim.calibration.report import summary_markdown
+from lgmd_sim.calibration.run import choose
 from lgmd_sim.calibration.search import CONTROLS, Candidate, evaluate, space
+from lgmd_sim.calibration.tasks import TASKS, preset_name
 from lgmd_sim.core.fileio import write_files
 from lgmd_sim.core.plots import model_style
 from lgmd_sim.signals import noise, stimuli
