@@ -27,6 +27,8 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
+from stack_figures import stacked
+
 from lgmd_sim.core.fileio import write_files
 from lgmd_sim.world.params import RESOLUTIONS
 
@@ -35,6 +37,9 @@ OUT = ROOT / "docs" / "experiments" / "results-log.md"
 FIGURES = ROOT / "docs" / "results"
 #: The figures' folder as the page links it (relative to the page).
 FIGURES_LINK = Path(os.path.relpath(FIGURES, OUT.parent)).as_posix()
+
+#: The open-loop run's figures, one above the other: its clips, detection curves and noise.
+OPEN_LOOP_FIGURE = "figures.png"
 
 #: The paper's Table 2 (ISI, MpSI) and Table 3 (SI), quoted: (stream, kind, ISI, MpSI of
 #: feedback, LGMD1, LGMD2, F(ONn), F(OFFp), SI of the same five).
@@ -159,34 +164,6 @@ def _copy(run: Path, names: list[str], tag: str, figures: Figures) -> list[str]:
             figures[FIGURES / tag / name] = run / name
             out.append(f"{FIGURES_LINK}/{tag}/{name}")
     return out
-
-
-def stacked(sources: Sequence[Path]) -> Callable[[Path], None]:
-    """What writes `sources` (PNG figures, each with its own title) into one PNG, one
-    above the other in their order, a narrower one padded white on its right, their pixels
-    as they are: a set of figures a page shows together is one file of the repository."""
-    def write(path: Path) -> None:
-        import cv2
-        import numpy as np
-
-        panels = []
-        for source in sources:
-            image = cv2.imread(str(source), cv2.IMREAD_UNCHANGED)
-            if image is None:
-                raise SystemExit(f"{source}: no PNG")
-            if image.ndim == 2:
-                image = cv2.cvtColor(image, cv2.COLOR_GRAY2BGR)
-            elif image.shape[2] == 4:  # over white
-                alpha = image[..., 3:].astype(np.uint32)
-                image = ((image[..., :3] * alpha + 255 * (255 - alpha) + 127) // 255
-                         ).astype(np.uint8)
-            panels.append(image)
-        width = max(p.shape[1] for p in panels)
-        sheet = np.vstack([np.pad(p, ((0, 0), (0, width - p.shape[1]), (0, 0)),
-                                  constant_values=255) for p in panels])
-        path.write_bytes(cv2.imencode(".png", sheet, [cv2.IMWRITE_PNG_COMPRESSION, 9])[1]
-                         .tobytes())
-    return write
 
 
 def _resolution(value: str | list[int]) -> str:
@@ -427,12 +404,14 @@ def open_loop_section(run: Path, figures: Figures) -> list[str]:
     if (run / "noise.md").is_file():
         lines += ["", "### Noise (the paper's dataset d: stationary clips with Gaussian and "
                   "salt-and-pepper noise)", "", (run / "noise.md").read_text().strip(), ""]
-    clips = sorted(run.glob("clip_*.png"))
-    if clips:  # one figure, a clip a panel: one file of the repository, not one a clip
-        figures[FIGURES / "open-loop" / "clips.png"] = stacked(clips)
-        fig = f"{FIGURES_LINK}/open-loop/clips.png"
-        lines += [f"![{fig}]({fig})", ""]
-    for fig in _copy(run, ["detection_curves.png", "noise.png"], "open-loop", figures):
+    # the clips (a panel each), the detection curves and the noise, which the page shows
+    # together: one figure, one file of the repository, not one a clip or a figure
+    parts = [*sorted(run.glob("clip_*.png")),
+             *(run / name for name in ("detection_curves.png", "noise.png")
+               if (run / name).is_file())]
+    if parts:
+        figures[FIGURES / "open-loop" / OPEN_LOOP_FIGURE] = stacked(parts)
+        fig = f"{FIGURES_LINK}/open-loop/{OPEN_LOOP_FIGURE}"
         lines += [f"![{fig}]({fig})", ""]
     return lines
 

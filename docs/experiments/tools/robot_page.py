@@ -15,18 +15,20 @@ from __future__ import annotations
 
 import argparse
 import json
+import re
 from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
 from oracle_window import COLLISIONS, SUCCESS, horizon, window
 from results_page import FIGURES, FIGURES_LINK, OUT, ROOT, Figures, _command, _copier, _copy, _rows
+from stack_figures import stacked
 
 from lgmd_sim.benchmark import encounters
 from lgmd_sim.calibration import robot
 from lgmd_sim.calibration.clips import specs
 from lgmd_sim.calibration.objective import THRESHOLDS, unpack_hits
-from lgmd_sim.calibration.run import preset_name
+from lgmd_sim.calibration.tasks import preset_name
 from lgmd_sim.core.fileio import write_files
 
 BEGIN = "<!-- robot: made by docs/experiments/tools/robot_page.py from the runs named below -->"
@@ -325,6 +327,36 @@ def _shared(run: Path, others: Sequence[Path]) -> int:
                for p in (run / "records").glob("*.json"))
 
 
+#: An encounter map of a roam scenario at one jitter level, as the benchmark names it
+#: (`lgmd_sim.benchmark.figures.encounters_figure`): its scenario and jitter.
+ENCOUNTER_MAP = re.compile(r"encounters_(.+)_j([^_]+)\.png")
+TAG = "closed-loop-robot"
+
+
+def run_figures(run: Path, figures: Figures) -> list[str]:
+    """Add a closed-loop run's figures to those to write under docs/results/closed-loop-robot/;
+    their paths relative to the page, by name. Each is copied as it is but a scenario's
+    encounter maps (one a jitter level), which the page shows together: they are one figure
+    of the repository, encounters_<scenario>.png, a jitter level a panel from the lowest."""
+    plain, maps = [], {}
+    for path in sorted(run.glob("*.png")):
+        match = ENCOUNTER_MAP.fullmatch(path.name)
+        try:
+            jitter = float(match[2]) if match else None
+        except ValueError:
+            jitter = None
+        if jitter is None:
+            plain.append(path.name)
+        else:
+            maps.setdefault(match[1], []).append((jitter, path))
+    links = _copy(run, plain, TAG, figures)
+    for scenario, parts in maps.items():
+        target = FIGURES / TAG / f"encounters_{scenario}.png"
+        figures[target] = stacked([path for _, path in sorted(parts)])
+        links.append(f"{FIGURES_LINK}/{TAG}/{target.name}")
+    return sorted(links)
+
+
 def closed_loop_section(runs: Sequence[Path], figures: Figures) -> list[str]:
     """The closed-loop runs (the same episode seeds: their cells are compared as one
     table): the first with its command, wall time, summary and figures, each further one
@@ -347,10 +379,10 @@ def closed_loop_section(runs: Sequence[Path], figures: Figures) -> list[str]:
                  "wall time is theirs." if shared else ".") + " "
               + "The figures, from its folder: collisions and successes against jitter, false "
               "alarms against collisions, the trajectories of the first seed, the arena's "
-              "rates against jitter and where its encounters happened (avoided or not).", "",
+              "rates against jitter and where its encounters happened (avoided or not), a "
+              "jitter level a panel from the lowest down.", "",
               (main / "summary.md").read_text().strip(), ""]
-    names = sorted(p.name for p in main.glob("*.png"))
-    for fig in _copy(main, names, "closed-loop-robot", figures):
+    for fig in run_figures(main, figures):
         lines += [f"![{fig}]({fig})", ""]
     rows = [{**r, "run": str(main)} for r in _rows(main / "summary.csv")]
     for run in more:

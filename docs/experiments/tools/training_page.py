@@ -34,7 +34,8 @@ from collections import defaultdict
 from collections.abc import Callable
 from pathlib import Path
 
-from results_page import seed_ranges, stacked
+from results_page import seed_ranges
+from stack_figures import stacked
 
 from lgmd_sim import policies
 from lgmd_sim.core.fileio import write_files

@@ -1,7 +1,7 @@
 """docs/experiments/tools/stack_figures.py: a set of figures a page shows together is one
-PNG, the parts' pixels one above the other in their order; the robot's section writes a
-scenario's encounter maps so, and the pages show the stacked figures. Fast: small made-up
-PNGs, no run."""
+PNG, the parts' pixels one above the other in their order; the open-loop section and the
+robot's section write their sets so, and the pages show the stacked figures. Fast: small
+made-up PNGs, no run."""
 
 from __future__ import annotations
 
@@ -117,8 +117,47 @@ def test_the_robot_section_shows_a_scenario_s_encounter_maps_as_one_figure_by_ji
     _assert_stacked(_read(out), [maps[j] for j in ("0", "0.5", "1", "2", "10")])
 
 
+def test_the_open_loop_section_shows_its_clips_curves_and_noise_as_one_figure(
+        tmp_path, monkeypatch):
+    """The open-loop run's clips (by name), detection curves and noise figure, which the page
+    shows together, are one file of the repository, in that order; the noise figure only
+    where the run has one."""
+    monkeypatch.syspath_prepend(str(TOOLS))
+    page = importlib.import_module("results_page")
+    rng = np.random.default_rng(3)
+    run = tmp_path / "open-loop"
+    images = {}
+    for name, (height, width) in (("clip_B_j0.png", (2, 3)), ("clip_A_j1.png", (1, 3)),
+                                  ("noise.png", (2, 2)), ("detection_curves.png", (3, 4))):
+        images[name] = rng.integers(0, 256, (height, width, 3), np.uint8)
+        _png(run / name, images[name])
+    monkeypatch.setattr(page, "_rows", lambda path: [])
+    monkeypatch.setattr(page, "_record", lambda run: {"config": {"window": 1, "horizon": 1}})
+    monkeypatch.setattr(page, "_command", lambda run: "lgmd-sim bench open-loop")
+    monkeypatch.setattr(page, "_paper_sentences", lambda rows: [])
+    (run / "summary.md").write_text("| table |")
+    figures = {}
+    lines = page.open_loop_section(run, figures)
+    target = page.FIGURES / "open-loop" / "figures.png"
+    assert list(figures) == [target]
+    link = "../results/open-loop/figures.png"
+    assert (page.OUT.parent / link).resolve() == target
+    assert [line for line in lines if line.startswith("![")] == [f"![{link}]({link})"]
+    out = tmp_path / "written"
+    page._copier(figures[target])(out)
+    _assert_stacked(_read(out), [images[n] for n in (
+        "clip_A_j1.png", "clip_B_j0.png", "detection_curves.png", "noise.png")])
+    (run / "noise.png").unlink()
+    figures.clear()
+    page.open_loop_section(run, figures)
+    page._copier(figures[target])(out)
+    assert _read(out).shape == (6, 4, 3)
+
+
 #: The sets stacked: the page, the figure it shows, and the figures it showed before.
 STACKED = [
+    ("experiments/results-log.md", "results/open-loop/figures.png",
+     [f"results/open-loop/{name}.png" for name in ("clips", "detection_curves", "noise")]),
     ("experiments/results-log.md", "results/closed-loop-robot/encounters_ArenaRoam.png",
      [f"results/closed-loop-robot/encounters_ArenaRoam_j{j}.png" for j in range(3)]),
     ("experiments/figures.md", "experiments/figures/before_after.png",
@@ -137,4 +176,4 @@ def test_the_pages_show_the_stacked_figure_in_place_of_its_parts(page, figure, p
     assert not shown & {(DOCS / p).resolve() for p in parts}
     assert not [p for p in parts if (DOCS / p).exists()], "a part left beside its set"
     sheet = cv2.imread(str(DOCS / figure))
-    assert sheet is not None and sheet.shape[0] > 3 * sheet.shape[1] // 2  # three panels
+    assert sheet is not None and sheet.shape[0] > sheet.shape[1] * 2  # three figures
