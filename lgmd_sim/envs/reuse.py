@@ -4,7 +4,7 @@ run and handed to the run's later jobs there.
 Making an environment compiles its scene and, at its first frame, makes a GL context: a
 tenth of a second, paid per episode when each job made its own. A kept environment is
 reset with the job's seed, and `JitterEnv.reset` rewrites everything an episode draws, so
-the episode is bit-identical to one in a fresh environment (tests/test_reuse.py shows
+the episode is bit-identical to one in a fresh environment (tests/core/test_reuse.py shows
 it for the benchmark's, the dataset's and the calibration's episodes).
 """
 

@@ -1,6 +1,6 @@
 """Why lgmd_sim.core.pool is a worker pool of its own: what the standard library's
 `concurrent.futures.ProcessPoolExecutor` (spawn workers, this Python) does at the three
-places the pool's hostile tests (tests/test_parallel.py, tests/test_process_lifetime.py)
+places the pool's hostile tests (tests/core/test_parallel.py, tests/cli/test_process_lifetime.py)
 poke, and `multiprocessing.Pool` at one of them, printed as one line each. Recorded in
 docs/experiments/house.md.
 

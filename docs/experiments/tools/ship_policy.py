@@ -15,7 +15,7 @@ same runs). NAME
 (lgmd_sim.policies.DEFAULT), so releasing a run without --name replaces it. The three
 files move into place together (lgmd_sim.core.fileio.write_files): a failed release leaves
 the shipped policy as it was.
-Run the tests afterwards (tests/test_training.py checks the shipped policy acts in its
+Run the tests afterwards (tests/training/test_training.py checks the shipped policy acts in its
 environment; tests/cli/test_packaging.py that it travels in the wheel).
 """
 

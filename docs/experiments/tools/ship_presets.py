@@ -8,7 +8,7 @@ the same model and name, every other shipped preset stays, and each keeps the ca
 that made it (its command, objective, seeds, resolution, budget and figure). This is the
 only way the shipped presets change; `lgmd-sim calibrate --save-presets` writes the user's
 presets file (lgmd_sim.models.presets). The file moves into place complete or not at all. Afterwards
-run the tests (tests/test_presets.py, tests/test_calibration.py) and remake
+run the tests (tests/cli/test_presets.py, tests/calibration/test_calibration.py) and remake
 docs/experiments/results-log.md from the same run (docs/experiments/tools/results_page.py).
 """
 
