@@ -222,10 +222,8 @@ class JitterWorld:
             # new one), in the camera's frame: integrated, it gives the rotation exactly.
             mujoco.mj_objectVelocity(m, d, mujoco.mjtObj.mjOBJ_CAMERA, sc.camera, vel, 1)
             mujoco.mju_quatIntegrate(imu, vel[:3] + gyro[k], m.opt.timestep)
-        mujoco.mju_quat2Vel(self._imu_rotation, imu, 1.0)
-        self._pose_rotation = self._camera_turn()
         self.frame_index += 1
-        self._observe(touched)
+        self._observe(touched, turned=True)
 
     def _gyro_readings(self, n: int) -> np.ndarray:
         """The gyro's error at each of n physics steps: bias plus white noise (rad/s)."""
@@ -329,6 +327,11 @@ class JitterWorld:
     # -- frames and ground truth ---------------------------------------------------------
 
     def _render(self, camera: int, out: np.ndarray | None) -> np.ndarray:
+        return self._draw(camera).read(out)
+
+    def _draw(self, camera: int) -> OffscreenRenderer:
+        """Draw `camera`'s view and start its rasterisation: the renderer's `read` gives
+        the frame."""
         if self.scene.tile_geoms.size:
             self._choose_tiles(camera)
         if self._renderer is None or self._renderer.closed:  # first frame, or after a fork
@@ -336,7 +339,8 @@ class JitterWorld:
                 raise RuntimeError("the world is closed")
             self._renderer = OffscreenRenderer(self.model, self.height, self.width,
                                                shadows=self.params.shadows)
-        return self._renderer.render(self.data, camera, out)
+        self._renderer.draw(self.data, camera)
+        return self._renderer
 
     def _choose_tiles(self, camera: int) -> None:
         """Level of detail of the drawn terrain: tiles out of the camera's horizontal
@@ -363,19 +367,25 @@ class JitterWorld:
         groups[sc.tile_geoms[:, 0]] = np.where(fine, 0, HIDDEN)
         groups[sc.tile_geoms[:, 1]] = np.where(visible & ~fine, 0, HIDDEN)
 
-    def _observe(self, touched: frozenset[int]) -> None:
-        ssim = math.nan  # no frames, no similarity between them
-        if self.params.frame != "none":
-            # Fresh arrays each frame (np.empty is free): callers may keep them as they are.
-            self.rgb = self._render(self.scene.camera, None)
-            self.grey = cv2.cvtColor(self.rgb, cv2.COLOR_RGB2GRAY)
-            if self._ssim is not None:
-                ssim = self._ssim.push(self.grey)
+    def _observe(self, touched: frozenset[int], *, turned: bool = False) -> None:
+        """Render the frame and take its ground truth; with `turned` (after a step), also
+        the camera's rotation over the frame interval, from its poses and from its IMU."""
+        renderer = self._draw(self.scene.camera) if self.params.frame != "none" else None
+        # While the software renderer rasterises the frame in its own threads: the truth
+        # reads the state and the model, which the drawing has done with, and writes
+        # nothing the frame depends on, so it overlaps the frame instead of following it.
+        if turned:
+            mujoco.mju_quat2Vel(self._imu_rotation, self._imu_quat, 1.0)
+            self._pose_rotation = self._camera_turn()
         if touched and self.first_collision_frame < 0:
             self.first_collision_frame = self.frame_index
         self.truth = self._ground_truth(touched)
-        if self._ssim is not None:
-            self.truth["ssim"] = ssim
+        if renderer is not None:
+            # Fresh arrays each frame (np.empty is free): callers may keep them as they are.
+            self.rgb = renderer.read()
+            self.grey = cv2.cvtColor(self.rgb, cv2.COLOR_RGB2GRAY)
+        if self._ssim is not None:  # no frames, no similarity between them
+            self.truth["ssim"] = self._ssim.push(self.grey) if renderer is not None else math.nan
 
     def _ground_truth(self, touched: frozenset[int]) -> dict[str, Any]:
         m, d, sc = self.model, self.data, self.scene

@@ -1,7 +1,10 @@
 """Offscreen rendering of a camera and the streaming SSIM of consecutive frames.
 
 `OffscreenRenderer` renders a model's cameras straight into reusable buffers, so that a
-frame costs the GL work and one flip, nothing else. All renderers of a thread share one
+frame costs the GL work and one flip, nothing else. Its `draw` sends a frame to be
+rasterised and returns at once; `read` waits for the pixels: work done between the two
+overlaps the rasterisation (Mesa's software renderer rasterises in threads of its own, and
+only starts when the frame is flushed). All renderers of a thread share one
 OpenGL context (EGL or OSMesa, see `lgmd_sim.world.gl`), each with its own MuJoCo render
 context: a new GL context costs a quarter of a second of shader compilation on Mesa's
 software renderer, a MuJoCo context on an existing one a few milliseconds. Worker
@@ -19,6 +22,7 @@ outside lgmd-sim in the same process do not survive a fork either.
 
 from __future__ import annotations
 
+import ctypes
 import os
 import sys
 import threading
@@ -61,13 +65,43 @@ def _thread_context():  # -> mujoco.GLContext
     return gl
 
 
+def _gl_function(library: str, name: str, restype):  # -> a ctypes function, or None
+    """`name` from the library PyOpenGL loaded for MuJoCo's backend, called straight
+    through ctypes: PyOpenGL's wrapper (argument conversion, error check) costs twice the
+    call. None where PyOpenGL has no such library (a backend with a window)."""
+    try:
+        from OpenGL import platform
+
+        return ctypes.CFUNCTYPE(restype)((name, getattr(platform.PLATFORM, library)))
+    except Exception:  # any failure: the callers fall back
+        return None
+
+
+_GL: dict[str, object] = {}  # resolved on first use, once MuJoCo has loaded PyOpenGL
+
+
+def _gl(name: str):  # -> a ctypes function, or None
+    if name not in _GL:
+        _GL[name] = (_gl_function("EGL", name, ctypes.c_void_p) if name.startswith("egl")
+                     else _gl_function("GL", name, None))
+    return _GL[name]
+
+
 def _make_current(gl) -> None:  # gl: mujoco.GLContext
     """Make `gl` current unless it already is: asking EGL costs a fifth of eglMakeCurrent."""
     if BACKEND == "egl":
-        current = sys.modules["mujoco.egl"].EGL.eglGetCurrentContext()
-        if current and current.address == gl._context.address:
+        current = _gl("eglGetCurrentContext")
+        if current is not None and current() == gl._context.address:
             return
     gl.make_current()
+
+
+def _flush() -> None:
+    """Start rasterising what was drawn (glFlush): Mesa's software renderer otherwise waits
+    for the read of the pixels to begin."""
+    flush = _gl("glFlush")
+    if flush is not None:
+        flush()
 
 
 class OffscreenRenderer:
@@ -104,10 +138,14 @@ class OffscreenRenderer:
     def render(self, data: mujoco.MjData, camera: int, out: np.ndarray | None = None
                ) -> np.ndarray:
         """Render camera id `camera` into `out` (H, W, 3) uint8 (allocated if None)."""
+        self.draw(data, camera)
+        return self.read(out)
+
+    def draw(self, data: mujoco.MjData, camera: int) -> None:
+        """Draw camera id `camera` in the state `data` and start its rasterisation; `read`
+        gives the pixels. Nothing else may render on this thread in between."""
         if self._context is None:
             raise RuntimeError("render() after close()")
-        if out is None:
-            out = np.empty((self.height, self.width, 3), np.uint8)
         _make_current(self._gl)
         # Renderers share the GL context: bind this one's framebuffer.
         mujoco.mjr_setBuffer(mujoco.mjtFramebuffer.mjFB_OFFSCREEN.value, self._context)
@@ -115,6 +153,18 @@ class OffscreenRenderer:
         mujoco.mjv_updateScene(self.model, data, self._option, None, self._camera,
                                mujoco.mjtCatBit.mjCAT_ALL.value, self._scene)
         mujoco.mjr_render(self._rect, self._scene, self._context)
+        _flush()
+        _THREAD.drawn = weakref.ref(self)  # weak: a frame never read keeps no renderer alive
+
+    def read(self, out: np.ndarray | None = None) -> np.ndarray:
+        """The frame `draw` drew, into `out` (H, W, 3) uint8 (allocated if None)."""
+        drawn = getattr(_THREAD, "drawn", None)
+        if drawn is None or drawn() is not self:
+            # the bound framebuffer is another renderer's: its pixels would be read
+            raise RuntimeError("read() must follow this renderer's draw() on its thread")
+        _THREAD.drawn = None
+        if out is None:
+            out = np.empty((self.height, self.width, 3), np.uint8)
         mujoco.mjr_readPixels(self._raw, None, self._rect, self._context)
         cv2.flip(self._raw, 0, dst=out)  # OpenGL's rows run bottom-up
         return out
