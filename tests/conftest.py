@@ -101,3 +101,17 @@ def approach(tmp_path_factory):
         writer.write(cv2.cvtColor(f, cv2.COLOR_GRAY2BGR))
     writer.release()
     return video, clip
+
+
+@pytest.fixture(scope="session")
+def tiny_dataset(tmp_path_factory) -> Path:
+    """The tiny dataset of tests/datasets_tiny.py, generated once: collisions
+    (HandheldApproach) and near misses (PassBy)."""
+    from lgmd_sim.core.parallel import RunOptions
+    from lgmd_sim.data.generate import generate
+
+    from datasets_tiny import CONFIG
+
+    out = tmp_path_factory.mktemp("data") / "tiny"
+    generate(CONFIG, out, RunOptions(workers=1, progress=False))
+    return out

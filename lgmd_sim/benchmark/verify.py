@@ -141,8 +141,8 @@ def _track(file: Path, track: str, part: Any, protocol: Protocol,
         listed = _published(file.parent / EPISODES, track, len(keys))
     records = dict(zip(keys, listed, strict=True))
     _check_parts(file, track, part, list(records.values()), protocol)
-    options = {"resolution": config.resolution, "cruise": config.cruise,
-               "horizon": config.horizon, "top_view": False}
+    played = {"resolution": config.resolution, "cruise": config.cruise,
+              "horizon": config.horizon, "top_view": False}
     out: list[Replayed] = []
 
     def store(job: Job, replayed: dict[str, Any]) -> None:
@@ -151,7 +151,7 @@ def _track(file: Path, track: str, part: Any, protocol: Protocol,
         if on_episode is not None:
             on_episode(checked)
 
-    jobs = [Job(k, episode, {"cell": cells[k][0], "seed": cells[k][1], **options})
+    jobs = [Job(k, episode, {"cell": cells[k][0], "seed": cells[k][1], **played})
             for k in _sample(keys, *sample)]
     run_jobs(jobs, store, options, desc=f"verify {track}", unit="episode")
     return out

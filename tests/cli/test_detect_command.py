@@ -273,19 +273,19 @@ def test_detect_stabilize_image_equals_the_compensated_models(tmp_path, capfd):
 
 
 @pytest.mark.slow
-def test_detect_runs_on_a_dataset_and_on_one_episode(dataset, tmp_path, capsys):
+def test_detect_runs_on_a_dataset_and_on_one_episode(tiny_dataset, tmp_path, capsys):
     from lgmd_sim.cli import main
 
-    ds = data.open(dataset)
+    ds = data.open(tiny_dataset)
     hit = ds.filter(outcome="collision")[0]
-    assert main(["detect", f"{dataset}:{hit.index}", "--models", "lgmd2", "--json",
+    assert main(["detect", f"{tiny_dataset}:{hit.index}", "--models", "lgmd2", "--json",
                  "--no-progress"]) == 0
     (record,) = [json.loads(line) for line in capsys.readouterr().out.splitlines()]
     assert record["collision_frame"] == hit.collision_frame
     assert record["frames"] == hit.length
     assert record["isi"] == pytest.approx(hit.meta["isi"])
-    assert main(["detect", str(dataset), "--models", "lgmd2", "--out", str(tmp_path),
+    assert main(["detect", str(tiny_dataset), "--models", "lgmd2", "--out", str(tmp_path),
                  "--no-progress"]) == 0
     assert len(list(tmp_path.glob("episode_*.json"))) == len(ds)
-    assert main(["detect", f"{dataset}:99", "--models", "lgmd2", "--json"]) == 2
+    assert main(["detect", f"{tiny_dataset}:99", "--models", "lgmd2", "--json"]) == 2
     assert "no episode 99" in capsys.readouterr().err

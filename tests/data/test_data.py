@@ -24,19 +24,11 @@ from datasets_tiny import CONFIG, tree
 
 pytest.importorskip("pyarrow")
 
-#: A tiny dataset with collisions (HandheldApproach) and near misses (PassBy).
-@pytest.fixture(scope="session")
-def dataset(tmp_path_factory) -> Path:
-    out = tmp_path_factory.mktemp("data") / "tiny"
-    generate(CONFIG, out, RunOptions(workers=1, progress=False))
-    return out
-
-
 @pytest.mark.slow
-def test_generated_dataset_verifies_and_holds_both_outcomes(dataset):
-    problems, counts = verify(dataset)
+def test_generated_dataset_verifies_and_holds_both_outcomes(tiny_dataset):
+    problems, counts = verify(tiny_dataset)
     assert problems == []
-    ds = data.open(dataset)
+    ds = data.open(tiny_dataset)
     assert counts["episodes"] == len(ds) == 8
     assert counts["frames"] == ds.info["total_frames"] == ds.labels().num_rows
     assert {ep.outcome for ep in ds.filter(scenario="HandheldApproach")} == {"collision"}
@@ -46,21 +38,21 @@ def test_generated_dataset_verifies_and_holds_both_outcomes(dataset):
         assert ep.collision_frame == int(np.flatnonzero(flags)[0]) == ep.length - 1
     assert len(ds.filter(scenario="PassBy", jitter=1)) == 2
     assert len(ds.filter(outcome=["clear"])) == 0
-    info = json.loads((dataset / layout.INFO).read_text())
+    info = json.loads((tiny_dataset / layout.INFO).read_text())
     assert info["codebase_version"] == "v3.0" and info["fps"] == 30.0
     assert info["features"][layout.VIDEO_KEY]["info"]["video.codec"] == "huffyuv"
-    card = (dataset / layout.CARD).read_text()
+    card = (tiny_dataset / layout.CARD).read_text()
     assert CONFIG.command() in card and "| HandheldApproach | 1 | 2 |" in card
 
 
-def test_frames_are_exact_and_noise_views_reproduce_their_labels(dataset):
+def test_frames_are_exact_and_noise_views_reproduce_their_labels(tiny_dataset):
     import gymnasium as gym
 
     from lgmd_sim import models
     from lgmd_sim.controllers import make, rollout
     from lgmd_sim.core.frames import to_grey
 
-    ep = data.open(dataset).filter(scenario="HandheldApproach", jitter=1)[1]
+    ep = data.open(tiny_dataset).filter(scenario="HandheldApproach", jitter=1)[1]
     frames = ep.frames()
     assert frames.shape == (ep.length, 32, 48, 3) and frames.dtype == np.uint8
     env = gym.make("lgmd_sim/HandheldApproach-v0", jitter=1.0, resolution=[32, 48])
@@ -76,8 +68,8 @@ def test_frames_are_exact_and_noise_views_reproduce_their_labels(dataset):
     np.testing.assert_array_equal(potentials, labelled)
 
 
-def test_clip_sampler_gives_every_window_once(dataset):
-    ds = data.open(dataset).filter(jitter=0)
+def test_clip_sampler_gives_every_window_once(tiny_dataset):
+    ds = data.open(tiny_dataset).filter(jitter=0)
     clips = list(ds.clips(8, stride=4, seed=1))
     assert len(clips) == len(ds.windows(8, 4))
     assert len({(c.episode.index, c.start) for c in clips}) == len(clips)
@@ -87,13 +79,13 @@ def test_clip_sampler_gives_every_window_once(dataset):
 
 
 @pytest.mark.slow
-def test_same_bytes_from_two_workers(dataset, tmp_path):
+def test_same_bytes_from_two_workers(tiny_dataset, tmp_path):
     generate(CONFIG, tmp_path / "two", RunOptions(workers=2, progress=False))
-    assert tree(tmp_path / "two") == tree(dataset)
+    assert tree(tmp_path / "two") == tree(tiny_dataset)
 
 
 @pytest.mark.slow
-def test_same_bytes_on_ray(dataset, tmp_path):
+def test_same_bytes_on_ray(tiny_dataset, tmp_path):
     ray = pytest.importorskip("ray")
     ray.init(num_cpus=2, include_dashboard=False, log_to_driver=False,
              configure_logging=False)
@@ -101,7 +93,7 @@ def test_same_bytes_on_ray(dataset, tmp_path):
         generate(CONFIG, tmp_path / "ray", RunOptions(ray_address="auto", progress=False))
     finally:
         ray.shutdown()
-    assert tree(tmp_path / "ray") == tree(dataset)
+    assert tree(tmp_path / "ray") == tree(tiny_dataset)
 
 
 LOADERS = {
@@ -113,23 +105,23 @@ LOADERS = {
 
 
 @pytest.mark.parametrize("tool", list(LOADERS))
-def test_labels_load_without_lgmd_sim(dataset, tool, tmp_path):
+def test_labels_load_without_lgmd_sim(tiny_dataset, tool, tmp_path):
     if importlib.util.find_spec(tool) is None:
         pytest.skip(f"{tool} is not installed here")
-    code = (f"import sys; D = {str(dataset)!r}; {LOADERS[tool]}; "
+    code = (f"import sys; D = {str(tiny_dataset)!r}; {LOADERS[tool]}; "
             "assert not any(m.startswith('lgmd_sim') for m in sys.modules); print(n)")
     env = {**os.environ, "HF_DATASETS_CACHE": str(tmp_path), "HF_HUB_OFFLINE": "1"}
     result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                             cwd=tmp_path, env=env, timeout=300)
     assert result.returncode == 0, result.stderr
-    assert int(result.stdout.split()[-1]) == data.open(dataset).info["total_frames"]
+    assert int(result.stdout.split()[-1]) == data.open(tiny_dataset).info["total_frames"]
 
 
-def test_torch_window_dataset(dataset):
+def test_torch_window_dataset(tiny_dataset):
     torch = pytest.importorskip("torch")
     from lgmd_sim.data.torch import WindowDataset
 
-    windows = WindowDataset(data.open(dataset), 6, columns=["threat_ttc", "collision"])
+    windows = WindowDataset(data.open(tiny_dataset), 6, columns=["threat_ttc", "collision"])
     frames, labels = windows[len(windows) - 1]
     assert frames.shape == (6, 32, 48, 3) and frames.dtype == torch.uint8
     assert labels.shape == (6, 2) and labels[-1, 1] == 1  # ends at the collision

@@ -408,7 +408,7 @@ def choice(runs: list[Path], tag: str, name: str) -> list[str]:
                         / cells[j, label]["n"] for j in jitters) / len(jitters)
              for label in labels}
     top = max(score.values())
-    lines = ["", "```bash", *(record["command"] for record in records), "```", "",
+    lines = ["", "```text", *(record["command"] for record in records), "```", "",
              "| candidate | " + " | ".join(f"jitter {j:g}: successes / collisions %"
                                            for j in jitters) + " | score |",
              "|---|" + "---:|" * (len(jitters) + 1)]
@@ -555,13 +555,15 @@ def main() -> None:
     command = shlex.join(["python", "docs/experiments/tools/training_page.py", *sys.argv[1:]])
     lines += ["", "Made from the runs by the command below: every figure and sentence below "
               "is computed from the runs' own files.", "", "```bash", command, "```", "",
-              "### Training runs", ""]
+              "### Training runs", "",
+              "Each run's commands as its run.json recorded them, in the options of their "
+              "day (the research knobs are now keys of `lgmd-sim train --config FILE`):", ""]
     trained_at = None
     for run in args.train:
         record = records[run.name]
         # run folders written before lgmd_sim.core.runs.RunFolder kept them under "options"
         trained_at = (record.get("config") or record["options"])["jitter"]
-        lines += ["```bash", *(s["command"] for s in record["sessions"]), "```", "",
+        lines += ["```text", *(s["command"] for s in record["sessions"]), "```", "",
                   run_summary(run), ""]
     curves = _stack([run / "learning_curve.png" for run in args.train], "learning_curves.png",
                     figures)
