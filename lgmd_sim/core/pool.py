@@ -30,7 +30,13 @@ from multiprocessing.process import BaseProcess
 from typing import Any
 
 from lgmd_sim.core.jobs import Job, WorkerDied, _keeping
-from lgmd_sim.core.stops import STOPPING, catch_swallowed_stops, held_stops, stop_raised
+from lgmd_sim.core.stops import (
+    STOPPING,
+    catch_swallowed_stops,
+    held_stops,
+    stop_raised,
+    stopping,
+)
 
 __all__ = ["Pool"]
 
@@ -61,6 +67,13 @@ def _worker(conn: Connection, parent: int) -> None:
     try:
         with _keeping():
             _serve(conn)
+    except Exception:
+        if not stopping():
+            raise
+        # The stop came while a job's modules were imported (unpickling the job names
+        # them): the import made it the ImportError it caused, which would be printed as
+        # the worker's failure. It is the stop.
+        raise SystemExit(128 + signal.SIGTERM) from None
     finally:  # nothing left to unwind: a SIGTERM while the interpreter ends just ends it
         signal.signal(signal.SIGTERM, signal.SIG_DFL)
 

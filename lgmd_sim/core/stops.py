@@ -24,7 +24,7 @@ from contextlib import contextmanager
 from typing import Any
 
 __all__ = ["STOPPING", "catch_swallowed_stops", "held_stops", "reraise_stop_from_ctypes",
-           "stop_raised"]
+           "stop_raised", "stopping"]
 
 #: The signals that stop a run.
 STOPPING = {signal.SIGINT, signal.SIGTERM}
@@ -35,6 +35,11 @@ _RAISED = threading.Event()
 def stop_raised() -> None:
     """Note that a stop is being raised in this process (its signal handler calls this)."""
     _RAISED.set()
+
+
+def stopping() -> bool:
+    """Whether a stop has been raised in this process (`stop_raised`)."""
+    return _RAISED.is_set()
 
 
 def catch_swallowed_stops(stops: Mapping[type[BaseException], int]) -> Callable[[Any], None]:
