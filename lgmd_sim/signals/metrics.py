@@ -4,7 +4,7 @@ Frame indices are 0-based throughout (as in ``lgmd-sim detect``'s CSV and
 ``--collision-frame``), except where the paper's SI counts frames (see
 `sensitivity_index`).
 
->>> from lgmd_sim import metrics
+>>> from lgmd_sim.signals import metrics
 >>> metrics.isi(frames)                       # Eq. 21: mean SSIM of consecutive frames
 >>> metrics.mpsi(potentials)                  # Eq. 22: max / mean
 >>> metrics.sensitivity_index(potentials)     # Eq. 23, with the never-crossed case flagged

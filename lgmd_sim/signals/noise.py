@@ -24,7 +24,7 @@ real camera's exposure, sensor noise, motion blur and compression.
 - ``jpeg:Q``: compression artefacts, each frame encoded and decoded as a JPEG of quality
   Q (1 to 100; OpenCV's libjpeg, 4:2:0 chroma for colour frames).
 
->>> from lgmd_sim import noise
+>>> from lgmd_sim.signals import noise
 >>> noises = noise.parse("gaussian:0.005,saltpepper:0.005")
 >>> noisy = list(noise.corrupt(frames, noises, seed=0))   # same seed, same noise
 

@@ -52,8 +52,9 @@ def policy_md(run: Path, eval_run: Path, name: str, best: bool = False) -> str:
     record = json.loads((run / "run.json").read_text())
     command = record["sessions"][0]["command"]
     which = "The best policy by validation (`best/`)" if best else "The final policy"
-    return (f"# {name}\n\n{which} of the training run started by\n\n```bash\n{command}\n"
-            f"```\n\n{retrain(record['config'], name)}\n\n{run_summary(run)}\n\n"
+    return (f"# {name}\n\n{which} of the training run started by (as its run recorded "
+            f"it)\n\n```text\n{command}\n```\n\n{retrain(record['config'], name)}\n\n"
+            f"{run_summary(run)}\n\n"
             "Evaluated on held-out seeds by `lgmd-sim eval` (all rows: "
             f"{PAGE.relative_to(ROOT).as_posix()}):\n\n"
             + "\n".join([*rows[:2], *mine]) + "\n")

@@ -8,7 +8,7 @@
 - `lgmd_sim.signals.stimuli.clip`: the `Stimulus` they all return, and `jittered`, any of them
   seen by a shaking camera.
 
->>> from lgmd_sim import stimuli
+>>> from lgmd_sim.signals import stimuli
 >>> s = stimuli.approaching(look=stimuli.Look(polarity="dark"))   # looming to collision
 >>> s.frames.shape, s.collision_frame                  # ((51, 120, 160), 50)
 >>> shaken = stimuli.jittered(s, level=1.0, seed=3)    # the same, seen by a shaking camera
