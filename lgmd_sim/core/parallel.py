@@ -13,7 +13,7 @@ What is costly to set up and can serve one job after another a job takes from
 keep, from one `run_jobs` call to the next.
 
 >>> from lgmd_sim.core.jobs import Job
->>> from lgmd_sim.core.parallel import run_jobs
+>>> from lgmd_sim.core.parallel import RunOptions, run_jobs
 >>> jobs = [Job(f"seed{s}", my_episode, {"seed": s}) for s in range(50)]
 >>> run_jobs(jobs, lambda job, result: store(job.key, result), RunOptions(workers=2))
 """
