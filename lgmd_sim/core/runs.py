@@ -112,6 +112,11 @@ def read_record(file: Path, fields: Fields, remedy: str) -> Any:
         data = read_json(file)
     except ValueError as exc:
         raise ValueError(f"{exc}: {remedy}") from None
+    return _holding(data, file, fields, remedy)
+
+
+def _holding(data: Any, file: Path, fields: Fields, remedy: str) -> Any:
+    """`data`, read from `file`, if it holds `fields` (see `read_record`)."""
     problem = _mismatch(data, fields)
     if problem:
         raise ValueError(f"{file} is not what this run wrote there ({problem}): {remedy}")
@@ -183,12 +188,14 @@ class RunFolder:
         if not file.is_file():
             return None
         remedy = "choose another folder or remove it"
-        schema = read_record(file, dict, remedy).get("schema")
+        # read once: the schema first, since an older record may lack what this one holds
+        data = read_record(file, dict, remedy)
+        schema = data.get("schema")
         if schema != SCHEMA:
             raise ValueError(f"{file} was written by another lgmd-sim (record schema "
                              f"{schema or 1}, this one's {SCHEMA}): run it again into a new "
                              "folder")
-        return read_record(file, {"config": dict, "sessions": [dict]}, remedy)
+        return _holding(data, file, {"config": dict, "sessions": [dict]}, remedy)
 
     def _earlier(self, what: str, resume: bool, resume_hint: str, changeable: Collection[str]
                  ) -> tuple[list[dict[str, Any]], dict[str, Any]]:
