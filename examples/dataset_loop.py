@@ -22,10 +22,12 @@ from pathlib import Path
 import numpy as np
 
 from lgmd_sim import data
+from lgmd_sim.cli.args import error_line
 from lgmd_sim.controllers import options
 from lgmd_sim.core.extras import MissingExtra
-from lgmd_sim.core.fileio import error_text, write_text_atomic
+from lgmd_sim.core.fileio import write_text_atomic
 from lgmd_sim.core.parallel import RunOptions
+from lgmd_sim.core.params import checked, count
 from lgmd_sim.data.export import ExportConfig, export
 from lgmd_sim.data.generate import GenerateConfig, generate
 from lgmd_sim.detect.outputs import check_out_folder
@@ -121,7 +123,8 @@ def main() -> None:
                         help="output folder (default ./dataset-example)")
     parser.add_argument("--scenarios", default="StationaryApproach,PassBy",
                         help="comma-separated scenario names (lgmd-sim envs)")
-    parser.add_argument("--jitter", default="0,1", help="comma-separated jitter levels")
+    parser.add_argument("--jitter", default="0,1",
+                        help="comma-separated jitter levels")
     parser.add_argument("--episodes", type=int, default=1,
                         help="episodes per scenario and jitter level (default 1)")
     parser.add_argument("--workers", type=int, default=1,
@@ -129,11 +132,11 @@ def main() -> None:
     args = parser.parse_args()
     try:  # OUT is made by the dataset's generation, once every option has been checked
         check_out_folder(args.out)
-        options.check_positive(args.workers, "--workers", integer=True)  # named as typed
+        checked("workers", args.workers, count)
         folder = make(args.out, args.scenarios.split(","),
                       list(options.jitter_levels(args.jitter)), args.episodes, args.workers)
     except (ValueError, OSError, MissingExtra) as exc:  # as lgmd-sim: one line, status 2
-        parser.exit(2, f"{parser.prog}: error: {error_text(exc)}\n")
+        parser.exit(2, f"{parser.prog}: error: {error_line(exc, parser, args)}\n")
     cache = args.out / "hf-cache"
     summary = {"lgmd_sim": loop_with_lgmd_sim(folder),
                "datasets": loop_with_hf_datasets(folder, cache),

@@ -1,10 +1,11 @@
 """A closed-loop benchmark run as Ray tasks: on this machine (a Ray instance started for
 the run) or on a running Ray cluster, with the same results as a local run.
 
-Every job that keeps a run folder takes `ray_address` ("local", "auto" or "HOST:PORT",
-the commands' `--ray`): each episode is then a Ray task, and an episode depends only on
-its cell and seed, so the tables are the same wherever it ran (docs/guides/scaling.md).
-Needs the `ray` extra.
+Every job that keeps a run folder takes `ray_address` ("local", "auto" or "HOST:PORT";
+the commands' `--workers ray`, with the RAY_ADDRESS variable or without it for "local"):
+each episode is then a Ray task, and an episode depends only on its cell and seed, so the
+tables are the same wherever it ran (docs/guides/scaling.md). This example's own `--ray`
+option gives the address. Needs the `ray` extra.
 
     python examples/ray_benchmark.py --out runs/ray-example --compare
 
@@ -20,8 +21,8 @@ from pathlib import Path
 
 from lgmd_sim.benchmark.closed_loop import ClosedLoopConfig, run
 from lgmd_sim.benchmark.summary import summary_markdown
+from lgmd_sim.cli.args import error_line
 from lgmd_sim.core.extras import MissingExtra
-from lgmd_sim.core.fileio import error_text
 from lgmd_sim.core.parallel import RunOptions
 from lgmd_sim.detect.outputs import check_out_folder
 
@@ -42,7 +43,7 @@ def main() -> None:
     try:
         benchmark(args.out, args.ray, args.seeds, args.compare)
     except (ValueError, OSError, MissingExtra) as exc:  # as lgmd-sim: one line, status 2
-        parser.exit(2, f"{parser.prog}: error: {error_text(exc)}\n")
+        parser.exit(2, f"{parser.prog}: error: {error_line(exc, parser, args)}\n")
 
 
 def benchmark(out: Path, ray: str, seeds: int, compare: bool) -> None:

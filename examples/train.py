@@ -1,15 +1,15 @@
 """A tiny training run: PPO learns to drive the robot from an LGMD's outputs, then the
 policy is evaluated beside the hand-made controllers on the same seeds.
 
-The Python API of `lgmd-sim train` and `lgmd-sim eval` (the same jobs, the same run
-folders; docs/guides/training.md). A few hundred steps learn nothing worth keeping: this
-shows the calls, the folders and the tables in seconds; a real run is 300,000 steps or
-more. Needs the `rl` extra (stable-baselines3).
+The Python API of `lgmd-sim train` and `lgmd-sim bench closed-loop --policies` (the same
+jobs, the same run folders; docs/guides/training.md). A few hundred steps learn nothing
+worth keeping: this shows the calls, the folders and the tables in seconds; a real run is
+300,000 steps or more. Needs the `rl` extra (stable-baselines3).
 
     python examples/train.py --out runs/train-example
 
-Writes OUT/policy (the policy folder: `lgmd-sim eval OUT/policy` and the
-`policy` controller take it) and OUT/eval (the evaluation: eval.md, summary.csv).
+Writes OUT/policy (the policy folder: `lgmd-sim bench closed-loop --policies OUT/policy`
+and the `policy` controller take it) and OUT/eval (the evaluation: eval.md, summary.csv).
 """
 
 from __future__ import annotations
@@ -17,10 +17,10 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from lgmd_sim.controllers import options
+from lgmd_sim.cli.args import error_line
 from lgmd_sim.core.extras import MissingExtra
-from lgmd_sim.core.fileio import error_text
 from lgmd_sim.core.parallel import RunOptions
+from lgmd_sim.core.params import checked, count
 from lgmd_sim.detect.outputs import check_out_folder
 from lgmd_sim.training.evaluate import EvalConfig, evaluate
 from lgmd_sim.training.run import TrainConfig, train
@@ -40,7 +40,7 @@ def main() -> None:
     try:
         run(args.out, args.scenario, args.steps, args.seeds)
     except (ValueError, OSError, MissingExtra) as exc:  # as lgmd-sim: one line, status 2
-        parser.exit(2, f"{parser.prog}: error: {error_text(exc)}\n")
+        parser.exit(2, f"{parser.prog}: error: {error_line(exc, parser, args)}\n")
 
 
 def run(out: Path, scenario: str, steps: int, seeds: int) -> None:
@@ -49,7 +49,7 @@ def run(out: Path, scenario: str, steps: int, seeds: int) -> None:
     check_out_folder(out)
     # the evaluation's configuration can be made only once the policy exists: its seeds
     # are checked now, not after the training
-    options.check_positive(seeds, "--seeds", integer=True)
+    checked("seeds", seeds, count)
     # PPO on the feedback LGMD's features (its potentials and where in the view its
     # excitation is), with the wheels' and IMU's readings and the goal, at 64 x 64.
     config = TrainConfig(

@@ -23,6 +23,7 @@ import numpy as np
 
 from lgmd_sim import models
 from lgmd_sim.benchmark.entries import REFERENCE, SIDES, driver
+from lgmd_sim.core.params import FieldError
 from lgmd_sim.signals.metrics import alarm_onsets
 
 if TYPE_CHECKING:
@@ -94,7 +95,7 @@ def parse_avoider(text: str) -> tuple[str, str]:
         controller, params = _controller(name, preset, how or None)
         controllers.controller_class(controller).resolve(**params)  # checked; no model made
     except ValueError as exc:
-        raise ValueError(f"--avoider {text!r}: {exc}") from None
+        raise FieldError("avoider", f"{text!r}: {exc}") from None
     return detector, how or SIDES[0]
 
 

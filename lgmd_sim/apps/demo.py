@@ -32,6 +32,7 @@ from lgmd_sim import models
 from lgmd_sim.apps.defaults import AVOID_SEED, DETECTORS, SEED
 from lgmd_sim.controllers import Straight, rollout
 from lgmd_sim.core.fileio import atomic_folder_outputs, atomic_output, write_files
+from lgmd_sim.core.params import FieldError
 from lgmd_sim.core.plots import model_style
 from lgmd_sim.core.pngtext import add_text, png_text
 from lgmd_sim.envs.zone import CRUISE
@@ -344,7 +345,7 @@ def run(*, out: str | Path = "demo-out", seed: int = SEED, jitter: float = 1.0,
 
     detectors = list(detectors)
     if not detectors:
-        raise ValueError("--models: give at least one detector")
+        raise FieldError("models", "must give at least one detector")
     for d in detectors:
         models.parse_spec(d)  # an unknown model, preset or front end: before the episode
     closed = None if avoider is None else demo_avoid.parse_avoider(avoider)

@@ -7,7 +7,8 @@ and the check that the manoeuvre can avoid at all) and `ReactiveAvoid` with each
 (an LGMD model and preset) and each way of choosing the side to turn away to
 (`ClosedLoopConfig.sides`). Per episode one record (``DIR/records/<key>.json``, gathered
 into ``DIR/episodes.csv``); per cell the rates with 95% Wilson intervals
-(``DIR/summary.csv``, ``DIR/summary.md``); and figures (``DIR/*.png``).
+(``DIR/summary.csv``, ``DIR/summary.md``); and figures (``DIR/*.png``), which
+`lgmd-sim benchmark`, showing none, leaves out.
 
 `lgmd_sim.benchmark.episode` runs one episode and says what its record holds (alarms, false
 alarms, lead time, the two kinds of task); `lgmd_sim.benchmark.summary` makes the summary and
@@ -24,55 +25,54 @@ from typing import Any
 from lgmd_sim.benchmark.episode import DEFAULT_SIDE, RECORD_FIELDS, Cell, episode, plan
 from lgmd_sim.benchmark.summary import cell_of, summarise, write_tables
 from lgmd_sim.controllers import options
+from lgmd_sim.core.configfile import setting
 from lgmd_sim.core.fileio import atomic_folder_outputs
 from lgmd_sim.core.jobs import Job
 from lgmd_sim.core.parallel import RunOptions, run_jobs
+from lgmd_sim.core.params import Check, checked, count, in_range, positive, seed, tuple_of
 from lgmd_sim.core.runs import RunFolder, RunResult
 from lgmd_sim.envs.zone import CRUISE, FALSE_ALARM_HORIZON
 
-__all__ = ["ClosedLoopConfig", "run"]
+__all__ = ["ClosedLoopConfig", "ClosedLoopResult", "run"]
 
 
 @dataclass(frozen=True)
 class ClosedLoopConfig:
     """What a closed-loop benchmark runs, checked when it is made (a bad value raises a
-    one-line ValueError naming it).
-
-    Attributes:
-        scenarios: catalogue scenario names (`lgmd-sim envs`).
-        jitter: jitter levels; every cell runs at each.
-        controllers: names of `lgmd_sim.controllers.available()` or "package.module:Class"
-            specs; one driven by a model gets a cell per detector.
-        detectors: (model, preset) pairs, presets with any front ends
-            ("published+image"); None: every model at its default preset.
-        seeds: episodes per cell, seeded ``first_seed``, ``first_seed + 1``, ...
-        first_seed: the first episode seed (1000 and up are never a training or
-            validation seed of `lgmd-sim train`).
-        resolution: the frame size, a preset name or (height, width).
-        cruise: forward action of every cruising controller.
-        horizon: an alarm is false when no obstacle is within this time to collision (s).
-        extra: further cells run beside the planned ones on the same seeds (e.g. a
-            trained policy's, from `lgmd-sim eval`).
-        sides: how a controller with a ``side`` parameter (reactive) chooses the side to
-            turn away to, each a cell of its own: "halves" (one LGMD over the whole view,
-            the side from its S layer's halves) or "eyes" (two LGMDs over overlapping
-            left and right parts of the view, away from the more excited).
-        top_views: how many of the seeds, the first ones, the trajectories figure draws
-            from above (a row of panels each).
+    one-line ValueError naming it). Each field is declared with its meaning
+    (`lgmd_sim.core.configfile.setting`): the command line's options and --config keys.
     """
 
-    scenarios: tuple[str, ...] = ("RoughTerrainObstacles",)
-    jitter: tuple[float, ...] = (0.0, 1.0, 2.0)
-    controllers: tuple[str, ...] = ("straight", "oracle", "reactive")
-    detectors: tuple[tuple[str, str], ...] | None = None
-    seeds: int = 50
-    first_seed: int = 1000
-    resolution: str | tuple[int, int] = "rl"
-    cruise: float = CRUISE
-    horizon: float = FALSE_ALARM_HORIZON
-    extra: tuple[Cell, ...] = ()
-    sides: tuple[str, ...] = (DEFAULT_SIDE,)
-    top_views: int = 1
+    scenarios: tuple[str, ...] = setting(
+        ("RoughTerrainObstacles",), "catalogue scenario names (`lgmd-sim envs`)")
+    jitter: tuple[float, ...] = setting((0.0, 1.0, 2.0),
+                                        "jitter levels; every cell runs at each")
+    controllers: tuple[str, ...] = setting(
+        ("straight", "oracle", "reactive"),
+        "controllers: straight (no avoidance), oracle (the avoidance manoeuvre triggered by "
+        "ground truth), reactive (the manoeuvre triggered by an LGMD model's alarm, a cell "
+        "per detector and side), or a plug-in's package.module:Class")
+    detectors: tuple[tuple[str, str], ...] | None = setting(
+        None, "(model, preset) pairs of the cells driven by a model, presets with any front "
+        'ends ([["lgmd1", "published+image"]]); unset: every model at its default preset')
+    seeds: int = setting(50, "episodes per cell, seeded first_seed, first_seed + 1, ...")
+    first_seed: int = setting(1000, "the first episode seed (1000 and up are never a "
+                              "training or validation seed of `lgmd-sim train`)")
+    resolution: str | tuple[int, int] = setting(
+        "rl", "frame size: rl (120x160), paper (270x480), small or HxW")
+    cruise: float = setting(CRUISE, "forward action of every controller while cruising")
+    horizon: float = setting(FALSE_ALARM_HORIZON, "an alarm is false when no obstacle is "
+                             "within this time to collision (s)")
+    extra: tuple[Cell, ...] = setting((), "further cells run beside the planned ones on the "
+                                      "same seeds (a trained policy's: "
+                                      "`lgmd_sim.training.evaluate`)", in_file=False)
+    sides: tuple[str, ...] = setting(
+        (DEFAULT_SIDE,), "how the reactive controller chooses the side to turn away to, "
+        'each a cell of its own: "halves" (one LGMD over the whole view, the side from its '
+        'S layer\'s halves) or "eyes" (two LGMDs over overlapping left and right parts of '
+        "the view, away from the more excited)")
+    top_views: int = setting(1, "how many of the seeds, the first ones, trajectories.png "
+                             "draws from above, a row of panels each")
 
     def __post_init__(self) -> None:
         from lgmd_sim.envs.catalogue import scenarios
@@ -85,22 +85,18 @@ class ClosedLoopConfig:
         set_("controllers", tuple(options.controller_names(self.controllers)
                                   if self.controllers else ()))
         set_("jitter", tuple(float(j) for j in self.jitter))
-        options.check_jitter(self.jitter)
+        checked("jitter", self.jitter, options.jitter_list)
         set_("detectors", options.detectors("all") if self.detectors is None
              else options.check_detectors(self.detectors))
-        options.check_positive(self.seeds, "--seeds", integer=True)
-        options.check_positive(self.top_views, "--top-views", integer=True)
-        options.check_seed(self.first_seed, "--first-seed")
+        checked("seeds", self.seeds, count)
+        checked("top_views", self.top_views, count)
+        checked("first_seed", self.first_seed, seed)
         set_("resolution", options.resolution(self.resolution))
-        options.check_range(self.cruise, "--cruise", -1, 1)
-        options.check_positive(self.horizon, "--horizon")
+        checked("cruise", self.cruise, in_range(-1, 1))
+        checked("horizon", self.horizon, positive)
         set_("extra", tuple(self.extra))
         set_("sides", tuple(dict.fromkeys(self.sides)))
-        if not self.sides:
-            raise ValueError("--sides: no side given")
-        for side in self.sides:
-            if side != DEFAULT_SIDE:  # the default is the behaviour without the parameter
-                _check_side(side)
+        checked("sides", self.sides, tuple_of(_side_check(), min_length=1))
         if not (self.controllers or self.extra):
             raise ValueError("no controllers given")
         keys = {cell.key(self.first_seed) for cell in plan(
@@ -174,39 +170,55 @@ def _params(model: str, preset: str) -> dict[str, Any]:
     return dataclasses.asdict(models.make(model, preset=preset).params)
 
 
-def _check_side(side: str) -> None:
-    """ValueError naming --sides where `side` is not a value of ReactiveParams.side."""
+def _side_check() -> Check:
+    """The check of ReactiveParams.side, the reactive controller's own."""
     from lgmd_sim.controllers.avoid import ReactiveParams
 
-    try:
-        ReactiveParams().replace(side=side)
-    except ValueError as exc:
-        raise ValueError(f"--sides {side!r}: {exc}") from None
+    return next(f.metadata["check"] for f in dataclasses.fields(ReactiveParams)
+                if f.name == "side")
 
 
-def run(config: ClosedLoopConfig, out: str | Path, options: RunOptions = RunOptions()
-        ) -> RunResult:
+@dataclass(frozen=True)
+class ClosedLoopResult(RunResult):
+    """A closed-loop run's `RunResult` and the records its rows summarise: one per
+    episode, in the order of their keys (`Cell.key`), without their top views."""
+
+    records: list[dict[str, Any]]
+
+
+def run(config: ClosedLoopConfig, out: str | Path, options: RunOptions = RunOptions(), *,
+        figures: bool = True, preflighted: bool = False) -> ClosedLoopResult:
     """Run (or resume) the benchmark of `config` in folder `out`; write its tables and
-    figures; return the summary rows (one per cell, as in summary.csv) and the files.
+    figures; return the summary rows (one per cell, as in summary.csv), the episodes'
+    records and the files.
 
     Args:
         config: what runs.
         out: the run folder: new, empty, or (with ``options.resume``) holding this
             configuration's run, whose finished episodes are kept.
         options: how it runs (workers, Ray, progress, resume, the command line).
+        figures: draw the figures (False: the tables only, for a caller that shows none:
+            `lgmd-sim benchmark`).
+        preflighted: the caller has run the preflight on the cells' detectors
+            (`lgmd_sim.models.check.preflight`) with its other inputs: not again here.
     """
-    from lgmd_sim.benchmark import figures
+    from lgmd_sim.benchmark import figures as plots
     from lgmd_sim.models.check import preflight
+    from lgmd_sim.models.presets import carrying_presets
 
     cells = config.cells()
-    preflight((c.model, c.preset) for c in cells if c.model)
+    if not preflighted:
+        preflight((c.model, c.preset) for c in cells if c.model)
     seeds = config.seed_list
     folder = RunFolder(out, config.as_json(), options.command, resume=options.resume)
     done = folder.done()
     episode_options = {"resolution": config.resolution, "cruise": config.cruise,
                        "horizon": config.horizon}
-    jobs = [Job(cell.key(seed), episode, {"cell": cell, "seed": seed, **episode_options,
-                                         "top_view": seed in seeds[:config.top_views]})
+    # a presets file that stands in for the user's (a calibrated benchmark entry's) goes
+    # with the jobs to the workers that build their detectors
+    play = carrying_presets(episode)
+    jobs = [Job(cell.key(seed), play, {"cell": cell, "seed": seed, **episode_options,
+                                      "top_view": seed in seeds[:config.top_views]})
             for cell in cells for seed in seeds if cell.key(seed) not in done]
     run_jobs(jobs, lambda job, record: folder.store(job.key, record), options,
              desc="closed-loop")
@@ -215,11 +227,12 @@ def run(config: ClosedLoopConfig, out: str | Path, options: RunOptions = RunOpti
     examples = [{**r, "cell": cell_of(r).label} for r in records if "top_view" in r]
     records = [{k: v for k, v in r.items() if k != "top_view"} for r in records]
     rows = summarise(records)
-    outputs = ["episodes.csv", "summary.csv", "summary.md",
-               *figures.closed_loop_figures(rows, examples)]
+    outputs = ["episodes.csv", "summary.csv", "summary.md"]
+    if figures:
+        outputs += plots.closed_loop_figures(rows, examples)
     with atomic_folder_outputs(folder.path, outputs) as staging:  # all of them, or none
         write_tables(staging, records, rows)
-        figures.closed_loop(staging, rows, examples)
+        if figures:
+            plots.closed_loop(staging, rows, examples)
     folder.finish(episodes=len(records))
-    files = [*outputs, "run.json"]
-    return RunResult(folder.path, rows, files)
+    return ClosedLoopResult(folder.path, rows, [*outputs, "run.json"], records)

@@ -23,6 +23,7 @@ import numpy as np
 from lgmd_sim.benchmark import audit, scores
 from lgmd_sim.benchmark.protocol import Protocol
 from lgmd_sim.core.fileio import atomic_outputs
+from lgmd_sim.core.params import FieldError
 from lgmd_sim.core.runs import NUMBER, Maybe, read_record
 
 __all__ = ["RESULT_FIELDS", "against_driving", "leaderboard", "load_result", "markdown",
@@ -367,8 +368,8 @@ def leaderboard(paths: Sequence[str | Path], out: str | Path, protocol: Protocol
         raise ValueError("no results given")
     out = Path(out)
     if out.suffix != ".md" or out.is_dir():
-        raise ValueError(f"--out {str(out)!r}: the table is a FILE.md (its figure goes beside "
-                         "it, FILE.png)")
+        raise FieldError("out", "must be a FILE.md, the table (its figure goes beside it, "
+                         f"FILE.png), got {str(out)!r}")
     results = [load_result(p, protocol) for p in paths]
     first = protocol.identity()
     labels = [r["entry"]["label"] for r in results]

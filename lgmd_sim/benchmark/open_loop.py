@@ -25,9 +25,11 @@ from typing import Any
 import numpy as np
 
 from lgmd_sim.controllers import options
+from lgmd_sim.core.configfile import setting
 from lgmd_sim.core.fileio import csv_text, write_files, write_text_atomic
 from lgmd_sim.core.jobs import Job
 from lgmd_sim.core.parallel import RunOptions, run_jobs
+from lgmd_sim.core.params import checked, count, non_negative, positive, seed
 from lgmd_sim.core.runs import NULL, NUMBER, RunFolder, RunResult
 from lgmd_sim.signals import metrics
 
@@ -231,34 +233,31 @@ def summary_markdown(rows: Sequence[dict[str, Any]], noise: bool = False) -> str
 @dataclass(frozen=True)
 class OpenLoopConfig:
     """What an open-loop benchmark runs, checked when it is made (a bad value raises a
-    one-line ValueError naming it).
-
-    Attributes:
-        scenarios: catalogue scenario names, each run at every `jitter` level with
-            `seeds` clips seeded from `first_seed`; ignored with `dataset`.
-        dataset: take the clips from a dataset folder (or "DIR:N", its episode N)
-            instead of simulating them.
-        detectors: (model, preset) pairs, presets with any front ends; None: every model
-            at its default preset.
-        noise_levels: Gaussian variances and salt-and-pepper densities at which the
-            stationary clips (a tripod scenario at jitter 0) also run (the paper's
-            dataset d).
-        resolution: the frame size of simulated clips.
-        horizon: a frame counts as dangerous when an obstacle is within this time to
-            collision (s), for the ROC AUC.
-        window: a first alarm within this many seconds before the collision is a hit.
+    one-line ValueError naming it). Each field is declared with its meaning
+    (`lgmd_sim.core.configfile.setting`): the command line's options and --config keys.
     """
 
-    scenarios: tuple[str, ...] | None = None
-    jitter: tuple[float, ...] = (0.0, 1.0)
-    seeds: int = 8
-    first_seed: int = 0
-    dataset: str | None = None
-    detectors: tuple[tuple[str, str], ...] | None = None
-    noise_levels: tuple[float, ...] = (0.001, 0.003, 0.005, 0.007, 0.009)
-    resolution: str | tuple[int, int] = "paper"
-    horizon: float = 1.0
-    window: float = 1.0
+    scenarios: tuple[str, ...] | None = setting(
+        None, "catalogue scenario names, each run at every jitter level with seeds clips "
+        "seeded from first_seed; ignored with dataset; unset: every scenario")
+    jitter: tuple[float, ...] = setting((0.0, 1.0), "jitter levels")
+    seeds: int = setting(8, "clips per scenario and jitter level")
+    first_seed: int = setting(0, "the first episode seed")
+    dataset: str | None = setting(None, "take the clips from a dataset (DIR, or DIR:N for its "
+                                  "episode N) instead of simulating them")
+    detectors: tuple[tuple[str, str], ...] | None = setting(
+        None, "(model, preset) pairs, presets with any front ends; unset: every model at "
+        "its default preset")
+    noise_levels: tuple[float, ...] = setting(
+        (0.001, 0.003, 0.005, 0.007, 0.009), "Gaussian variances and salt-and-pepper "
+        "densities at which the stationary clips (a tripod scenario at jitter 0) also run "
+        "(the paper's dataset d); [] for none")
+    resolution: str | tuple[int, int] = setting(
+        "paper", "frame size of simulated clips: paper (270x480), rl (120x160), small or HxW")
+    horizon: float = setting(1.0, "a frame counts as dangerous when an obstacle is within "
+                             "this time to collision (s), for the ROC AUC")
+    window: float = setting(1.0, "a first alarm within this many seconds before the "
+                            "collision is a hit")
 
     def __post_init__(self) -> None:
         from lgmd_sim.envs.catalogue import scenarios
@@ -270,17 +269,16 @@ class OpenLoopConfig:
         set_("scenarios", tuple(every if self.scenarios is None else options.names(
             self.scenarios, every, "scenario(s)")))
         set_("jitter", tuple(float(j) for j in self.jitter))
-        options.check_jitter(self.jitter)
-        options.check_positive(self.seeds, "--seeds", integer=True)
-        options.check_seed(self.first_seed, "--first-seed")
+        checked("jitter", self.jitter, options.jitter_list)
+        checked("seeds", self.seeds, count)
+        checked("first_seed", self.first_seed, seed)
         set_("detectors", options.detectors("all") if self.detectors is None
              else options.check_detectors(self.detectors))
-        options.check_noise_levels(self.noise_levels)
+        checked("noise_levels", self.noise_levels, options.noise_list)
         set_("noise_levels", tuple(float(v) for v in self.noise_levels))
         set_("resolution", options.resolution(self.resolution))
-        options.check_positive(self.horizon, "--horizon")
-        if not (isinstance(self.window, int | float) and 0 <= self.window < float("inf")):
-            raise ValueError(f"--window must be a number >= 0, got {self.window!r}")
+        checked("horizon", self.horizon, positive)
+        checked("window", self.window, non_negative)
         if self.dataset is not None:
             self.clips()  # a folder that is not a dataset fails now, not in a worker
 

@@ -19,7 +19,7 @@ from pathlib import Path
 from typing import Any
 
 from lgmd_sim.core.fileio import read_text
-from lgmd_sim.core.params import finite
+from lgmd_sim.core.params import checked, count, finite, in_range, positive, seed
 
 __all__ = ["CURRENT", "PROTOCOLS", "SMOKE_SEEDS", "ArenaTrack", "Calibration", "CameraTrack",
            "ClosedLoopTrack", "DetectionTrack", "Protocol", "load"]
@@ -229,22 +229,22 @@ def _check(p: Protocol) -> None:
     from lgmd_sim.envs.catalogue import scenarios
 
     options.resolution(p.resolution, "resolution")
-    options.check_range(p.cruise, "cruise", -1.0, 1.0)
-    options.check_positive(p.version, "version", integer=True)
-    options.check_positive(p.bootstrap, "bootstrap", integer=True)
+    checked("cruise", p.cruise, in_range(-1.0, 1.0))
+    checked("version", p.version, count)
+    checked("bootstrap", p.bootstrap, count)
     if p.bootstrap > MAX_BOOTSTRAP:
         raise ValueError(f"bootstrap must be at most {MAX_BOOTSTRAP:,} resamples, got "
                          f"{p.bootstrap:,}")
-    options.check_seed(p.bootstrap_seed, "bootstrap_seed")
+    checked("bootstrap_seed", p.bootstrap_seed, seed)
     known = scenarios()
     for name in ("goal", "arena"):
         track: ClosedLoopTrack = getattr(p, name)
         if track.scenario not in known:
             raise ValueError(f"{name}.scenario {track.scenario!r} is not a scenario "
                              "(lgmd-sim envs lists them)")
-        options.check_jitter(track.jitter, f"{name}.jitter")
-        options.check_positive(track.episodes, f"{name}.episodes", integer=True)
-        options.check_seed(track.first_seed, f"{name}.first_seed")
+        checked(f"{name}.jitter", track.jitter, options.jitter_list)
+        checked(f"{name}.episodes", track.episodes, count)
+        checked(f"{name}.first_seed", track.first_seed, seed)
     if p.version >= 2:  # each track's dose-response: J50 reads a jitter-0 score, then more
         for name in ("goal", "detection"):
             levels = getattr(p, name).jitter
@@ -262,14 +262,14 @@ def _check(p: Protocol) -> None:
     for key, track in (("detection", p.detection), ("stimuli", p.stimuli)):
         if isinstance(track, DetectionTrack):
             _check_stimuli(track, key)
-    options.check_positive(p.horizon, "horizon")
+    checked("horizon", p.horizon, positive)
     c = p.calibration
     if c.task not in TASKS:
         raise ValueError(f"calibration.task {c.task!r} is none of {', '.join(TASKS)}")
-    options.check_positive(c.budget, "calibration.budget", integer=True)
-    options.check_positive(c.seeds, "calibration.seeds", integer=True)
-    options.check_seed(c.first_seed, "calibration.first_seed")
-    options.check_seed(c.heldout_seed, "calibration.heldout_seed")
+    checked("calibration.budget", c.budget, count)
+    checked("calibration.seeds", c.seeds, count)
+    checked("calibration.first_seed", c.first_seed, seed)
+    checked("calibration.heldout_seed", c.heldout_seed, seed)
     if abs(c.first_seed - c.heldout_seed) < c.seeds:
         raise ValueError("calibration: the search seeds (first_seed on) and the held-out ones "
                          f"(heldout_seed on) overlap, {c.seeds} of each")
@@ -297,10 +297,10 @@ def _check_stimuli(d: DetectionTrack, name: str) -> None:
 
     _each_once(d, name, ("approaching", "non_approach"), "stimulus",
                lambda s: None if s in STIMULI else f"is none of {', '.join(STIMULI)}")
-    options.check_jitter(d.jitter, f"{name}.jitter")
-    options.check_positive(d.clips, f"{name}.clips", integer=True)
-    options.check_seed(d.first_seed, f"{name}.first_seed")
-    options.check_positive(d.window_s, f"{name}.window_s")
+    checked(f"{name}.jitter", d.jitter, options.jitter_list)
+    checked(f"{name}.clips", d.clips, count)
+    checked(f"{name}.first_seed", d.first_seed, seed)
+    checked(f"{name}.window_s", d.window_s, positive)
 
 
 def _check_camera(d: CameraTrack, known: Any) -> None:
@@ -315,12 +315,12 @@ def _check_camera(d: CameraTrack, known: Any) -> None:
         return None
 
     _each_once(d, "detection", ("approaching", "clear"), "scenario", problem)
-    options.check_jitter(d.jitter, "detection.jitter")
+    checked("detection.jitter", d.jitter, options.jitter_list)
     for speed in d.cruise:
         if not 0 < speed <= 1:
             raise ValueError(f"detection.cruise: {speed:g} is not a forward action in (0, 1]")
-    options.check_positive(d.clips, "detection.clips", integer=True)
-    options.check_seed(d.first_seed, "detection.first_seed")
+    checked("detection.clips", d.clips, count)
+    checked("detection.first_seed", d.first_seed, seed)
     if len(d.window_s) != 2 or not 0 <= d.window_s[0] < d.window_s[1]:
         raise ValueError("detection.window_s must be [low, high], 0 <= low < high (s to "
                          f"collision), got {list(d.window_s)}")

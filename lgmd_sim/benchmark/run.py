@@ -4,18 +4,17 @@ clip, and writes the entry's ``result.json``: its scores with intervals, the raw
 and the per-seed parts the leaderboard compares entries by.
 
 Layout of an entry's folder (``OUT/<entry>``): ``goal/`` and ``arena/`` (closed-loop
-bench run folders, their episodes, tables and figures), ``detection/`` and, in protocol
+bench run folders: their episodes and tables, no figures), ``detection/`` and, in protocol
 2, ``stimuli/`` (run folders of one record per clip), ``result.json`` and
-``episodes.json`` (`EPISODES`). Every part keeps its finished jobs: running the same
-command again completes an interrupted benchmark.
+``episodes.json`` (`EPISODES`); a calibrated entry's ``calibration/`` and `PRESETS`. Every
+part keeps its finished jobs: running the same command again completes an interrupted
+benchmark.
 """
 
 from __future__ import annotations
 
-import contextlib
 import dataclasses
-import os
-from collections.abc import Callable, Iterator, Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -28,8 +27,8 @@ from lgmd_sim.core.machine import machine
 from lgmd_sim.core.parallel import RunOptions
 from lgmd_sim.core.runs import RunFolder
 
-__all__ = ["EPISODES", "RESULT", "benchmark", "calibrated", "check_entries", "episode_score",
-           "track_config", "user_presets"]
+__all__ = ["EPISODES", "PRESETS", "RESULT", "benchmark", "calibrated", "check_entries",
+           "episode_score", "track_config"]
 
 #: An entry's result, in its folder.
 RESULT = "result.json"
@@ -38,14 +37,19 @@ RESULT = "result.json"
 EPISODES = "episodes.json"
 #: What `EPISODES` leaves out of a record: the top view, drawn for the first seeds.
 UNPUBLISHED = ("top_view",)
+#: A calibrated entry's presets file, in its folder: the preset its calibration made, which
+#: its episodes read in place of the user's presets (`calibrated`).
+PRESETS = Path("presets", "calibrated.json")
 #: What `calibrated` adds to the preset a built-in's calibration makes, whose name the
 #: model ships already.
 RECALIBRATED = "recalibrated"
-#: What the closed-loop summary rows keep in a result, per jitter level.
-_GOAL_COLUMNS = ("episodes", "success_rate", "success_ci", "collision_rate", "collision_ci",
-                 "false_alarms_per_min", "mean_progress", "mean_time_s")
-_ARENA_COLUMNS = ("episodes", "avoidance_rate", "avoidance_ci", "encounters",
-                  "collisions_per_min", "false_alarms_per_min", "mean_distance_m")
+#: What a result keeps of each closed-loop track's summary rows, per jitter level.
+_COLUMNS = {
+    "goal": ("episodes", "success_rate", "success_ci", "collision_rate", "collision_ci",
+             "false_alarms_per_min", "mean_progress", "mean_time_s"),
+    "arena": ("episodes", "avoidance_rate", "avoidance_ci", "encounters",
+              "collisions_per_min", "false_alarms_per_min", "mean_distance_m"),
+}
 
 
 def track_config(entry: Entry, protocol: Protocol, track: ClosedLoopTrack) -> Any:
@@ -61,20 +65,6 @@ def track_config(entry: Entry, protocol: Protocol, track: ClosedLoopTrack) -> An
         horizon=protocol.horizon)
 
 
-def _closed_loop(entry: Entry, protocol: Protocol, track: ClosedLoopTrack, out: Path,
-                 options: RunOptions
-                 ) -> tuple[list[dict[str, Any]], list[dict[str, Any]]]:
-    """Run the entry's cells of `track` (a closed-loop bench run in `out`); its records and
-    the bench's summary rows of them."""
-    from lgmd_sim.benchmark import closed_loop
-
-    config = track_config(entry, protocol, track)
-    result = closed_loop.run(config, out, options)
-    records = RunFolder(out, config.as_json(), "", resume=True, start=False).records(
-        [c.key(s) for c in config.cells() for s in config.seed_list])
-    return records, result.rows
-
-
 def _clip_track(entry: Entry, protocol: Protocol, name: str, out: Path,
                 jobs: Mapping[str, tuple[Callable[..., dict[str, Any]], dict[str, Any]]],
                 options: RunOptions) -> list[dict[str, Any]]:
@@ -82,14 +72,16 @@ def _clip_track(entry: Entry, protocol: Protocol, name: str, out: Path,
     `jobs`: record name -> (job function, its arguments)); one record per clip."""
     from lgmd_sim.core.jobs import Job
     from lgmd_sim.core.parallel import run_jobs
+    from lgmd_sim.models.presets import carrying_presets
 
     config = {name: protocol.identity(), "model": entry.model, "preset": entry.preset,
               "detector_params": entry.to_json()["params"]}
     folder = RunFolder(out, config, options.command, resume=True,
                        what=f"benchmark {name} track")
     done = folder.done()
-    run_jobs([Job(k, fn, {**args, "model": entry.model, "preset": entry.preset,
-                          "resolution": protocol.resolution})
+    run_jobs([Job(k, carrying_presets(fn), {**args, "model": entry.model,
+                                            "preset": entry.preset,
+                                            "resolution": protocol.resolution})
               for k, (fn, args) in jobs.items() if k not in done],
              lambda job, record: folder.store(job.key, record), options,
              desc=f"{entry.label}: {name}", unit="clip")
@@ -135,7 +127,7 @@ def check_entries(entries: Sequence[Entry], protocol: Protocol) -> None:
     """Refuse, before the first episode of any, entries that could not all run: two of one
     folder (two policies of the same folder name), a policy trained at another frame size
     than the protocol's, a plug-in detector that fails the preflight
-    (`lgmd_sim.models.check.preflight`).
+    (`lgmd_sim.models.check.preflight`, which `benchmark` does not run again).
 
     Raises:
         ValueError: the first such entry, in one line naming it.
@@ -199,10 +191,11 @@ def calibrated(entry: Entry, protocol: Protocol, out: str | Path,
                options: RunOptions = RunOptions()) -> tuple[Entry, Path]:
     """Tune detector `entry` by the protocol's calibration rule (`lgmd-sim calibrate` with
     its task, budget and seeds, on the entry's front end); return the entry at the preset
-    it made and the data folder whose presets file holds it (see `user_presets`).
+    it made and the presets file that holds it, which its benchmark reads in place of the
+    user's presets (`lgmd_sim.models.presets.user_presets_from`).
 
     Everything goes in the calibrated entry's folder: ``calibration/`` (the calibration's
-    run folder) and ``presets/calibrated.json``.
+    run folder) and `PRESETS`.
     """
     from lgmd_sim.calibration.run import CalibrateConfig, calibrate
     from lgmd_sim.calibration.tasks import preset_name
@@ -210,7 +203,8 @@ def calibrated(entry: Entry, protocol: Protocol, out: str | Path,
     from lgmd_sim.models.presets import merge_presets
 
     if entry.kind != "detector":
-        raise ValueError(f"--calibrate: entry {entry.spec!r} is no detector")
+        raise ValueError(f"entry {entry.spec!r} is no detector: only a detector is "
+                         "calibrated")
     # the robot task's front ends are rotations (image, imu): a +gain is not calibrated
     detector = "+".join([entry.model, *(f for f in entry.preset.split("+")[1:] if f != "gain")])
     rule = protocol.calibration
@@ -226,8 +220,8 @@ def calibrated(entry: Entry, protocol: Protocol, out: str | Path,
     calibrate(config, folder / "calibration", dataclasses.replace(options, resume=True))
     calibration = read_json(folder / "calibration" / "calibrated.json")
     calibration["presets"] = {model: {preset: calibration["presets"][model][made]}}
-    merge_presets(folder / "presets" / "calibrated.json", calibration)
-    return tuned, folder / "presets"
+    merge_presets(folder / PRESETS, calibration)
+    return tuned, folder / PRESETS
 
 
 def shipped_presets(model: str) -> set[str]:
@@ -238,24 +232,6 @@ def shipped_presets(model: str) -> set[str]:
 
     return set(models.model_class(model).presets) | {
         name for name, path in preset_files(model).items() if path == CALIBRATED}
-
-
-@contextlib.contextmanager
-def user_presets(folder: Path | None) -> Iterator[None]:
-    """Within the block, the user's presets are those of `folder` (its calibrated.json),
-    for this process and the workers it starts (``LGMD_SIM_DATA_DIR``); None: as they are."""
-    from lgmd_sim.models.presets import DATA_DIR_VARIABLE
-
-    before = os.environ.get(DATA_DIR_VARIABLE)
-    if folder is not None:
-        os.environ[DATA_DIR_VARIABLE] = str(Path(folder).resolve())
-    try:
-        yield
-    finally:
-        if before is None:
-            os.environ.pop(DATA_DIR_VARIABLE, None)
-        else:
-            os.environ[DATA_DIR_VARIABLE] = before
 
 
 def _wall_time(folder: Path) -> float:
@@ -269,54 +245,68 @@ def _wall_time(folder: Path) -> float:
 
 
 def benchmark(entry: Entry, protocol: Protocol, out: str | Path,
-              options: RunOptions = RunOptions()) -> dict[str, Any]:
+              options: RunOptions = RunOptions(), *, presets: Path | None = None
+              ) -> dict[str, Any]:
     """Run (or complete) `entry` through every track of `protocol` in ``out/<entry.key>``
     and write its ``result.json``; return the result.
 
     A detector runs every track; a controller the closed-loop ones (it has no detector to
     run on clips), a policy the goal track (it observes the goal, which the arena has not).
     `options` as `lgmd_sim.benchmark.closed_loop.run` takes them; a row always resumes
-    (its finished episodes are kept, whatever ``options.resume`` says).
+    (its finished episodes are kept, whatever ``options.resume`` says). The entry is one
+    `check_entries` passed: its detector's preflight is not run again.
+
+    Args:
+        presets: a calibrated entry's presets file (`calibrated`), which this process and
+            the workers read in place of the user's presets
+            (`lgmd_sim.models.presets.user_presets_from`).
     """
+    from lgmd_sim.benchmark import closed_loop
+    from lgmd_sim.models.presets import user_presets_from
+
     folder = Path(out) / entry.key
     folder.mkdir(parents=True, exist_ok=True)
     options = dataclasses.replace(options, resume=True)
     # version 2 keeps each jitter level's episodes apart: the dose-response, J50
     levels = protocol.goal.jitter if protocol.version >= 2 else None
-    arena_score = episode_score("arena", protocol)
-    goal, rows = _closed_loop(entry, protocol, protocol.goal, folder / "goal", options)
-    parts = {"goal": scores.parts_of(goal, scores.goal_score, levels)}
-    metrics = {"goal": _rows(goal, rows, _GOAL_COLUMNS, scores.goal_score)}
-    traces = {"goal": _fingerprint(goal)}
-    if entry.kind != "policy":  # a policy observes the goal, which the arena has not
-        arena, rows = _closed_loop(entry, protocol, protocol.arena, folder / "arena",
-                                   options)
-        parts["arena"] = scores.parts_of(arena, arena_score, levels)
-        metrics["arena"] = _rows(arena, rows, _ARENA_COLUMNS, arena_score)
-        traces["arena"] = _fingerprint(arena)
-    if entry.kind == "detector":
-        if isinstance(protocol.detection, CameraTrack):
-            clips = _camera(entry, protocol, protocol.detection, folder / "detection",
-                            options)
-            parts["detection"] = camera.parts(clips, protocol.detection.jitter)
-            metrics["detection"] = camera.metrics(clips)
-        else:
-            clips = _stimuli(entry, protocol, protocol.detection, "detection",
-                             folder / "detection", options)
-            parts["detection"] = scores.detection_parts(clips)
-            metrics["detection"] = detection.metrics(clips)
-        if protocol.stimuli is not None:
-            clips = _stimuli(entry, protocol, protocol.stimuli, "stimuli", folder / "stimuli",
-                             options)
-            parts["stimuli"] = scores.detection_parts(clips)
-            metrics["stimuli"] = detection.metrics(clips)
-    episodes = {"goal": goal, **({"arena": arena} if entry.kind != "policy" else {})}
-    write_text_atomic(folder / EPISODES, _episodes_json(episodes))
-    summary = scores.summarise(parts, protocol.bootstrap, protocol.bootstrap_seed)
-    result = {"protocol": protocol.identity(), "entry": entry.to_json(),
-              "lgmd_sim": __version__, "machine": machine(), "command": options.command,
-              "scores": summary.scores, "intervals": summary.intervals, "metrics": metrics,
-              "parts": {t: p.to_json() for t, p in parts.items()},
-              "fingerprints": traces, "timing": {"wall_time_s": _wall_time(folder)}}
-    write_text_atomic(folder / RESULT, canonical_json(result))
+    with user_presets_from(presets):
+        episodes: dict[str, list[dict[str, Any]]] = {}
+        parts: dict[str, scores.Parts] = {}
+        metrics: dict[str, Any] = {}
+        traces: dict[str, str | None] = {}
+        # a policy observes the goal, which the arena has not
+        for track in ("goal",) if entry.kind == "policy" else scores.CLOSED_LOOP:
+            config = track_config(entry, protocol, getattr(protocol, track))
+            # its tables, not figures that no page of the benchmark shows
+            bench = closed_loop.run(config, folder / track, options, figures=False,
+                                    preflighted=True)
+            score = episode_score(track, protocol)
+            episodes[track] = bench.records
+            parts[track] = scores.parts_of(bench.records, score, levels)
+            metrics[track] = _rows(bench.records, bench.rows, _COLUMNS[track], score)
+            traces[track] = _fingerprint(bench.records)
+        if entry.kind == "detector":
+            if isinstance(protocol.detection, CameraTrack):
+                clips = _camera(entry, protocol, protocol.detection, folder / "detection",
+                                options)
+                parts["detection"] = camera.parts(clips, protocol.detection.jitter)
+                metrics["detection"] = camera.metrics(clips)
+            else:
+                clips = _stimuli(entry, protocol, protocol.detection, "detection",
+                                 folder / "detection", options)
+                parts["detection"] = scores.detection_parts(clips)
+                metrics["detection"] = detection.metrics(clips)
+            if protocol.stimuli is not None:
+                clips = _stimuli(entry, protocol, protocol.stimuli, "stimuli", folder / "stimuli",
+                                 options)
+                parts["stimuli"] = scores.detection_parts(clips)
+                metrics["stimuli"] = detection.metrics(clips)
+        write_text_atomic(folder / EPISODES, _episodes_json(episodes))
+        summary = scores.summarise(parts, protocol.bootstrap, protocol.bootstrap_seed)
+        result = {"protocol": protocol.identity(), "entry": entry.to_json(),
+                  "lgmd_sim": __version__, "machine": machine(), "command": options.command,
+                  "scores": summary.scores, "intervals": summary.intervals, "metrics": metrics,
+                  "parts": {t: p.to_json() for t, p in parts.items()},
+                  "fingerprints": traces, "timing": {"wall_time_s": _wall_time(folder)}}
+        write_text_atomic(folder / RESULT, canonical_json(result))
     return result

@@ -5,7 +5,8 @@ reader can tell whether a row replays here, and where it parts if not.
 `verify` reads an entry's folder as `lgmd-sim benchmark` leaves it (``result.json`` beside
 ``goal/`` and ``arena/``, each a closed-loop run folder of one record per episode), or as
 a row is published: ``episodes.json`` holds the same records, the drawings left out; it
-also checks that the result's per-seed parts are what the records give.
+also checks that the result's per-seed parts are what the records give. A calibrated
+entry's episodes replay at the preset its folder's presets file holds (`PRESETS`).
 """
 
 from __future__ import annotations
@@ -21,8 +22,9 @@ from lgmd_sim.benchmark.entries import Entry, parse
 from lgmd_sim.benchmark.episode import RECORD_FIELDS, episode
 from lgmd_sim.benchmark.fingerprint import first_difference
 from lgmd_sim.benchmark.protocol import Protocol
-from lgmd_sim.benchmark.run import EPISODES, track_config
+from lgmd_sim.benchmark.run import EPISODES, PRESETS, track_config
 from lgmd_sim.core.parallel import RunOptions
+from lgmd_sim.core.params import checked, count
 
 __all__ = ["Replayed", "verify"]
 
@@ -83,16 +85,16 @@ def verify(result: str | Path, protocol: Protocol, episodes: int | None = None, 
     """
     from lgmd_sim.benchmark import scores
     from lgmd_sim.benchmark.leaderboard import load_result, parts
-    from lgmd_sim.benchmark.run import user_presets
+    from lgmd_sim.models.presets import user_presets_from
 
     path = Path(result)
     file = path / "result.json" if path.is_dir() else path
     claimed = load_result(file, protocol)
-    if episodes is not None and episodes < 1:
-        raise ValueError(f"--episodes must be a positive integer, got {episodes}")
-    presets = file.parent / "presets"  # a calibrated entry's
+    if episodes is not None:
+        checked("episodes", episodes, count)
+    presets = file.parent / PRESETS  # a calibrated entry's
     out: list[Replayed] = []
-    with user_presets(presets if presets.is_dir() else None):
+    with user_presets_from(presets if presets.is_file() else None):
         for track, part in parts(claimed).items():
             if track in scores.CLOSED_LOOP:
                 out += _track(file, track, part, protocol, (episodes, seed),
@@ -120,6 +122,7 @@ def _track(file: Path, track: str, part: Any, protocol: Protocol,
     from lgmd_sim.core.jobs import Job
     from lgmd_sim.core.parallel import run_jobs
     from lgmd_sim.core.runs import RunFolder, read_record
+    from lgmd_sim.models.presets import carrying_presets
 
     run = file.parent / track
     if (run / "run.json").is_file():
@@ -151,7 +154,8 @@ def _track(file: Path, track: str, part: Any, protocol: Protocol,
         if on_episode is not None:
             on_episode(checked)
 
-    jobs = [Job(k, episode, {"cell": cells[k][0], "seed": cells[k][1], **played})
+    play = carrying_presets(episode)  # a calibrated entry's presets, to the workers
+    jobs = [Job(k, play, {"cell": cells[k][0], "seed": cells[k][1], **played})
             for k in _sample(keys, *sample)]
     run_jobs(jobs, store, options, desc=f"verify {track}", unit="episode")
     return out

@@ -41,9 +41,11 @@ from lgmd_sim.calibration.search import (
 )
 from lgmd_sim.calibration.tasks import TASKS, preset_name
 from lgmd_sim.controllers import options
+from lgmd_sim.core.configfile import setting
 from lgmd_sim.core.fileio import write_files, write_text_atomic
 from lgmd_sim.core.jobs import Job
 from lgmd_sim.core.parallel import RunOptions, run_jobs
+from lgmd_sim.core.params import checked, count, one_of, seed
 from lgmd_sim.core.pngtext import png_text
 from lgmd_sim.core.runs import NULL, Fields, RunFolder, RunResult
 from lgmd_sim.models import presets
@@ -54,46 +56,56 @@ __all__ = ["CalibrateConfig", "calibrate", "choose"]
 @dataclass(frozen=True)
 class CalibrateConfig:
     """What `calibrate` runs, checked when it is made (a bad value raises a one-line
-    ValueError naming it).
-
-    Attributes:
-        task: a key of `TASKS`: the clips and the objective ("walker", "robot" or
-            "video").
-        detectors: detectors of `lgmd_sim.calibration.search.space`: a model whose class
-            declares a search space (a name, or a plug-in's "package.module:Class" spec),
-            or the feedback LGMD's open-loop control "feedback-open-loop", each also with
-            a front end of the task's ("lgmd1+image"; in a task with a front end of its
-            own, that one, given or not); None: every one of the models available
-            (`lgmd_sim.calibration.search.detector_list`).
-        budget: candidate settings per detector, its starting preset included (the same
-            for every detector).
-        seeds: episode seeds per clip group in each set.
-        first_seed: the first search seed.
-        heldout_seed: the first held-out seed; the two sets must not overlap.
-        seed: the seed of the random search.
-        resolution: the clips' frame size.
-        save_presets: also merge the presets into the user's presets file
-            (`lgmd_sim.models.presets.user_presets_file`).
-        presets_file: merge them into this file instead (implies ``save_presets``); never
-            one inside the installed package. Either target is checked when the
-            configuration is made: a presets file or none, that can be written, in a folder
-            that can be written or made (`lgmd_sim.models.presets.check_target`).
+    ValueError naming it). Each field is declared with its meaning
+    (`lgmd_sim.core.configfile.setting`): the command line's options and --config keys.
     """
 
-    task: str = "walker"
-    detectors: tuple[str, ...] | None = None
-    budget: int = 32
-    seeds: int = 8
-    first_seed: int = 0
-    heldout_seed: int = 100
-    seed: int = 0
-    resolution: str | tuple[int, int] = "rl"
-    save_presets: bool = False
-    presets_file: str | Path | None = None
+    task: str = setting(
+        "walker", "the clips and the objective, a key of `lgmd_sim.calibration.tasks.TASKS`. "
+        "walker: the clips of a hand-held, mutual or steady camera and near misses, a hit "
+        "when the first alarm comes in the last 15% of an approach; presets calibrated, "
+        "calibrated-image ... robot: the robot driving straight over rough ground (jitter "
+        "0, 1, 2) at obstacles and where none is in its way, a hit when the first alarm "
+        "comes in the avoidance manoeuvre's window and silence while no obstacle is within "
+        "2 s (lgmd_sim.calibration.robot); presets robot, robot-imu, robot-image ... "
+        "robot-frames: the same, an alarm being 4 rising frames above the threshold (the "
+        "video presets' rule); presets robot-frames, robot-frames-image ... video: for "
+        "footage from a camera nobody calibrated, the walker's clips and synthetic stimuli "
+        "that do not loom (receding, crossing, gratings, flicker: a hit when silent), every "
+        "clip with a real camera's noise and the scenes' cameras of 40 to 90 degrees, every "
+        "detector with the front end +image+gain (lgmd_sim.calibration.objective.VIDEO); "
+        "presets video ...")
+    detectors: tuple[str, ...] | None = setting(
+        None, "among feedback, feedback-open-loop (the feedback LGMD's open-loop control), "
+        "lgmd1, lgmd2, f_on, f_off and any other model whose class declares a search_space "
+        "(a registered name or a package.module:Class spec), each also with a front end of "
+        "the task's (+image: the rotation fitted from the frames; +imu: the world's IMU; "
+        "the video task's +image+gain, given or not); unset: every model available that "
+        "declares one (`lgmd_sim.calibration.search.detector_list`)")
+    budget: int = setting(32, "candidate settings per detector, its starting preset "
+                          "included (the same for every detector)")
+    seeds: int = setting(8, "episode seeds per clip group in each set")
+    first_seed: int = setting(0, "the first search seed")
+    heldout_seed: int = setting(100, "the first held-out seed; the two sets must not overlap")
+    seed: int = setting(0, "the seed of the random search")
+    resolution: str | tuple[int, int] = setting(
+        "rl", "frame size of the clips: rl (120x160, the closed-loop task's), paper, small "
+        "or HxW")
+    save_presets: bool = setting(
+        False, "also merge the calibrated presets into your presets file, calibrated.json "
+        "in $LGMD_SIM_DATA_DIR (else the user data folder, ~/.local/share/lgmd-sim on "
+        "Linux): only the calibrated detectors' presets change there, and the models read "
+        "it on top of the shipped presets")
+    presets_file: str | None = setting(
+        None, "merge them into this file instead (implies save_presets); never one inside "
+        "the installed package; the models read only your presets file, so a file named "
+        "calibrated.json serves them once LGMD_SIM_DATA_DIR names its folder. Either "
+        "target is checked when the configuration is made: a presets file or none, that "
+        "can be written, in a folder that can be written or made "
+        "(`lgmd_sim.models.presets.check_target`)")
 
     def __post_init__(self) -> None:
-        if self.task not in TASKS:
-            raise ValueError(f"--task {self.task!r}: must be one of {', '.join(TASKS)}")
+        checked("task", self.task, one_of(*TASKS))
         task = TASKS[self.task]
         fronts = (task.front,) if task.front else (None, *task.fronts)
         detectors = detector_list(self.detectors, fronts)
@@ -105,12 +117,12 @@ class CalibrateConfig:
                 raise ValueError(f"detector {d!r}: the {self.task} task's front ends are "
                                  f"{', '.join('+' + f for f in task.fronts)}")
         object.__setattr__(self, "detectors", tuple(detectors))
-        options.check_positive(self.budget, "--budget", integer=True)
-        options.check_positive(self.seeds, "--seeds", integer=True)
+        checked("budget", self.budget, count)
+        checked("seeds", self.seeds, count)
         for name in ("first_seed", "heldout_seed", "seed"):
-            options.check_seed(getattr(self, name), f"--{name.replace('_', '-')}")
+            checked(name, getattr(self, name), seed)
         if set(self.search_seeds) & set(self.heldout_seeds):
-            raise ValueError("the search and held-out seeds overlap: move --heldout-seed")
+            raise ValueError("the search and held-out seeds overlap: move heldout_seed")
         object.__setattr__(self, "resolution", options.resolution(self.resolution))
         target = self.presets_target
         if target is not None:

@@ -20,15 +20,15 @@ from collections.abc import Sequence
 from importlib import import_module
 
 from lgmd_sim import __version__
+from lgmd_sim.cli.args import error_line
 from lgmd_sim.core import numerics
 from lgmd_sim.core.extras import MissingExtra
-from lgmd_sim.core.fileio import error_text
 from lgmd_sim.core.jobs import WorkerDied
 from lgmd_sim.core.stops import catch_swallowed_stops, stop_raised
 
 #: The subcommands, in the order `--help` lists them.
 COMMANDS = ("demo", "detect", "record", "models", "envs", "bench", "calibrate", "dataset",
-            "train", "eval", "benchmark", "leaderboard", "verify")
+            "train", "benchmark", "leaderboard", "verify")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -69,7 +69,8 @@ def command_line(argv: Sequence[str]) -> str:
 
 def main(argv: Sequence[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
-    args = build_parser().parse_args(argv)
+    parser = build_parser()
+    args = parser.parse_args(argv)
     args.command_line = command_line(argv)
     previous = signal.signal(signal.SIGTERM, _terminate)
     # Ctrl-C as Python's default raises it (where it is ignored, as in a background job, it
@@ -85,7 +86,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     except BrokenPipeError:  # output piped into e.g. `head`, which stopped reading
         return 0
     except (ValueError, OSError, MissingExtra) as exc:  # a user's input: say what, briefly
-        print(f"lgmd-sim {args.command}: error: {error_text(exc)}", file=sys.stderr)
+        print(f"lgmd-sim {args.command}: error: {error_line(exc, parser, args)}",
+              file=sys.stderr)
         return 2
     except WorkerDied as exc:  # killed, or out of memory: the finished jobs are kept
         resume = ("; the finished ones are kept: run the same command with --resume to "

@@ -1,14 +1,17 @@
-"""What the subcommands share: argument types that reject a bad value with a clear message,
-the "advanced" group that --help lists after the options a user needs first, the option
-groups of the run-folder, parallel and detector options, and the keyword arguments and
-printout of a job that keeps a run folder."""
+"""What the subcommands share: argument types that reject a bad value with the message of
+the configuration field's own check; options made from a configuration's fields
+(`option`), its --config file (`add_config_file`) and the configuration made of both
+(`configured`); the "advanced" group that --help lists after the options a user needs
+first; the run-folder, parallel and detector options; the line a user's error prints; and
+the printout of a job that keeps a run folder."""
 
 from __future__ import annotations
 
 import argparse
+from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
-from lgmd_sim.envs.zone import CRUISE, FALSE_ALARM_HORIZON
+from lgmd_sim.core.params import Check, FieldError, comma_list, count, non_negative, seed
 
 if TYPE_CHECKING:
     from lgmd_sim.core.parallel import RunOptions
@@ -17,25 +20,27 @@ if TYPE_CHECKING:
 Options = argparse._ActionsContainer
 
 
-def positive_int(text: str) -> int:
-    value = int(text)
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"must be a positive integer, got {text}")
-    return value
+def argtype(parse: Callable[[str], Any], check: Check) -> Callable[[str], Any]:
+    """An argparse type: the text parsed by `parse` (int, float) and held to `check`, the
+    `lgmd_sim.core.params` check a configuration holds the same field to, so that the
+    option and the field refuse the same values with the same words."""
+
+    def convert(text: str) -> Any:
+        try:
+            value = parse(text)
+        except ValueError:
+            value = text  # not even a number: the check says what it must be
+        error = check(value)
+        if error:
+            raise argparse.ArgumentTypeError(f"{error}, got {text}")
+        return value
+
+    return convert
 
 
-def non_negative_int(text: str) -> int:
-    value = int(text)
-    if value < 0:
-        raise argparse.ArgumentTypeError(f"must be a non-negative integer, got {text}")
-    return value
-
-
-def non_negative_float(text: str) -> float:
-    value = float(text)
-    if not value >= 0:  # also rejects NaN
-        raise argparse.ArgumentTypeError(f"must be a number >= 0, got {text}")
-    return value
+positive_int = argtype(int, count)
+non_negative_int = argtype(int, seed)
+non_negative_float = argtype(float, non_negative)
 
 
 def resolution(text: str) -> str | tuple[int, int]:
@@ -45,8 +50,24 @@ def resolution(text: str) -> str | tuple[int, int]:
 
     try:
         return parse_resolution(text)
-    except ValueError as exc:
-        raise argparse.ArgumentTypeError(str(exc)) from None
+    except FieldError as exc:
+        raise argparse.ArgumentTypeError(exc.problem) from None
+
+
+def error_line(error: Exception, parser: argparse.ArgumentParser,
+               args: argparse.Namespace) -> str:
+    """A user's error as the command prints it: a `FieldError` naming the option that set
+    its field (the field `first_seed` is ``--first-seed``) where one of the command's options
+    sets it, an OSError its file and reason (`lgmd_sim.core.fileio.error_text`)."""
+    from lgmd_sim.core.fileio import error_text
+
+    if not isinstance(error, FieldError) or str(error) != f"{error.field} {error.problem}":
+        return error_text(error)
+    while subs := [a for a in parser._actions if isinstance(a, argparse._SubParsersAction)]:
+        parser = subs[0].choices[getattr(args, subs[0].dest)]
+    flags = [a.option_strings[-1] for a in parser._actions
+             if a.dest == error.field and a.option_strings]
+    return f"{flags[0]} {error.problem}" if flags else str(error)
 
 
 def advanced(p: argparse.ArgumentParser, about: str) -> argparse._ArgumentGroup:
@@ -56,14 +77,17 @@ def advanced(p: argparse.ArgumentParser, about: str) -> argparse._ArgumentGroup:
     return p.add_argument_group("advanced", about)
 
 
-def add_parallel_options(p: Options, more: Options, unit: str = "episodes") -> None:
-    """--workers and --no-progress in `p`, --ray in `more` (a cluster is not where one
-    starts): how a command's independent jobs run."""
-    p.add_argument("--workers", type=positive_int, default=None,
-                   help="local worker processes (default: every core)")
-    more.add_argument("--ray", metavar="ADDRESS", default=None,
-                      help=f"run the {unit} as Ray tasks: 'local' starts Ray here, 'auto' or "
-                      "HOST:PORT joins a cluster (needs the ray extra)")
+def workers(text: str) -> int | str:
+    """--workers: a number of local worker processes, or "ray"."""
+    return text if text == "ray" else positive_int(text)
+
+
+def add_parallel_options(p: Options, unit: str = "episodes") -> None:
+    """--workers and --no-progress: where a command's independent jobs run."""
+    p.add_argument("--workers", type=workers, metavar="N|ray", default=None,
+                   help=f"local worker processes (default: every core), or ray: the {unit} as "
+                   "Ray tasks, on the cluster the RAY_ADDRESS variable names (auto or "
+                   "HOST:PORT) or on a Ray started here (needs the ray extra)")
     p.add_argument("--no-progress", action="store_true", help="hide the progress bar")
 
 
@@ -79,9 +103,13 @@ def add_run_folder_options(p: Options, default: str) -> None:
 def run_options(args: argparse.Namespace) -> RunOptions:
     """How a job given the options of `add_parallel_options` (and `add_run_folder_options`,
     where it has them) runs, checked before it starts."""
+    import os
+
     from lgmd_sim.core.parallel import RunOptions
 
-    return RunOptions(workers=args.workers, ray_address=args.ray,
+    ray = args.workers == "ray"
+    return RunOptions(workers=None if ray else args.workers,
+                      ray_address=os.environ.get("RAY_ADDRESS") or "local" if ray else None,
                       progress=False if args.no_progress else None,
                       resume=getattr(args, "resume", False), command=args.command_line)
 
@@ -105,23 +133,56 @@ def add_detector_options(p: Options, default: str | None = "all",
                    "each of these it has (its default when it has none of them)")
 
 
-def add_closed_loop_options(p: Options, more: Options, jitter: str, seeds: int = 50,
-                            top_views: int = 1) -> None:
-    """The closed-loop benchmark's episodes (`lgmd-sim bench closed-loop`, `lgmd-sim
-    eval`): --jitter (default `jitter`) and --seeds (default `seeds`) in `p`; --first-seed,
-    --cruise, --horizon and --top-views (default `top_views`) in `more`."""
-    p.add_argument("--jitter", default=jitter,
-                   help=f"comma-separated jitter levels (default {jitter})")
-    p.add_argument("--seeds", type=positive_int, default=seeds,
-                   help=f"episodes per cell (default {seeds})")
-    more.add_argument("--first-seed", type=non_negative_int, default=1000,
-                      help="the first episode seed; seeds are consecutive (default 1000: "
-                      "never a training or validation seed of `lgmd-sim train`)")
-    more.add_argument("--cruise", type=float, default=CRUISE,
-                      help="forward action of every controller while cruising (default 0.6)")
-    more.add_argument("--horizon", type=float, default=FALSE_ALARM_HORIZON,
-                      help="an alarm is false when no obstacle is within this time to "
-                      "collision (s, default %(default)s)")
-    more.add_argument("--top-views", type=positive_int, default=top_views,
-                      help="how many of the seeds, the first ones, trajectories.png draws "
-                      f"from above, a row of panels each (default {top_views})")
+def names(text: str) -> tuple[str, ...]:
+    """A comma-separated list's items (`lgmd_sim.core.params.comma_list`)."""
+    return tuple(comma_list(text))
+
+
+def option(p: Options, cls: type, name: str, *, shown: str | None = None,
+           **kwargs: Any) -> None:
+    """--NAME (`name`, its ``_`` as ``-``): field `name` of configuration `cls`, whose help
+    is the field's meaning and default as `cls` declares them
+    (`lgmd_sim.core.configfile.setting`; `shown`: the default as the option spells it).
+    Unset (None) unless given, so that a --config file's key, or else the field's default,
+    applies (`configured`)."""
+    from lgmd_sim.core.configfile import defaults, doc
+
+    if shown is None:
+        default = defaults(cls)[name]
+        shown = ",".join(map(str, default)) if isinstance(default, list) else str(default)
+    p.add_argument("--" + name.replace("_", "-"), default=None,
+                   help=f"{doc(cls, name)} (default {shown})".replace("%", "%%"), **kwargs)
+
+
+def add_config_file(p: Options, about: str, *classes: type) -> None:
+    """--config FILE.toml: any field of the command's configuration as a KEY = VALUE line
+    (`classes`: the configurations it makes, the first unless the help says otherwise),
+    `about` saying which fields only a file sets. The option keeps `classes`
+    (``config_classes``): the command line's reference lists their keys."""
+    names = " or ".join(cls.__name__ for cls in classes)
+    action = p.add_argument(
+        "--config", metavar="FILE.toml",
+        help=f"settings as KEY = VALUE lines of a TOML file, KEY a field of {names}: "
+        f"{about} and any other (docs/reference/cli.md lists them); the options given "
+        "override the file")
+    action.config_classes = classes  # type: ignore[attr-defined]
+
+
+def configured(cls: type, args: argparse.Namespace, given: dict[str, Any]) -> Any:
+    """Configuration `cls` of the options `given` (field -> value, None where not given)
+    over the keys of the --config file, over the fields' defaults.
+
+    Raises:
+        ValueError: a file that cannot be read, is not TOML or holds another key; a value
+            `cls` refuses (one line, naming the file where its key is at fault).
+    """
+    from lgmd_sim.core.configfile import read_toml
+
+    read = read_toml(args.config, cls) if args.config else {}
+    from_file = {k: v for k, v in read.items() if given.get(k) is None}
+    try:
+        return cls(**from_file, **{k: v for k, v in given.items() if v is not None})
+    except FieldError as exc:
+        if exc.field in from_file:
+            raise ValueError(f"{args.config}: {exc}") from None
+        raise

@@ -58,16 +58,16 @@ lgmd-sim leaderboard OUT/*/result.json --out leaderboard.md""")
                    "robot presets), on its front end, so that a new model is compared "
                    "fairly: its row is MODEL/robot[-FRONT] (a built-in's, which ships that "
                    "preset: MODEL/robot[-FRONT]-recalibrated); a few minutes more")
-    more = advanced(p, "another protocol than the shipped one, and Ray")
+    more = advanced(p, "another protocol than the shipped one")
     more.add_argument("--protocol", default="v2", metavar="NAME|FILE",
                       help="a shipped protocol (v2, the default; v1, the first) or a "
                       "protocol TOML file (docs/benchmark.md says how to write one)")
-    add_parallel_options(p, more)
+    add_parallel_options(p)
 
 
 def run(args: argparse.Namespace) -> int:
     from lgmd_sim.benchmark import entries, protocol
-    from lgmd_sim.benchmark.run import RESULT, benchmark, calibrated, check_entries, user_presets
+    from lgmd_sim.benchmark.run import RESULT, benchmark, calibrated, check_entries
     from lgmd_sim.core.fileio import held_lock
 
     proto = protocol.load(args.protocol)
@@ -89,8 +89,7 @@ def run(args: argparse.Namespace) -> int:
             presets = None
             if args.calibrate:
                 entry, presets = calibrated(entry, proto, out, options)
-            with user_presets(presets):
-                result = benchmark(entry, proto, out, options)
+            result = benchmark(entry, proto, out, options, presets=presets)
         s = result["scores"]
         shown = ", ".join(f"{k} {v:.2f}" for k, v in s.items())
         smoke = " (a smoke result: not a row)" if args.smoke else ""

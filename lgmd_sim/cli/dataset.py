@@ -42,7 +42,7 @@ def add(sub: argparse._SubParsersAction) -> None:
     g.add_argument("--resolution", type=resolution, default="paper",
                    help="paper (270x480, default), rl (120x160), small (64x64) or HxW")
     more = advanced(g, "what drives the carrier, LGMD labels, noise variants, the frames' "
-                    "storage, seeds, environment parameters, and Ray")
+                    "storage, seeds and environment parameters")
     more.add_argument("--controller", default="straight",
                       help="what drives the carrier: a name from lgmd_sim.controllers "
                       "(default straight)")
@@ -61,7 +61,7 @@ def add(sub: argparse._SubParsersAction) -> None:
     more.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
                       help="an environment parameter for every scenario, e.g. time_limit=2 "
                       "or miss_distance=0.5 (repeatable; see lgmd-sim envs NAME)")
-    add_parallel_options(g, more)
+    add_parallel_options(g)
     v = what.add_parser(
         "verify", help="check a dataset: counts, checksums, label consistency",
         description="Check that the dataset in DIR is complete and consistent; print each "

@@ -3,7 +3,7 @@
 Options default to None here so that ``--resume`` can tell the ones given from the ones
 recorded: a resumed run takes the recorded ones, and only `RESUMABLE` ones may be given
 anew; `TrainConfig`'s defaults are the ones the help text names. The research settings
-are not options but keys of a --config TOML file (`lgmd_sim.training.config.read_toml`),
+are not options but keys of a --config TOML file (`lgmd_sim.core.configfile.read_toml`),
 each declared once, with its meaning and default, as a field of `TrainConfig`; the
 options given override the file's keys, which override the recorded run's or the
 defaults.
@@ -20,6 +20,7 @@ from typing import Any
 
 from lgmd_sim.cli.args import advanced, print_result, resolution
 from lgmd_sim.core.extras import install_command
+from lgmd_sim.core.params import FieldError
 
 
 def add(sub: argparse._SubParsersAction) -> None:
@@ -32,10 +33,10 @@ def add(sub: argparse._SubParsersAction) -> None:
         "closing speed; an MLP, the upper bound for the others) to drive to the goal without "
         "colliding. Vectorised environments, observation normalisation, validation on fixed "
         "held-out seeds, checkpoints, TensorBoard logs; writes DIR/policy.npz and "
-        "policy.json (a policy for lgmd-sim eval), DIR/best/, DIR/learning_curve.png, "
-        "DIR/summary.md and DIR/run.json. The reward is the environment's (lgmd-sim envs "
-        "NAME) unless --config shapes it. Needs the rl extra, stable-baselines3 and PyTorch "
-        f"(install it {install_command('rl')}).",
+        "policy.json (a policy for lgmd-sim bench closed-loop --policies), DIR/best/, "
+        "DIR/learning_curve.png, DIR/summary.md and DIR/run.json. The reward is the "
+        "environment's (lgmd-sim envs NAME) unless --config shapes it. Needs the rl extra, "
+        f"stable-baselines3 and PyTorch (install it {install_command('rl')}).",
     )
     p.add_argument("--algo", help="ppo or sac (default ppo)")
     p.add_argument("--env", metavar="ID", help="Gymnasium id of the environment (default "
@@ -85,12 +86,13 @@ def config_from_args(args: argparse.Namespace) -> Any:
             a value TrainConfig refuses; a resumed run's key changed that may not (one line,
             naming the file where its key is at fault).
     """
-    from lgmd_sim.training.config import read_toml
+    from lgmd_sim.core.configfile import read_toml
+    from lgmd_sim.training.config import KEYS_LISTED
     from lgmd_sim.training.run import RESUMABLE, TrainConfig, resumable
 
     names = [f.name for f in dataclasses.fields(TrainConfig)]
     options = {k: getattr(args, k) for k in names if getattr(args, k, None) is not None}
-    keys = read_toml(args.config) if args.config is not None else {}
+    keys = read_toml(args.config, TrainConfig, listed=KEYS_LISTED) if args.config else {}
     from_file = {k: v for k, v in keys.items() if k not in options}
     given = {**from_file, **options}
 
@@ -121,7 +123,9 @@ def config_from_args(args: argparse.Namespace) -> Any:
         return TrainConfig(**given)
     except ValueError as exc:
         # TrainConfig names the field at fault; where the file gave it, the file too
-        if any(_mentions(str(exc), key) for key in from_file):
+        from_the_file = (exc.field in from_file if isinstance(exc, FieldError)
+                         else any(_mentions(str(exc), key) for key in from_file))
+        if from_the_file:
             raise ValueError(f"{args.config}: {exc}") from None
         raise
 

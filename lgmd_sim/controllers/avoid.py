@@ -23,7 +23,6 @@ from lgmd_sim.envs.wrappers.frames import check_frame_space
 from lgmd_sim.envs.zone import CRUISE, ORACLE_TUNED, TriggerZone, in_trigger_zone
 from lgmd_sim.models.layers import needed_layer
 from lgmd_sim.models.sectors import Sectors
-from lgmd_sim.world.view import CameraView
 
 __all__ = [
     "AvoidParams",
@@ -122,6 +121,8 @@ class ViewTruth(gym.Wrapper):
         world = getattr(env.unwrapped, "world", None)
         if world is None:
             raise TypeError(f"ViewTruth needs a JitterEnv (its world), got {env.unwrapped!r}")
+        from lgmd_sim.world.view import CameraView
+
         self._view = CameraView(world)
 
     def reset(self, **kwargs: Any) -> tuple[Any, dict[str, Any]]:

@@ -1,10 +1,11 @@
 """The options every job shares, parsed and checked in one place.
 
 Parsers turn a command line's text into values ("0,1,2" -> jitter levels, "all" -> every
-scenario, "lgmd1/calibrated+image" -> a detector); checks hold a job's typed
-configuration to the same rules when it is made in Python. Each raises a one-line
-ValueError that names the option and the bad value, so that a bad option fails before
-any work starts.
+scenario, "lgmd1/calibrated+image" -> a detector); checks (`lgmd_sim.core.params` checks,
+held by `lgmd_sim.core.params.checked`) hold a job's typed configuration to the same rules
+when it is made in Python. A bad value is a one-line ValueError that names the field and
+the value (a `lgmd_sim.core.params.FieldError`: the command line names its option), so that
+a bad option fails before any work starts.
 """
 
 from __future__ import annotations
@@ -13,22 +14,20 @@ import math
 from collections.abc import Callable, Iterable, Sequence
 from typing import Any
 
-from lgmd_sim.core.params import comma_list
+from lgmd_sim.core.params import FieldError, comma_list
 
 __all__ = [
     "check_detectors",
-    "check_jitter",
-    "check_noise_levels",
-    "check_positive",
-    "check_range",
-    "check_seed",
     "comma_list",
+    "controller_names",
     "detectors",
     "file_key",
     "jitter_levels",
+    "jitter_list",
     "model_names",
     "names",
     "noise_levels",
+    "noise_list",
     "resolution",
 ]
 
@@ -67,17 +66,27 @@ def file_key(name: str) -> str:
     return name.replace(":", "_")
 
 
-def _jitter_error(shown: str, option: str = "--jitter") -> ValueError:
-    from lgmd_sim.world.params import MAX_JITTER
-
-    return ValueError(f"{option}: jitter level {shown} is not a number in [0, {MAX_JITTER:g}]")
-
-
 def _is_jitter(level: Any) -> bool:
     from lgmd_sim.world.params import MAX_JITTER
 
     return (isinstance(level, int | float) and not isinstance(level, bool)
             and 0 <= level <= MAX_JITTER)
+
+
+def _jitter_range() -> str:
+    from lgmd_sim.world.params import MAX_JITTER
+
+    return f"must hold jitter levels in [0, {MAX_JITTER:g}]"
+
+
+def jitter_list(levels: Any) -> str | None:
+    """A `lgmd_sim.core.params` check of a configuration's jitter levels: at least one, each
+    in range, none twice."""
+    if not isinstance(levels, tuple | list) or not levels:
+        return "must hold at least one jitter level"
+    if not all(map(_is_jitter, levels)):
+        return _jitter_range()
+    return "must hold each level once" if len(set(levels)) < len(levels) else None
 
 
 def jitter_levels(text: str, *, drop_repeats: bool = True) -> tuple[float, ...]:
@@ -90,26 +99,28 @@ def jitter_levels(text: str, *, drop_repeats: bool = True) -> tuple[float, ...]:
         except ValueError:
             level = math.nan
         if not _is_jitter(level):
-            raise _jitter_error(repr(item.strip()))
+            raise FieldError("jitter", f"{_jitter_range()}, got {item.strip()!r}")
         levels.append(level)
     return tuple(dict.fromkeys(levels)) if drop_repeats else tuple(levels)
 
 
-def check_jitter(levels: Sequence[float], option: str = "--jitter") -> None:
-    """Jitter levels of a configuration: at least one, each in range, none twice (`option`:
-    where they were given, for the message)."""
-    if not levels:
-        raise ValueError(f"{option}: no jitter levels given")
-    for level in levels:
-        if not _is_jitter(level):
-            raise _jitter_error(repr(level), option)
-    if len(set(levels)) < len(levels):
-        raise ValueError(f"{option}: a level is given twice: {', '.join(map(str, levels))}")
+def _is_noise_level(level: Any) -> bool:
+    return isinstance(level, int | float) and not isinstance(level, bool) and 0 < level <= 1
+
+
+#: What `noise_list` asks of each level.
+_NOISE_RANGE = "must hold noise levels in (0, 1]"
+
+
+def noise_list(levels: Any) -> str | None:
+    """A `lgmd_sim.core.params` check of noise levels (Gaussian variances, salt-and-pepper
+    densities): each in (0, 1]."""
+    ok = isinstance(levels, tuple | list) and all(map(_is_noise_level, levels))
+    return None if ok else _NOISE_RANGE
 
 
 def noise_levels(text: str) -> tuple[float, ...]:
-    """Noise levels (Gaussian variances, salt-and-pepper densities) from "0.001,0.005",
-    each in (0, 1]; "" is none."""
+    """Noise levels from "0.001,0.005", each in (0, 1]; "" is none."""
     levels = []
     for item in comma_list(text):
         try:
@@ -117,54 +128,18 @@ def noise_levels(text: str) -> tuple[float, ...]:
         except ValueError:
             level = -1.0
         if not _is_noise_level(level):
-            raise _noise_level_error(repr(item))
+            raise FieldError("noise_levels", f"{_NOISE_RANGE}, got {item!r}")
         levels.append(level)
     return tuple(dict.fromkeys(levels))
 
 
-def _is_noise_level(level: Any) -> bool:
-    return isinstance(level, int | float) and not isinstance(level, bool) and 0 < level <= 1
-
-
-def _noise_level_error(shown: str) -> ValueError:
-    return ValueError(f"noise level {shown} is not a number in (0, 1]")
-
-
-def check_noise_levels(levels: Sequence[float]) -> None:
-    """Noise levels of a configuration: each in (0, 1]."""
-    for level in levels:
-        if not _is_noise_level(level):
-            raise _noise_level_error(repr(level))
-
-
-def check_positive(value: Any, option: str, *, integer: bool = False) -> None:
-    """A finite number > 0 (an integer >= 1 with `integer`)."""
-    if integer:
-        if not (isinstance(value, int) and not isinstance(value, bool) and value >= 1):
-            raise ValueError(f"{option} must be a positive integer, got {value!r}")
-    elif not (isinstance(value, int | float) and math.isfinite(value) and value > 0):
-        raise ValueError(f"{option} must be a number > 0, got {value!r}")
-
-
-def check_seed(value: Any, option: str) -> None:
-    """A seed: an integer >= 0."""
-    if not (isinstance(value, int) and not isinstance(value, bool) and value >= 0):
-        raise ValueError(f"{option} must be an integer >= 0, got {value!r}")
-
-
-def resolution(value: str | Sequence[int], option: str = "--resolution"
+def resolution(value: str | Sequence[int], field: str = "resolution"
                ) -> str | tuple[int, int]:
     """A frame size, checked (`lgmd_sim.world.params.parse_resolution`): a preset name
     (`lgmd_sim.world.params.RESOLUTIONS`), "HEIGHTxWIDTH" or (height, width)."""
     from lgmd_sim.world.params import parse_resolution
 
-    return parse_resolution(value, option)
-
-
-def check_range(value: Any, option: str, lo: float, hi: float) -> None:
-    """A number in [lo, hi]."""
-    if not (isinstance(value, int | float) and lo <= value <= hi):
-        raise ValueError(f"{option} must be in [{lo:g}, {hi:g}], got {value!r}")
+    return parse_resolution(value, field)
 
 
 def model_names(spec: str | Sequence[str]) -> list[str]:

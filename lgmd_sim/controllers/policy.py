@@ -36,8 +36,8 @@ class PolicyParams(CheckedParams):
     plugins: str = param("", DESIGN, check=_specs,
                          doc="plug-in model specs, comma-separated, that the policy may "
                              "observe: a policy names only built-in, registered or installed "
-                             "models otherwise, since a spec is imported (lgmd-sim eval "
-                             "passes those of its --models)")
+                             "models otherwise, since a spec is imported (lgmd-sim bench "
+                             "closed-loop --policies passes those of its --models)")
 
 
 class Policy(Controller):

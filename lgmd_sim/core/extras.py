@@ -12,7 +12,7 @@ from types import ModuleType
 #: What each extra of the package brings (the README lists the same).
 EXTRAS = {
     "rl": "stable-baselines3 and PyTorch (CPU build): training and evaluating policies",
-    "ray": "Ray: benchmarks and dataset generation as tasks on a cluster (--ray)",
+    "ray": "Ray: benchmarks and dataset generation as tasks on a cluster (--workers ray)",
     "data": "pyarrow: labelled datasets with per-frame labels in Parquet",
     "lerobot": "PyAV and pyarrow: lgmd-sim dataset export --format lerobot (H.264/AV1 MP4 videos)",
     "video": "moviepy: Gymnasium's RecordVideo wrapper (recording episodes)",

@@ -28,6 +28,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from lgmd_sim.core.jobs import Job, WorkerDied, _call_keeping, _keeping
+from lgmd_sim.core.params import checked, count, optional
 from lgmd_sim.core.pool import Pool
 
 __all__ = ["RunOptions", "default_workers", "run_jobs"]
@@ -56,10 +57,7 @@ class RunOptions:
     command: str = ""
 
     def __post_init__(self) -> None:
-        workers = self.workers
-        if workers is not None and (not isinstance(workers, int) or isinstance(workers, bool)
-                                    or workers < 1):
-            raise ValueError(f"workers must be a positive integer, got {workers!r}")
+        checked("workers", self.workers, optional(count))
         if self.ray_address is not None:
             check_ray_address(self.ray_address)
 
@@ -161,7 +159,8 @@ RAY_CONNECT_TIMEOUT_S = 10.0
 
 
 def check_ray_address(address: str) -> str:
-    """`address` as ``--ray`` takes it: "local", "auto" or [ray://]HOST:PORT, whose port
+    """`address` as `RunOptions.ray_address` takes it (the command line's ``--workers ray``,
+    from the RAY_ADDRESS variable): "local", "auto" or [ray://]HOST:PORT, whose port
     answers within `RAY_CONNECT_TIMEOUT_S` (Ray itself retries an address that does not
     for ever).
 
@@ -174,13 +173,13 @@ def check_ray_address(address: str) -> str:
         return address
     host, colon, port = address.removeprefix("ray://").rpartition(":")
     if not (colon and host and port.isdigit() and 0 < int(port) < 65536):
-        raise ValueError(f"--ray {address!r}: give local, auto or HOST:PORT")
+        raise ValueError(f"Ray address {address!r}: give local, auto or HOST:PORT")
     try:
         socket.create_connection((host.strip("[]"), int(port)), RAY_CONNECT_TIMEOUT_S).close()
     except OSError as exc:
-        raise ValueError(f"--ray {address}: no Ray cluster answers there "
-                         f"({exc.strerror or exc}): start one with `ray start "
-                         "--head`, or give --ray local") from None
+        raise ValueError(f"Ray address {address}: no Ray cluster answers there "
+                         f"({exc.strerror or exc}): start one with `ray start --head`, or "
+                         "run Ray here (RAY_ADDRESS unset, ray_address 'local')") from None
     return address
 
 
@@ -200,7 +199,7 @@ def _run_on_ray(jobs: Sequence[Job], on_result: Callable[[Job, Any], None], addr
                      include_dashboard=False, log_to_driver=False, configure_logging=False,
                      runtime_env={"env_vars": env} if env else None)
         except ConnectionError as exc:  # "auto" with no cluster to find
-            raise ValueError(f"--ray {address}: {exc}") from None
+            raise ValueError(f"Ray address {address}: {exc}") from None
     try:
         task = ray.remote(num_cpus=1, max_retries=0)(_call_keeping)
         pending.update({task.remote(job.fn, job.kwargs): job for job in jobs})

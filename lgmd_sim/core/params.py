@@ -1,8 +1,14 @@
-"""Named, checked parameters: the one mechanism behind model, world and env parameters.
+"""Named, checked values: the one validation mechanism of the package.
 
-A parameter set is a frozen dataclass deriving from `CheckedParams`; each field is made
-with `param(default, source, check=..., doc=...)`, so that every number carries where its
-default comes from, and every value is checked when the set is created.
+A check (`Check`) returns what is wrong with a value, or None. `checked` holds a named
+value to one and raises `FieldError`, a ValueError that names the field; the command line
+names the option that set it instead (`lgmd_sim.cli`), and its argument types are the same
+checks (`lgmd_sim.cli.args.argtype`).
+
+A parameter set (models, world, envs, controllers) is a frozen dataclass deriving from
+`CheckedParams`; each field is made with `param(default, source, check=..., doc=...)`, so
+that every number carries where its default comes from, and every value is checked when
+the set is created.
 """
 
 from __future__ import annotations
@@ -15,6 +21,32 @@ from typing import Any
 import numpy as np
 
 Check = Callable[[Any], str | None]  # returns an error message, or None when valid
+
+
+class FieldError(ValueError):
+    """A value a named field may not hold, in one line that names the field.
+
+    Attributes:
+        field: the field's name ("seeds", "goal.jitter"): a command line maps it to the
+            option that set it.
+        problem: the line without the field's name ("must be an integer >= 1, got 0").
+
+    Args:
+        text: the line, where it says more than the field and the problem.
+    """
+
+    def __init__(self, field: str, problem: str, *, text: str | None = None) -> None:
+        super().__init__(text or f"{field} {problem}")
+        self.field = field
+        self.problem = problem
+
+
+def checked(field: str, value: Any, check: Check) -> Any:
+    """`value` if `check` accepts it, else a `FieldError` naming `field`."""
+    error = check(value)
+    if error:
+        raise FieldError(field, f"{error}, got {value!r}")
+    return value
 
 
 def comma_list(text: str) -> list[str]:
@@ -81,6 +113,16 @@ def int_in_range(lo: int, hi: int) -> Check:
     return check
 
 
+def text(v: Any) -> str | None:
+    return None if isinstance(v, str) else "must be a string"
+
+
+#: How many of a thing (episodes, seeds, steps): an integer >= 1.
+count = int_at_least(1)
+#: A seed, or a first seed: an integer >= 0.
+seed = int_at_least(0)
+
+
 def one_of(*choices: Any) -> Check:
     def check(v: Any) -> str | None:
         return None if v in choices else f"must be one of {', '.join(map(repr, choices))}"
@@ -94,13 +136,17 @@ def tuple_of(check: Check, length: int | None = None, *, min_length: int = 0,
     between `min_length` and `max_length`)."""
     lo, hi = (length, length) if length is not None else (min_length, max_length)
 
+    count = (f"{lo} " if lo == hi else f"{lo} to {hi} " if hi is not None
+             else f"{lo} or more " if lo else "")
+
     def check_all(v: Any) -> str | None:
         if not isinstance(v, tuple | list) or len(v) < lo or (hi is not None and len(v) > hi):
-            count = (f"{lo} " if lo == hi else f"{lo} to {hi} " if hi is not None
-                     else f"{lo} or more " if lo else "")
             return f"must be a sequence of {count}values"
         errors = [e for e in map(check, v) if e]
-        return f"every element {errors[0]}" if errors else None
+        if not errors:
+            return None
+        each = errors[0].removeprefix("must be ")  # "an integer >= 1", "one of 'a', 'b'"
+        return f"must be a sequence of {count}values, each {each}"
 
     return check_all
 
@@ -127,7 +173,8 @@ class CheckedParams:
             check = f.metadata.get("check")
             error = check(value) if check else None
             if error:
-                raise ValueError(f"{type(self).__name__}: parameter {f.name}={value!r} {error}")
+                raise FieldError(f.name, f"{error}, got {value!r}", text=(
+                    f"{type(self).__name__}: parameter {f.name}={value!r} {error}"))
 
     @classmethod
     def describe(cls) -> list[tuple[str, Any, str, str]]:

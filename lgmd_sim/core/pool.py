@@ -30,6 +30,7 @@ from multiprocessing.process import BaseProcess
 from typing import Any
 
 from lgmd_sim.core.jobs import Job, WorkerDied, _keeping
+from lgmd_sim.core.params import checked, count
 from lgmd_sim.core.stops import (
     STOPPING,
     catch_swallowed_stops,
@@ -173,8 +174,7 @@ class Pool:
     """
 
     def __init__(self, workers: int) -> None:
-        if not isinstance(workers, int) or workers < 1:
-            raise ValueError(f"workers must be a positive integer, got {workers!r}")
+        checked("workers", workers, count)
         # Fresh interpreters (spawn): a fork would copy this process's threads and GL
         # state. One pipe per worker and no threads here: a signal ends the run at once,
         # and a worker dying part-way through sending a result is an end of file, never a

@@ -27,6 +27,7 @@ from typing import Any
 import numpy as np
 
 from lgmd_sim.core.fileio import atomic_folder, canonical_json
+from lgmd_sim.core.params import checked, one_of
 from lgmd_sim.data import card, layout
 from lgmd_sim.data.stats import feature_stats, image_stats
 
@@ -78,10 +79,8 @@ class ExportConfig:
     def __post_init__(self) -> None:
         object.__setattr__(self, "source", Path(self.source))
         object.__setattr__(self, "dest", Path(self.dest))
-        if self.format not in FORMATS:
-            raise ValueError(f"--format must be one of {', '.join(FORMATS)}, got {self.format!r}")
-        if self.codec not in CODECS:
-            raise ValueError(f"--codec must be one of {', '.join(CODECS)}, got {self.codec!r}")
+        checked("format", self.format, one_of(*FORMATS))
+        checked("codec", self.codec, one_of(*CODECS))
         if not layout.is_dataset(self.source):
             raise ValueError(f"{self.source}: not an lgmd-sim dataset (no {layout.INFO})")
         if self.dest.exists():

@@ -44,6 +44,7 @@ from lgmd_sim.core.fileio import (
 )
 from lgmd_sim.core.jobs import Job
 from lgmd_sim.core.parallel import RunOptions, default_workers, run_jobs
+from lgmd_sim.core.params import FieldError, checked, count, one_of, seed
 from lgmd_sim.core.pool import Pool
 from lgmd_sim.core.runs import RunFolder
 from lgmd_sim.data import layout
@@ -52,8 +53,8 @@ from lgmd_sim.data.manifest import write_manifest
 
 __all__ = ["GenerateConfig", "Summary", "generate"]
 
-#: Options that have their own flag, so cannot be given with --set.
-_OWN_FLAGS = {"jitter": "--jitter", "resolution": "--resolution"}
+#: Environment parameters a dataset sets as fields of its own, never as overrides.
+_OWN_FIELDS = ("jitter", "resolution")
 
 
 @dataclass(frozen=True)
@@ -168,24 +169,23 @@ def _validate(config: GenerateConfig) -> None:
         raise ValueError("no scenarios given")
     options.names(config.scenarios, list(scenarios()), "scenario(s)")
     if len(set(config.scenarios)) != len(config.scenarios):
-        raise ValueError(f"--scenarios: a scenario is given twice: {','.join(config.scenarios)}")
-    options.check_jitter(config.jitter)
-    options.check_positive(config.episodes, "--episodes", integer=True)
-    options.check_seed(config.seed, "--seed")
+        raise FieldError("scenarios", f"holds a scenario twice: {','.join(config.scenarios)}")
+    checked("jitter", config.jitter, options.jitter_list)
+    checked("episodes", config.episodes, count)
+    checked("seed", config.seed, seed)
     options.controller_names([config.controller], "controller")
     if config.models:
         options.model_names(list(config.models))
     for variant in config.noise:
         if not noise.parse(variant.replace("+", ",")):
-            raise ValueError(f"--noise: empty noise variant in {','.join(config.noise)}")
+            raise FieldError("noise", f"holds an empty noise variant: {','.join(config.noise)}")
     if len(set(config.noise)) != len(config.noise):
-        raise ValueError("--noise: a variant is given twice")
-    if config.video not in layout.VIDEO_FORMATS:
-        raise ValueError(f"--video must be one of {', '.join(layout.VIDEO_FORMATS)}, got "
-                         f"{config.video!r}")
+        raise FieldError("noise", f"holds a variant twice: {','.join(config.noise)}")
+    checked("video", config.video, one_of(*layout.VIDEO_FORMATS))
     for key in config.overrides:
-        if key in _OWN_FLAGS:
-            raise ValueError(f"--set {key}: use {_OWN_FLAGS[key]} instead")
+        if key in _OWN_FIELDS:
+            raise FieldError("overrides", f"sets {key}, a field of the dataset's own: give "
+                             f"it as {key}, not as an environment parameter")
     rates = set()
     for name in config.scenarios:
         for j in config.jitter:

@@ -13,6 +13,7 @@ from typing import Any
 import numpy as np
 
 from lgmd_sim.core.frames import to_grey
+from lgmd_sim.core.params import checked, positive
 from lgmd_sim.detect.results import Detection, ModelTrace
 from lgmd_sim.detect.specs import detector_names, with_preset
 from lgmd_sim.models.base import LGMDModel
@@ -83,8 +84,7 @@ def detect(
     """
     from tqdm import tqdm
 
-    if not (math.isfinite(fps) and fps > 0):
-        raise ValueError(f"{name or 'clip'}: fps must be a finite number > 0, got {fps!r}")
+    checked(f"{name or 'clip'}: fps", fps, positive)
     built = _build(model_spec)
     needs = sorted({m.rotation_key for m in built.values()} - {None})
     if needs and infos is None:

@@ -8,8 +8,8 @@ import sys
 from dataclasses import dataclass
 from pathlib import Path
 
-from lgmd_sim.controllers import options
 from lgmd_sim.core.fileio import error_text
+from lgmd_sim.core.params import checked, in_range, seed
 from lgmd_sim.detect.clip import check_collision_frame, detect
 from lgmd_sim.detect.outputs import check_out_folder, output_names, write_outputs
 from lgmd_sim.detect.specs import detector, detector_names, front_end_params, with_preset
@@ -76,10 +76,10 @@ class DetectConfig:
         front = front_end_params(self.stabilize, self.fov)
         for m in self.models:  # their presets and front ends, before any video is read
             detector(m, self.preset, self.fov, **front)
-        options.check_seed(self.noise_seed, "--noise-seed")
+        checked("noise_seed", self.noise_seed, seed)
         if self.collision_frame is not None:
-            options.check_seed(self.collision_frame, "--collision-frame")
-        options.check_range(self.window, "--window", 0, 3600)
+            checked("collision_frame", self.collision_frame, seed)
+        checked("window", self.window, in_range(0, 3600))
 
     @property
     def out_folder(self) -> Path | None:

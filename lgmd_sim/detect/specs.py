@@ -7,6 +7,7 @@ from collections.abc import Sequence
 from typing import Any
 
 from lgmd_sim import models
+from lgmd_sim.core.params import FieldError
 from lgmd_sim.models.base import LGMDModel
 
 __all__ = ["VIDEO_FRONT_ENDS", "detector", "detector_names", "front_end_params", "model_of",
@@ -98,7 +99,7 @@ def front_end_params(stabilize: str | None, fovy: float) -> dict[str, Any]:
         return {}
     given = stabilize.split("+")
     if any(f not in VIDEO_FRONT_ENDS for f in given) or len(set(given)) < len(given):
-        raise ValueError(f"--stabilize {stabilize!r}: give image, gain or image+gain (a video "
-                         "has no pose or IMU to take the rotation from)")
+        raise FieldError("stabilize", "must be image, gain or image+gain (a video has no pose "
+                         f"or IMU to take the rotation from), got {stabilize!r}")
     return {"stabilize": "image" if "image" in given else "none", "gain": "gain" in given,
             "fovy": fovy}

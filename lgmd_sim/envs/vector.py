@@ -17,6 +17,8 @@ from typing import Any
 import gymnasium as gym
 from gymnasium.vector import AsyncVectorEnv
 
+from lgmd_sim.core.params import checked, count
+
 __all__ = ["WorkerAsyncVectorEnv", "make_async"]
 
 _LOST = (EOFError, BrokenPipeError, ConnectionResetError)
@@ -58,8 +60,7 @@ def make_async(env_id: str, num_envs: int, *,
                **kwargs: Any) -> WorkerAsyncVectorEnv:
     """`num_envs` copies of ``gym.make(env_id, **kwargs)`` (each wrapped by `wrappers`, in
     order) in worker processes, each with its own GL context."""
-    if not isinstance(num_envs, int) or num_envs < 1:
-        raise ValueError(f"num_envs must be a positive integer, got {num_envs!r}")
+    checked("num_envs", num_envs, count)
 
     def make() -> gym.Env:
         env = gym.make(env_id, **kwargs)

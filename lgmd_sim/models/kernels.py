@@ -26,6 +26,8 @@ import math
 import numpy as np
 from numba import njit
 
+from lgmd_sim.core.params import checked, positive
+
 __all__ = [
     "BORDERS",
     "JIT",
@@ -83,8 +85,7 @@ def gaussian_taps(sigma: float) -> tuple[np.float32, ...]:
     3 taps (0.0038, 0.9923, 0.0038). The 2-D filter of Eq. 9 is the outer product of the
     taps with themselves.
     """
-    if not (math.isfinite(sigma) and sigma > 0):
-        raise ValueError(f"Gaussian sigma must be a finite number > 0, got {sigma!r}")
+    checked("Gaussian sigma", sigma, positive)
     r = max(1, math.ceil(3.0 * sigma))
     x = np.arange(-r, r + 1, dtype=np.float64)
     g = np.exp(-(x * x) / (2.0 * sigma * sigma))

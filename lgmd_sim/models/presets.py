@@ -6,7 +6,11 @@ Two files give them, the second on top of the first:
   only by the release step in a checkout (``docs/experiments/tools/ship_presets.py DIR``);
 - the user's presets, ``calibrated.json`` in the user data folder (`user_data_dir`:
   ``$LGMD_SIM_DATA_DIR``, else the platform's, e.g. ``~/.local/share/lgmd-sim``), which
-  ``lgmd-sim calibrate --save-presets`` writes (or any file, ``--presets-file``).
+  ``lgmd-sim calibrate --save-presets`` writes (or any file, ``--save-presets PATH``).
+
+Another presets file may stand in for the user's within a block (`user_presets_from`: a
+benchmark's calibrated entry's); the jobs made there carry what it holds to the processes
+that run them (`carrying_presets`), which are told it rather than look for it.
 
 Saving merges (`merge_presets`): only the presets of the detectors calibrated change, each
 keeping the calibration that made it (command, seeds, resolution, budget). Merges into one
@@ -16,20 +20,24 @@ calibration never writes into the package.
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import functools
 import json
 import os
 import sys
 import tempfile
-from collections.abc import Mapping
+from collections.abc import Callable, Iterator, Mapping
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 from lgmd_sim.core.fileio import held_lock, read_json, write_text_atomic
 
-__all__ = ["CALIBRATED", "DATA_DIR_VARIABLE", "PACKAGE", "check_presets_file", "check_target",
-           "data_presets", "merge_presets", "preset_files", "user_data_dir", "user_presets_file"]
+__all__ = ["CALIBRATED", "DATA_DIR_VARIABLE", "PACKAGE", "carrying_presets", "check_presets_file",
+           "check_target", "data_presets", "merge_presets", "preset_files", "user_data_dir",
+           "user_presets_file", "user_presets_from"]
+
+T = TypeVar("T")
 
 #: The shipped calibrated presets of every model.
 CALIBRATED = Path(__file__).with_name("calibrated.json")
@@ -66,9 +74,54 @@ def user_presets_file() -> Path:
     return user_data_dir() / "calibrated.json"
 
 
-def _files() -> list[Path]:
-    """The presets files the models read, later ones on top."""
-    return [CALIBRATED, user_presets_file()]
+#: A presets file as the models read it: where it is (for messages) and what it holds.
+_File = tuple[Path, Mapping[str, Any]]
+#: The presets file read in place of the user's in this process (`user_presets_from`).
+_instead: _File | None = None
+
+
+def _files() -> list[_File]:
+    """The presets files the models read, later ones on top: the shipped ones, then the
+    user's or the file that stands in for them."""
+    if _instead is not None:
+        return [(CALIBRATED, _read(CALIBRATED)), _instead]
+    return [(path, _read(path)) for path in (CALIBRATED, user_presets_file())]
+
+
+@contextlib.contextmanager
+def user_presets_from(file: str | os.PathLike | None) -> Iterator[None]:
+    """Within the block, the models of this process read the presets file `file` in place
+    of the user's (`user_presets_file`, which is not changed), as it is on entering it;
+    None: the user's, or the file that stands in for them already. The jobs made in the
+    block take what it holds to their workers (`carrying_presets`)."""
+    with _standing_in(None if file is None else (Path(file), _read(Path(file)))):
+        yield
+
+
+def carrying_presets(fn: Callable[..., T]) -> Callable[..., T]:
+    """`fn` as the function of a job (`lgmd_sim.core.jobs.Job`) that builds its detectors
+    from the presets this process reads now: where a file stands in for the user's
+    (`user_presets_from`), the job carries what it holds to the process that runs it (a
+    pool's worker, a Ray task, on any machine); `fn` itself where none does."""
+    return fn if _instead is None else functools.partial(_reading, _instead, fn)
+
+
+def _reading(file: _File, fn: Callable[..., T], /, **kwargs: Any) -> T:
+    """``fn(**kwargs)`` with `file` in place of the user's presets (a job's call)."""
+    with _standing_in(file):
+        return fn(**kwargs)
+
+
+@contextlib.contextmanager
+def _standing_in(file: _File | None) -> Iterator[None]:
+    """Within the block, `file` stands in for the user's presets file (None: as before)."""
+    global _instead
+    before = _instead
+    _instead = before if file is None else file
+    try:
+        yield
+    finally:
+        _instead = before
 
 
 def _read(path: Path) -> dict[str, Any]:
@@ -147,8 +200,8 @@ def _reason(exc: OSError) -> str:
 def _entries(model: str) -> dict[str, tuple[Mapping[str, Any], Path]]:
     """Each data-file preset of `model`: its entry and the file it comes from."""
     out: dict[str, tuple[Mapping[str, Any], Path]] = {}
-    for path in _files():
-        for name, entry in _read(path).get("presets", {}).get(model, {}).items():
+    for path, data in _files():
+        for name, entry in data.get("presets", {}).get(model, {}).items():
             out[name] = (entry, path)
     return out
 

@@ -16,8 +16,8 @@ that ship with lgmd-sim.
 >>> from lgmd_sim import policies
 >>> policies.available(), policies.path(policies.DEFAULT)
 
-``lgmd-sim eval`` with no policy evaluates `DEFAULT`; ``--controllers policy`` in
-``lgmd-sim bench closed-loop`` drives with it.
+``lgmd-sim bench closed-loop --policies shipped`` evaluates `DEFAULT`; ``--controllers
+policy`` in ``lgmd-sim bench closed-loop`` drives with it.
 """
 
 from __future__ import annotations
@@ -30,10 +30,11 @@ from lgmd_sim.policies.folder import LoadedPolicy, load, load_config, name_of, r
 __all__ = ["DEFAULT", "EVAL_SEEDS", "EVAL_TOP_VIEWS", "LoadedPolicy", "Normalizer",
            "PolicyConfig", "available", "load", "load_config", "name_of", "path", "resolve", "save"]
 
-#: The shipped policy that `lgmd-sim eval` (and the "policy" controller) use by default.
+#: The shipped policy that `--policies shipped` (and the "policy" controller) use by default.
 DEFAULT = "feedback-student"
-#: Episodes per cell of `lgmd-sim eval` by default: those of the evaluation that a shipped
-#: policy's POLICY.md and docs/guides/training.md quote, so that the defaults reproduce its rows.
+#: Episodes per cell of `bench closed-loop --policies` by default: those of the evaluation
+#: that a shipped policy's POLICY.md and docs/guides/training.md quote, so that the defaults
+#: reproduce its rows.
 EVAL_SEEDS = 30
 #: Seeds of it drawn from above in its trajectories figure: the policies beside the Oracle.
 EVAL_TOP_VIEWS = 3

@@ -14,11 +14,12 @@ Neither file can hold code, so a policy folder from anyone is safe to load: `loa
 builds the network from the architecture and the environment's spaces, then fills in
 the weights, and never unpickles. Nor does it import anything a policy.json names: its
 model is a built-in, registered or installed one, or a plug-in spec that the user names
-(``lgmd-sim eval --models``, ``load(path, plugins=...)``), and its environment a scenario
-of lgmd-sim's catalogue. stable-baselines3's own model files (``policy.zip``
-of folders written before this format, a training run's checkpoints) are pickles that
-run whatever their author put in them: they are never loaded from a policy folder, and
-``python -m lgmd_sim.policies.convert DIR`` turns a trusted one into this format.
+(``lgmd-sim bench closed-loop --policies ... --models``, ``load(path, plugins=...)``), and
+its environment a scenario of lgmd-sim's catalogue. stable-baselines3's own model files
+(``policy.zip`` of folders written before this format, a training run's checkpoints) are
+pickles that run whatever their author put in them: they are never loaded from a policy
+folder, and ``python -m lgmd_sim.policies.convert DIR`` turns a trusted one into this
+format.
 
 `lgmd-sim train` writes one at the end of a run (``DIR``) and one for the best
 validation score (``DIR/best``); the policies shipped with lgmd-sim
@@ -140,7 +141,7 @@ def _check_names(file: Path, config: PolicyConfig, plugins: Collection[str]) -> 
         raise ValueError(f"{file}: config.model {_shown(model)} is not a built-in, registered "
                          "or installed model (lgmd-sim models lists them); a plug-in's spec "
                          "is imported, running its code, so a policy may name one only if "
-                         "you name it too (lgmd-sim eval --models SPEC, or "
+                         "you name it too (lgmd-sim bench closed-loop --models SPEC, or "
                          "policies.load(path, plugins=[SPEC]))")
     if config.preset is not None and not isinstance(config.preset, str):
         raise ValueError(f"{file}: config.preset {_shown(config.preset)} is not a preset's "

@@ -22,6 +22,7 @@ import cv2
 import numpy as np
 
 from lgmd_sim.core.frames import to_grey
+from lgmd_sim.core.params import checked, non_negative, optional, positive, seed
 
 __all__ = [
     "DEFAULT_THRESHOLD",
@@ -316,16 +317,9 @@ def evaluate_clip(
         threshold: potential threshold (unused for alarm flags).
         window_s: tolerance window before the collision, seconds.
     """
-    if not (np.isfinite(fps) and fps > 0):
-        raise ValueError(f"evaluate_clip: fps must be a finite number > 0, got {fps!r}")
-    if not (np.isfinite(window_s) and window_s >= 0):
-        raise ValueError(f"evaluate_clip: window_s must be a finite number >= 0, got {window_s!r}")
-    if collision_frame is not None and (
-        isinstance(collision_frame, bool) or not isinstance(collision_frame, int | np.integer)
-        or collision_frame < 0
-    ):
-        raise ValueError(f"evaluate_clip: collision_frame must be an integer >= 0 or None, "
-                         f"got {collision_frame!r}")
+    checked("fps", fps, positive)
+    checked("window_s", window_s, non_negative)
+    checked("collision_frame", collision_frame, optional(seed))
     first = first_alarm(values, threshold)
     window = round(window_s * fps)
     if collision_frame is None:

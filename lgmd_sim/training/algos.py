@@ -21,6 +21,7 @@ from collections.abc import Callable, Iterable, Mapping
 from typing import Any
 
 from lgmd_sim.core.extras import require
+from lgmd_sim.core.params import FieldError
 
 __all__ = ["HYPERPARAMETERS", "hyperparameters", "make_model", "parse_overrides"]
 
@@ -132,12 +133,13 @@ def parse_overrides(items: Iterable[str], algo: str) -> dict[str, Any]:
         except (ValueError, SyntaxError):
             value = text  # a plain word: a string ("auto")
         if not _fits(value, taken[key]):
-            raise ValueError(f"--hp {item}: {algo}'s {key} must be {_expected(taken[key])}")
+            raise FieldError("hp", f"holds {item}: {algo}'s {key} must be "
+                             f"{_expected(taken[key])}")
         # checked now, not when the first policy is saved after training
         if key == "policy_kwargs" and (part := _not_json(value)):
-            raise ValueError(f"--hp {item}: {algo}'s policy_kwargs must be JSON (policy.json "
-                             f"holds them): strings, numbers, lists and dicts with string "
-                             f"keys, not {part}")
+            raise FieldError("hp", f"holds {item}: {algo}'s policy_kwargs must be JSON "
+                             "(policy.json holds them): strings, numbers, lists and dicts "
+                             f"with string keys, not {part}")
         out[key] = value
     return out
 
@@ -161,5 +163,5 @@ def make_model(algo: str, venv: Any, kwargs: Mapping[str, Any], seed: int) -> An
     # stable-baselines3 (and PyTorch's optimiser, the policy's constructor) check the
     # values this way
     except (AssertionError, ValueError, TypeError) as exc:
-        raise ValueError(f"--hp: {algo} refuses these hyperparameters: "
+        raise FieldError("hp", f"holds hyperparameters {algo} refuses: "
                          f"{' '.join(str(exc).split())}") from None

@@ -116,7 +116,8 @@ def run_episodes(model: Any, envs: VecEnvs, seeds: Sequence[int]) -> list[dict[s
     success, collision and distance travelled of each. `seeds` must be consecutive; the
     environments play ``num_envs`` of them at a time, and the policy acts on each
     environment's observation alone, through the same arithmetic as the controller of
-    ``lgmd-sim eval`` (`lgmd_sim.policies.forward`, else ``predict``): a batch, or another
+    ``lgmd-sim bench closed-loop --policies`` (`lgmd_sim.policies.forward`, else
+    ``predict``): a batch, or another
     order of the sums, rounds differently (about 1e-7), which a closed loop can grow into
     another episode."""
     from lgmd_sim.policies import forward

@@ -1,23 +1,20 @@
 """What `lgmd-sim train` trains: `TrainConfig`, every option of a run checked when it is made
-(a bad value is a one-line ValueError naming it, before anything starts), the seeds a run
-validates on (`VALIDATION_SEED`), and the TOML file of its keys that ``lgmd-sim train
---config FILE.toml`` reads (`read_toml`; `config_toml` writes a run's, `keys_markdown` lists
-the keys).
+(a bad value is a one-line ValueError naming it, before anything starts), and the seeds a
+run validates on (`VALIDATION_SEED`). Its fields are the keys of ``lgmd-sim train --config
+FILE.toml`` (`lgmd_sim.core.configfile` reads, writes and lists them).
 """
 
 from __future__ import annotations
 
 import dataclasses
-import difflib
 import functools
 import json
-import tomllib
-from collections.abc import Mapping
 from dataclasses import dataclass
-from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from lgmd_sim.controllers import options
+from lgmd_sim.core.configfile import setting
+from lgmd_sim.core.params import because, checked, count, int_at_least, one_of, seed, text, tuple_of
 from lgmd_sim.policies.config import PolicyConfig
 from lgmd_sim.policies.folder import ALGOS, OBS
 from lgmd_sim.training.dagger import FIT_EPOCHS, STUDENT_ACTIONS
@@ -25,17 +22,12 @@ from lgmd_sim.training.dagger import FIT_EPOCHS, STUDENT_ACTIONS
 if TYPE_CHECKING:
     from lgmd_sim.training.curriculum import Curriculum
 
-__all__ = ["VALIDATION_SEED", "TrainConfig", "config_toml", "keys_markdown", "read_toml"]
+__all__ = ["KEYS_LISTED", "VALIDATION_SEED", "TrainConfig"]
 
+#: Where a user reads the keys of a --config file, each with its default and meaning.
+KEYS_LISTED = "TrainConfig's fields, listed in docs/guides/training.md"
 #: The first validation seed; training seeds stay below it, test seeds start at 1000.
 VALIDATION_SEED = 900
-
-
-def _key(default: Any, doc: str) -> Any:
-    """A field of `TrainConfig`: its default and what it means, declared here once (the
-    training guide's list of keys is `keys_markdown`, the command line's --config reads
-    them)."""
-    return dataclasses.field(default=default, metadata={"doc": doc})
 
 
 @dataclass(frozen=True)
@@ -44,70 +36,71 @@ class TrainConfig:
     one-line ValueError naming it).
 
     Every field is a key of ``lgmd-sim train --config FILE.toml`` (some are options of the
-    command too); what each means is its ``doc`` metadata (`keys_markdown` lists them with
-    their defaults, as docs/guides/training.md does).
+    command too), declared with its default and meaning by `lgmd_sim.core.configfile.setting`
+    (docs/guides/training.md lists them).
     """
 
-    algo: str = _key("ppo", 'the algorithm, a key of `lgmd_sim.policies.folder.ALGOS`: "ppo" '
-                     'or "sac"')
-    env: str = _key("lgmd_sim/RoughTerrainObstacles-v0",
-                    "the Gymnasium id of the environment (`lgmd-sim envs` lists them)")
-    obs: str = _key("features", 'what the policy sees: "features" (an LGMD model\'s '
-                    "potential history, alarm and S-layer grid, with the proprioception and "
-                    'goal; an MLP), "pixels" (small stacked grey frames with the '
-                    'proprioception and goal; a CNN) or "privileged" (the ground truth the '
-                    "Oracle reads: the threat's distance, bearing, time to collision and "
-                    "closing speed, with the proprioception and goal; an MLP, the upper bound "
-                    "for the others)")
-    model: str | None = _key("feedback", 'the LGMD model of "features", MODEL or MODEL/PRESET '
-                             "(with front ends); none for the other observations")
-    preset: str | None = _key(None, "the model's preset (unset: the model's default)")
-    grid: tuple[int, int] = _key(
+    algo: str = setting("ppo", 'the algorithm, a key of `lgmd_sim.policies.folder.ALGOS`: "ppo" '
+                        'or "sac"')
+    env: str = setting("lgmd_sim/RoughTerrainObstacles-v0",
+                       "the Gymnasium id of the environment (`lgmd-sim envs` lists them)")
+    obs: str = setting("features", 'what the policy sees: "features" (an LGMD model\'s '
+                       "potential history, alarm and S-layer grid, with the proprioception and "
+                       'goal; an MLP), "pixels" (small stacked grey frames with the '
+                       'proprioception and goal; a CNN) or "privileged" (the ground truth the '
+                       "Oracle reads: the threat's distance, bearing, time to collision and "
+                       "closing speed, with the proprioception and goal; an MLP, the upper bound "
+                       "for the others)")
+    model: str | None = setting("feedback", 'the LGMD model of "features", MODEL or MODEL/PRESET '
+                                "(with front ends); none for the other observations")
+    preset: str | None = setting(None, "the model's preset (unset: the model's default)")
+    grid: tuple[int, int] = setting(
         PolicyConfig.grid, '[rows, columns] of the S-layer grid of "features", each cell '
         "holding its share of the layer's activity ([1, 3]: left, centre, right; "
         "`lgmd_sim.envs.wrappers.LGMDFeatures`; a plug-in without an S layer: its last "
         "layer's, and one without layers is refused: `lgmd_sim.models.layers`)")
-    grid_history: int = _key(
+    grid_history: int = setting(
         PolicyConfig.grid_history, 'how many of the last grids "features" observes, oldest '
         "first (1: the present frame's; more show where the activity grows)")
-    memory: int = _key(
+    memory: int = setting(
         PolicyConfig.memory, '"features" also observes, per column of the grid, the '
         "potential's excitation seen there lately, fading over this many frames (30: a "
         "second), for what has left the frame; 0: none "
         "(`lgmd_sim.envs.wrappers.LGMDFeatures`)")
-    resolution: str | tuple[int, int] = _key(
+    resolution: str | tuple[int, int] = setting(
         "rl", 'the frame size the environment renders: "rl" (120x160, as the benchmark), '
         '"paper", "small" or "HxW"')
-    jitter: float = _key(1.0, "the jitter level of the training episodes")
-    steps: int = _key(300_000, "environment steps in all, over every environment and "
-                      "session (with --resume, the new total)")
-    envs: int = _key(2, "environments stepped in parallel, one worker process each")
-    seed: int = _key(0, "seed of the model and of the first training environment "
-                     "(training seeds stay below 900, `VALIDATION_SEED`)")
-    eval_every: int = _key(25_000, "validate every this many environment steps (and at the "
-                           "end)")
-    eval_seeds: int = _key(10, "validation episodes, on the held-out seeds 900 "
-                           "(`VALIDATION_SEED`) to 900 + eval_seeds - 1")
-    checkpoint_every: int = _key(25_000, "write a checkpoint every this many environment "
-                                 "steps (and at the end)")
-    hp: tuple[str, ...] = _key(
+    jitter: float = setting(1.0, "the jitter level of the training episodes")
+    steps: int = setting(300_000, "environment steps in all, over every environment and "
+                         "session (with --resume, the new total)")
+    envs: int = setting(2, "environments stepped in parallel, one worker process each")
+    seed: int = setting(0, "seed of the model and of the first training environment "
+                        "(training seeds stay below 900, `VALIDATION_SEED`)")
+    eval_every: int = setting(25_000, "validate every this many environment steps (and at the "
+                              "end)")
+    eval_seeds: int = setting(10, "validation episodes, on the held-out seeds 900 "
+                              "(`VALIDATION_SEED`) to 900 + eval_seeds - 1")
+    checkpoint_every: int = setting(25_000, "write a checkpoint every this many environment "
+                                    "steps (and at the end)")
+    hp: tuple[str, ...] = setting(
         (), 'hyperparameter overrides of the algorithm, each "KEY=VALUE" '
         '(`lgmd_sim.training.algos`), e.g. ["n_steps=512", "learning_rate=1e-4"]; a resumed '
         "run adds them to its own (a later one wins), not policy_kwargs (the checkpoint's "
         'network has its shape), e.g. ["target_kl=0.02"] for gentler fine-tuning')
-    reward: tuple[str, ...] = _key(
+    reward: tuple[str, ...] = setting(
         (), 'reward parameters of the training environments, each "KEY=VALUE" with KEY one '
         "of progress_reward, collision_penalty, effort_penalty, goal_bonus, time_penalty or "
         "proximity_penalty (`lgmd-sim envs NAME` lists them; the shaping ones are off by "
         "default; `lgmd_sim.training.envs.parse_reward`), e.g. [\"goal_bonus=5\"]; "
-        "validation and `lgmd-sim eval` keep the environment's own reward")
-    curriculum: str | None = _key(
+        "validation and `lgmd-sim bench closed-loop --policies` keep the environment's own "
+        "reward")
+    curriculum: str | None = setting(
         None, "go through easier versions of the task first, each stage passed at a success "
         "rate of its training episodes: a built-in curriculum (\"obstacles\": no obstacle "
         "and the goal 4 m away, then 2 obstacles at 6 m, 4 at 8 m, then the task) or a TOML "
         "file of stages (`lgmd_sim.training.curriculum`); validation always runs on the "
         "task; unset: the task from the start")
-    teacher: str | None = _key(
+    teacher: str | None = setting(
         None, "learn from a teacher first, by DAgger (`lgmd_sim.training.dagger`; PPO only): "
         "\"oracle\" (the Oracle controller), \"steer\" (the Oracle's inputs without its "
         "memory, `lgmd_sim.controllers.steer`: what a policy can copy), \"reactive\" "
@@ -115,18 +108,18 @@ class TrainConfig:
         "privileged policy (a folder trained with obs \"privileged\", or a shipped name) "
         "labels the states the policy visits, the policy is fitted to the labels, then RL "
         "fine-tunes it; unset: RL from the start")
-    imitation_steps: int = _key(100_000, "environment steps of the DAgger rounds, part of "
-                                "steps")
-    dagger_rounds: int = _key(10, "DAgger rounds, of imitation_steps / dagger_rounds steps "
-                              "each: the teacher drives round 0, then less and less, none "
-                              "from half the rounds on")
-    dagger_epochs: int = _key(FIT_EPOCHS, "cloning's epochs over all the labels kept, after "
-                              "each DAgger round")
-    dagger_student: str = _key(
+    imitation_steps: int = setting(100_000, "environment steps of the DAgger rounds, part of "
+                                   "steps")
+    dagger_rounds: int = setting(10, "DAgger rounds, of imitation_steps / dagger_rounds steps "
+                                 "each: the teacher drives round 0, then less and less, none "
+                                 "from half the rounds on")
+    dagger_epochs: int = setting(FIT_EPOCHS, "cloning's epochs over all the labels kept, after "
+                                 "each DAgger round")
+    dagger_student: str = setting(
         "sample", "how the student acts on the steps it drives in the DAgger rounds: "
         "\"sample\" its Gaussian or take its \"mean\", the action validation and `lgmd-sim "
-        "eval` execute (`lgmd_sim.training.dagger.STUDENT_ACTIONS`)")
-    value_warmup: int = _key(
+        "bench closed-loop --policies` execute (`lgmd_sim.training.dagger.STUDENT_ACTIONS`)")
+    value_warmup: int = setting(
         0, "after DAgger, this many environment steps of PPO in which only the value "
         "function learns (`lgmd_sim.training.dagger.critic_only`), so that fine-tuning "
         "starts from advantages that mean something; part of steps, 0: none. Given when "
@@ -147,17 +140,11 @@ class TrainConfig:
         from lgmd_sim.models.layers import needed_layer
 
         # options of the wrong type (a hand-edited run.json being resumed brings them too)
-        for key in ("algo", "obs", "env"):
-            if not isinstance(getattr(self, key), str):
-                raise ValueError(f"--{key} must be a string, got {getattr(self, key)!r}")
-        for key in ("--hp", "reward"):
-            items = getattr(self, key.lstrip("-"))
-            if not (isinstance(items, list | tuple) and all(isinstance(v, str) for v in items)):
-                raise ValueError(f"{key} must be a list of KEY=VALUE strings, got {items!r}")
-        if self.algo not in ALGOS:
-            raise ValueError(f"unknown algorithm {self.algo!r}; available: {', '.join(ALGOS)}")
-        if self.obs not in OBS:
-            raise ValueError(f"unknown observation {self.obs!r}; available: {', '.join(OBS)}")
+        checked("env", self.env, text)
+        for key in ("hp", "reward"):
+            checked(key, getattr(self, key), because(tuple_of(text), "KEY=VALUE strings"))
+        checked("algo", self.algo, one_of(*ALGOS))
+        checked("obs", self.obs, one_of(*OBS))
         try:
             gym.spec(self.env)
         except gym.error.Error:
@@ -173,21 +160,13 @@ class TrainConfig:
                          "on --obs pixels or privileged, which read no model")
         else:
             model = preset = None
-        grid = tuple(self.grid) if isinstance(self.grid, list | tuple) else ()
-        if not (len(grid) == 2 and all(isinstance(v, int) and not isinstance(v, bool)
-                                       and v >= 1 for v in grid)):
-            raise ValueError(f"grid must be [rows, columns] of positive integers, got "
-                             f"{self.grid!r}")
-        if self.obs != "features" and grid != PolicyConfig.grid:
-            raise ValueError(f"grid is the S-layer grid of --obs features, not {self.obs}")
-        object.__setattr__(self, "grid", grid)
-        for key, least, what in (("grid_history", 1, "a positive integer"),
-                                 ("memory", 0, "a non-negative integer (frames)")):
-            value = getattr(self, key)
-            if not (isinstance(value, int) and not isinstance(value, bool) and value >= least):
-                raise ValueError(f"{key} must be {what}, got {value!r}")
-            if self.obs != "features" and value != getattr(PolicyConfig, key):
-                raise ValueError(f"{key} is of --obs features, not {self.obs}")
+        grid = checked("grid", self.grid, because(tuple_of(count, 2), "[rows, columns]"))
+        object.__setattr__(self, "grid", tuple(grid))
+        checked("grid_history", self.grid_history, count)
+        checked("memory", self.memory, int_at_least(0))
+        for key in ("grid", "grid_history", "memory"):
+            if self.obs != "features" and getattr(self, key) != getattr(PolicyConfig, key):
+                raise ValueError(f"{key} is of obs features, not {self.obs}")
         object.__setattr__(self, "model", model)
         object.__setattr__(self, "preset", preset)
         object.__setattr__(self, "resolution", options.resolution(self.resolution))
@@ -198,16 +177,14 @@ class TrainConfig:
         from lgmd_sim.training import algos
         from lgmd_sim.training.envs import parse_reward
 
-        for key in ("steps", "envs"):
-            options.check_positive(getattr(self, key), f"--{key}", integer=True)
-        for key in ("eval_every", "checkpoint_every", "eval_seeds"):
-            options.check_positive(getattr(self, key), key, integer=True)
+        for key in ("steps", "envs", "eval_every", "checkpoint_every", "eval_seeds"):
+            checked(key, getattr(self, key), count)
         if self.eval_seeds > 1000 - VALIDATION_SEED:
             raise ValueError(f"eval_seeds must be at most {1000 - VALIDATION_SEED} "
                              f"(validation seeds are {VALIDATION_SEED} to 999), got "
                              f"{self.eval_seeds}")
-        options.check_seed(self.seed, "--seed")
-        options.check_jitter([self.jitter])
+        checked("seed", self.seed, seed)
+        checked("jitter", [self.jitter], options.jitter_list)
         object.__setattr__(self, "hp", tuple(self.hp))
         algos.parse_overrides(self.hp, self.algo)
         object.__setattr__(self, "reward", tuple(self.reward))
@@ -217,14 +194,9 @@ class TrainConfig:
     def _check_teacher(self) -> None:
         """DAgger's options, and the teacher (loaded: a bad one is one line now)."""
         for key in ("imitation_steps", "dagger_rounds", "dagger_epochs"):
-            options.check_positive(getattr(self, key), key, integer=True)
-        if self.dagger_student not in STUDENT_ACTIONS:
-            raise ValueError(f"dagger_student must be one of {', '.join(STUDENT_ACTIONS)}, "
-                             f"got {self.dagger_student!r}")
-        if not (isinstance(self.value_warmup, int) and not isinstance(self.value_warmup, bool)
-                and self.value_warmup >= 0):
-            raise ValueError(f"value_warmup must be a non-negative integer, got "
-                             f"{self.value_warmup!r}")
+            checked(key, getattr(self, key), count)
+        checked("dagger_student", self.dagger_student, one_of(*STUDENT_ACTIONS))
+        checked("value_warmup", self.value_warmup, int_at_least(0))
         if self.value_warmup and self.teacher is None:
             raise ValueError("value_warmup warms the value function up after DAgger: it "
                              "needs a teacher")
@@ -232,7 +204,7 @@ class TrainConfig:
             from lgmd_sim.training.dagger import Teacher
 
             if self.algo != "ppo":
-                raise ValueError(f"teacher needs --algo ppo (its policy is fitted to the "
+                raise ValueError(f"teacher needs algo ppo (its policy is fitted to the "
                                  f"teacher's actions), not {self.algo}")
             if self.imitation_steps + self.value_warmup >= self.steps:
                 warmup = f" and value_warmup {self.value_warmup}" if self.value_warmup else ""
@@ -260,11 +232,6 @@ class TrainConfig:
                             float(self.jitter), self.model, self.preset, grid=self.grid,
                             grid_history=self.grid_history, memory=self.memory)
 
-    @staticmethod
-    def defaults() -> dict[str, Any]:
-        """Every field's default, as JSON records it (tuples as lists)."""
-        return {f.name: json.loads(json.dumps(f.default)) for f in dataclasses.fields(TrainConfig)}
-
     def as_json(self) -> dict[str, Any]:
         """The configuration as the run folder records it."""
         return json.loads(json.dumps(dataclasses.asdict(self)))
@@ -289,61 +256,3 @@ class TrainConfig:
         from lgmd_sim.training.envs import parse_reward
 
         return {**parse_reward(self.reward), **self.stage_overrides(stage)}
-
-
-def _toml(value: Any) -> str:
-    """`value` as TOML writes it (a string, a number, an array of them)."""
-    if isinstance(value, list | tuple):
-        return "[" + ", ".join(_toml(v) for v in value) + "]"
-    if isinstance(value, bool) or not isinstance(value, str | int | float):
-        raise ValueError(f"{value!r} is not a value of a TrainConfig key")
-    return json.dumps(value)  # JSON's strings and numbers are TOML's too
-
-
-def keys_markdown() -> str:
-    """The keys of a ``--config`` file as a Markdown list, each with its default (where it
-    has one) and meaning: docs/guides/training.md holds this list."""
-    lines = []
-    for f in dataclasses.fields(TrainConfig):
-        default = "" if f.default is None else f" = {_toml(f.default)}"
-        lines.append(f"- `{f.name}{default}`: {f.metadata['doc']}")
-    return "\n".join(lines) + "\n"
-
-
-def config_toml(config: Mapping[str, Any]) -> str:
-    """The ``--config`` file of a run's recorded configuration (`TrainConfig.as_json`): the
-    keys whose values are not the defaults, one a line. A key recorded as null is left out
-    (TOML has no null): its default is null, or TrainConfig sets it so (the model of an
-    observation that reads none)."""
-    defaults = TrainConfig.defaults()
-    if unknown := sorted(set(config) - set(defaults)):
-        raise ValueError(f"{', '.join(unknown)}: not TrainConfig's keys (another lgmd-sim's "
-                         "record?)")
-    return "".join(f"{key} = {_toml(value)}\n" for key, value in config.items()
-                   if value is not None and json.loads(json.dumps(value)) != defaults[key])
-
-
-def read_toml(path: str | Path) -> dict[str, Any]:
-    """The keys of the ``--config`` file `path`: TrainConfig's fields, unchecked (making the
-    TrainConfig checks their values).
-
-    Raises:
-        ValueError: a file that cannot be read or is not TOML, a key that is not a field
-            (one line naming the file, and the key).
-    """
-    from lgmd_sim.core.fileio import read_text
-
-    try:
-        data = tomllib.loads(read_text(path))
-    except tomllib.TOMLDecodeError as exc:
-        raise ValueError(f"{path}: not a TOML file ({exc})") from None
-    # read_text's own refusals name the file already
-    fields = TrainConfig.defaults()
-    for key in data:
-        if key not in fields:
-            near = difflib.get_close_matches(key, fields, 1)
-            raise ValueError(f"{path}: unknown key {key!r}"
-                             + (f" (did you mean {near[0]}?)" if near else "")
-                             + "; the keys are TrainConfig's fields, listed in "
-                             "docs/guides/training.md")
-    return data

@@ -12,7 +12,8 @@ keeps its statistics and the controller applies them frozen (`Normalizer`).
 
 Reward shaping (`parse_reward`, the key ``reward = ["KEY=VALUE"]`` of ``lgmd-sim train
 --config``) changes the training environments' reward parameters only: validation,
-``lgmd-sim eval`` and the benchmark keep the environment's own reward and success.
+``lgmd-sim bench closed-loop --policies`` and the benchmark keep the environment's own
+reward and success.
 """
 
 from __future__ import annotations

@@ -1,5 +1,5 @@
-"""`lgmd-sim eval`: trained policies in the closed-loop benchmark, beside the hand-made
-controllers, on the same seeds.
+"""`lgmd-sim bench closed-loop --policies`: trained policies in the closed-loop benchmark,
+beside the hand-made controllers, on the same seeds.
 
 Each policy is a cell of its own (``Cell(scenario, jitter, "policy", params=(("path",
 ...),), tag=<policy name>)``) added to the benchmark's sweep (`lgmd_sim.benchmark.closed_loop`),
@@ -18,6 +18,7 @@ from typing import Any
 
 from lgmd_sim.benchmark.closed_loop import ClosedLoopConfig
 from lgmd_sim.benchmark.episode import Cell
+from lgmd_sim.core.configfile import setting
 from lgmd_sim.core.fileio import write_text_atomic
 from lgmd_sim.core.parallel import RunOptions
 from lgmd_sim.core.runs import RunResult
@@ -30,36 +31,35 @@ __all__ = ["EvalConfig", "eval_markdown", "evaluate"]
 @dataclass(frozen=True)
 class EvalConfig:
     """What `evaluate` runs, checked when it is made (a bad value raises a one-line
-    ValueError naming it).
-
-    Attributes:
-        policies: policy folders (as `lgmd-sim train` writes them) or shipped policies'
-            names ("shipped": the default one); they must share their environment and
-            frame size, in which every cell then runs.
-        controllers: hand-made controllers beside them (`lgmd_sim.controllers`, not
-            "policy"); () for none.
-        detectors: ReactiveAvoid's detectors, (model, preset) pairs; None: the LGMD
-            models the policies observe, at their presets (every model at its default
-            preset when no policy observes one), so the reactive cells are the bar a
-            policy on those features must clear. The plug-in specs among them are those
-            the policies may observe too (`plugins`): a policy's own choice of a spec is
-            refused, since importing it runs its code.
-        seeds: episodes per cell (`lgmd_sim.policies.EVAL_SEEDS`: those of the
-            evaluation a shipped policy's POLICY.md quotes, so the defaults reproduce it).
-        jitter, first_seed, cruise, horizon, top_views: as in
-            `lgmd_sim.benchmark.closed_loop.ClosedLoopConfig` (`top_views` by default
-            `lgmd_sim.policies.EVAL_TOP_VIEWS`).
+    ValueError naming it). Each field is declared with its meaning
+    (`lgmd_sim.core.configfile.setting`): ``lgmd-sim bench closed-loop --policies``'s
+    options and --config keys.
     """
 
-    policies: tuple[str, ...] = ("shipped",)
-    controllers: tuple[str, ...] = ("straight", "oracle", "reactive")
-    detectors: tuple[tuple[str, str], ...] | None = None
-    jitter: tuple[float, ...] = (1.0, 2.0)
-    seeds: int = EVAL_SEEDS
-    first_seed: int = 1000
-    cruise: float = CRUISE
-    horizon: float = FALSE_ALARM_HORIZON
-    top_views: int = EVAL_TOP_VIEWS
+    policies: tuple[str, ...] = setting(
+        ("shipped",), "policy folders (as `lgmd-sim train` writes them) or shipped policies' "
+        "names (shipped: the default one); they must share their environment and frame "
+        "size, in which every cell then runs")
+    controllers: tuple[str, ...] = setting(
+        ("straight", "oracle", "reactive"), "hand-made controllers beside them "
+        "(`lgmd_sim.controllers`, not policy); [] for none")
+    detectors: tuple[tuple[str, str], ...] | None = setting(
+        None, "ReactiveAvoid's detectors, (model, preset) pairs; unset: the LGMD models the "
+        "policies observe, at their presets (every model at its default preset when no "
+        "policy observes one), so that the reactive cells are the bar a policy on those "
+        "features must clear. The plug-in specs among them are those the policies may "
+        "observe too: a policy's own choice of a spec is refused, since importing it runs "
+        "its code")
+    jitter: tuple[float, ...] = setting((1.0, 2.0), "jitter levels; every cell runs at each")
+    seeds: int = setting(EVAL_SEEDS, "episodes per cell (`lgmd_sim.policies.EVAL_SEEDS`: "
+                         "those of the evaluation a shipped policy's POLICY.md quotes)")
+    first_seed: int = setting(1000, "the first episode seed (1000 and up are never a "
+                              "training or validation seed of `lgmd-sim train`)")
+    cruise: float = setting(CRUISE, "forward action of every controller while cruising")
+    horizon: float = setting(FALSE_ALARM_HORIZON, "an alarm is false when no obstacle is "
+                             "within this time to collision (s)")
+    top_views: int = setting(EVAL_TOP_VIEWS, "how many of the seeds, the first ones, "
+                             "trajectories.png draws from above, a row of panels each")
 
     def __post_init__(self) -> None:
         from lgmd_sim import controllers
@@ -69,12 +69,12 @@ class EvalConfig:
         hand_made = [c for c in controllers.available() if c != "policy"]
 
         def hand_made_class(spec: str) -> type:
-            """A spec's class, unless it is the trained policies' (they are the POLICY
-            arguments, each its own cell)."""
+            """A spec's class, unless it is the trained policies' (they are `policies`,
+            each its own cell)."""
             cls = controllers.controller_class(spec)
             if issubclass(cls, controllers.controller_class("policy")):
-                raise ValueError(f"unknown controller(s) {spec!r} (a trained policy is a "
-                                 f"POLICY argument); valid: all, {', '.join(hand_made)}")
+                raise ValueError(f"unknown controller(s) {spec!r} (a trained policy is one "
+                                 f"of the policies); valid: all, {', '.join(hand_made)}")
             return cls
 
         object.__setattr__(self, "policies", tuple(self.policies) or ("shipped",))

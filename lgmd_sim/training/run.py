@@ -23,7 +23,8 @@ Seeds: the training environments reset with seeds from ``--seed`` (environment i
 session s with ``seed + i + the environments of the sessions before``; later episodes
 continue each environment's generator), below `VALIDATION_SEED`; validation uses seeds
 ``VALIDATION_SEED`` to ``VALIDATION_SEED + eval_seeds - 1``; the benchmark and
-``lgmd-sim eval`` use seeds from 1000: the three never share an episode.
+``lgmd-sim bench closed-loop --policies`` use seeds from 1000: the three never share an
+episode.
 """
 
 from __future__ import annotations
@@ -39,6 +40,7 @@ from typing import Any
 from lgmd_sim import __version__
 from lgmd_sim.core.extras import require
 from lgmd_sim.core.fileio import read_json, write_text_atomic
+from lgmd_sim.core.params import FieldError
 from lgmd_sim.core.runs import RECORD, Maybe, RunFolder, RunResult, read_record
 from lgmd_sim.policies.config import PolicyConfig
 from lgmd_sim.policies.folder import ALGOS
@@ -68,10 +70,10 @@ def resumable(out: str | Path) -> dict[str, Any]:
     hold a checkpoint to resume from; ValueError naming what is missing, or the record
     where it is not a training run's (`lgmd_sim.training.summary.run_record`)."""
     if not (Path(out) / RECORD).is_file():
-        raise ValueError(f"--resume {out}: no training run there (no run.json)")
+        raise ValueError(f"{out}: no training run there to resume (no run.json)")
     record = run_record(out)
     if not (Path(out) / "checkpoints" / "state.json").is_file():
-        raise ValueError(f"--resume {out}: the run has no checkpoint to resume from")
+        raise ValueError(f"{out}: the run has no checkpoint to resume from")
     return record
 
 
@@ -97,8 +99,8 @@ def train(config: TrainConfig, out: str | Path, *, resume: bool = False,
     # where the run continues: its step count, curriculum stage, DAgger round and labels
     resumed = _checkpoint_state(checkpoints) if resume else {}
     if resume and config.steps <= resumed["num_timesteps"]:
-        raise ValueError(f"--steps {config.steps}: the run is at "
-                         f"{resumed['num_timesteps']} steps already")
+        raise FieldError("steps", f"must be more than the {resumed['num_timesteps']} steps "
+                         f"the run has made, got {config.steps}")
     curriculum = config.stages
     stage = resumed.get("stage", 0)
     if curriculum and resume and recorded.get("curriculum") != curriculum.as_json():

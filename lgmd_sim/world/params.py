@@ -26,6 +26,7 @@ from typing import Any
 
 from lgmd_sim.core.params import (
     CheckedParams,
+    FieldError,
     in_range,
     int_in_range,
     one_of,
@@ -110,18 +111,18 @@ def _resolution(v: Any) -> str | tuple[int, int] | None:
     return int(v[0]), int(v[1])
 
 
-def parse_resolution(value: Any, option: str = "resolution") -> str | tuple[int, int]:
+def parse_resolution(value: Any, field: str = "resolution") -> str | tuple[int, int]:
     """The frame size `value` as the tool keeps it: a name of `RESOLUTIONS` as it is, or
     (height, width) from [height, width] or "HEIGHTxWIDTH" ("270x480", "270X480"). The
     command line's --resolution and the Python API (``gym.make``, the configurations)
     take the same spellings through it.
 
     Raises:
-        ValueError: anything else, one line naming `option` and the value.
+        FieldError: anything else, one line naming `field` and the value.
     """
     size = _resolution(value)
     if size is None:
-        raise ValueError(f"{option} {_RESOLUTION_FORMS}, got {value!r}")
+        raise FieldError(field, f"{_RESOLUTION_FORMS}, got {value!r}")
     return size
 
 

@@ -96,7 +96,8 @@ def _help_width(columns: int) -> Iterator[None]:
 
 
 def cli_page() -> str:
-    """docs/reference/cli.md: a contents list, then every command's --help."""
+    """docs/reference/cli.md: a contents list, then every command's --help, and the keys of
+    its --config file where it has one."""
     from lgmd_sim.cli import build_parser
     from scripts.reference.scenarios import REGENERATE
 
@@ -111,9 +112,21 @@ def cli_page() -> str:
         title = " ".join(path)
         lines.append(f"{'  ' * (len(path) - 2)}- [{title}](#{title.replace(' ', '-')}): "
                      f"{summary}")
-    for (path, _summary, _parser), text in zip(commands, helps, strict=True):
+    for (path, _summary, parser), text in zip(commands, helps, strict=True):
         lines += ["", f"## {' '.join(path)}", "", "```text", text, "```"]
+        lines += _config_keys(" ".join(path), parser)
     return "\n".join(lines) + "\n"
+
+
+def _config_keys(command: str, parser: argparse.ArgumentParser) -> list[str]:
+    """The keys of the command's --config file, each with its default and meaning, where
+    its configuration declares them (`lgmd_sim.cli.args.add_config_file`)."""
+    from lgmd_sim.core.configfile import keys_markdown
+
+    classes = [c for a in parser._actions for c in getattr(a, "config_classes", ())]
+    return [line for cls in classes for line in (
+        "", f"The keys of `{command} --config FILE.toml` (`{cls.__name__}`):", "",
+        keys_markdown(cls).rstrip())]
 
 
 if __name__ == "__main__":

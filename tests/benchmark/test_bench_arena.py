@@ -418,18 +418,22 @@ def test_a_controller_with_a_side_gets_a_cell_per_detector_and_side(sided):
 def test_a_side_the_controller_lacks_is_one_line_naming_it(sided):
     from lgmd_sim.benchmark.closed_loop import ClosedLoopConfig
 
-    for sides, message in ((("both",), "--sides 'both'"), ((), "--sides: no side given")):
+    for sides, message in ((("both",), "sides must be a sequence of 1 or more values, each "
+                            "one of 'halves', 'eyes', got ('both',)"),
+                           ((), "sides must be a sequence of 1 or more values, got ()")):
         with pytest.raises(ValueError) as exc:
             ClosedLoopConfig(sides=sides)
         assert message in str(exc.value) and "\n" not in str(exc.value)
 
 
-def test_the_command_takes_sides(sided):
+def test_the_command_takes_sides(sided, tmp_path):
     from lgmd_sim import cli
     from lgmd_sim.benchmark.closed_loop import ClosedLoopConfig
     from lgmd_sim.cli import bench as cli_bench
 
-    args = cli.build_parser().parse_args(["bench", "closed-loop", "--sides", "halves,eyes"])
+    keys = tmp_path / "sides.toml"
+    keys.write_text('sides = ["halves", "eyes"]\n')
+    args = cli.build_parser().parse_args(["bench", "closed-loop", "--config", str(keys)])
     assert cli_bench.closed_loop_config(args).sides == ("halves", "eyes")
     args = cli.build_parser().parse_args(["bench", "closed-loop"])
     assert cli_bench.closed_loop_config(args) == ClosedLoopConfig()
@@ -463,6 +467,37 @@ def test_each_example_is_drawn_under_its_own_cells_label(tmp_path, monkeypatch):
     closed_loop.run(config, tmp_path / "run", RunOptions(workers=1, progress=False))
     assert sorted((e["cell"], e["controller"]) for e in drawn["examples"]) == [
         ("oracle", "oracle"), ("straight", "straight")]
+
+
+def test_the_benchmark_s_run_returns_its_records_draws_nothing_and_checks_once(tmp_path,
+                                                                             monkeypatch):
+    """`lgmd-sim benchmark` read each track's records again from its run folder, drew
+    figures into every entry's folder that no page shows, and ran the preflight a second
+    time; `lgmd-sim bench closed-loop` (the defaults) still checks and draws."""
+    from lgmd_sim.benchmark import closed_loop, figures
+    from lgmd_sim.core.runs import RunFolder
+    from lgmd_sim.models import check
+
+    checked, drawn = [], []
+    monkeypatch.setattr(check, "preflight", lambda detectors: checked.append(list(detectors)))
+    monkeypatch.setattr(figures, "closed_loop",
+                        lambda folder, rows, examples: drawn.append(folder))
+    monkeypatch.setattr(figures, "closed_loop_figures", lambda rows, examples: ())
+    config = closed_loop.ClosedLoopConfig(
+        scenarios=("StationaryApproach",), jitter=(0.0,), controllers=("straight", "reactive"),
+        detectors=(("lgmd1", "published"),), seeds=1, resolution="small")
+    options = RunOptions(workers=1, progress=False, resume=True)
+    result = closed_loop.run(config, tmp_path / "run", options, figures=False,
+                             preflighted=True)
+    assert (checked, drawn) == ([], [])
+    assert result.files == ["episodes.csv", "summary.csv", "summary.md", "run.json"]
+    assert sorted(p.name for p in result.path.iterdir() if p.is_file()) == sorted(result.files)
+    stored = RunFolder(result.path, config.as_json(), "", resume=True, start=False).records()
+    assert result.records == [{k: v for k, v in r.items() if k != "top_view"}
+                              for r in stored]
+    assert [r["controller"] for r in result.records] == ["reactive", "straight"]
+    closed_loop.run(config, tmp_path / "run", options)
+    assert checked == [[("lgmd1", "published")]] and len(drawn) == 1
 
 
 @pytest.mark.slow

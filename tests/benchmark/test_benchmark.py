@@ -12,7 +12,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from lgmd_sim import models
 from lgmd_sim.benchmark import entries, protocol, scores
+from lgmd_sim.models.presets import carrying_presets, user_presets_from
 
 from protocols import tiny_protocol
 
@@ -54,11 +56,11 @@ def test_the_shipped_protocols_read_as_they_say(name):
     ({"bootstrap_seed": "bootstrap_seed = -1"}, "bootstrap_seed must be an integer >= 0"),
     ({"bootstrap": "bootstrap = 1000000000000"}, "bootstrap must be at most 100,000"),
     ({"bootstrap": "bootstrap = 20000000"}, "bootstrap must be at most 100,000"),
-    ({"budget": "budget = 0"}, "calibration.budget must be a positive integer"),
+    ({"budget": "budget = 0"}, "calibration.budget must be an integer >= 1, got 0"),
     ({"heldout_seed": "heldout_seed = 3"}, "calibration: the search seeds"),
     # the protocol's keys, not the CLI's options (--jitter, --resolution)
-    ({"jitter": "jitter = [1.0, 1.0]"}, "goal.jitter: a level is given twice"),
-    ({"jitter": "jitter = [99.0]"}, "goal.jitter: jitter level 99.0 is not"),
+    ({"jitter": "jitter = [1.0, 1.0]"}, "goal.jitter must hold each level once"),
+    ({"jitter": "jitter = [99.0]"}, "goal.jitter must hold jitter levels in [0, 5]"),
     ({"resolution": 'resolution = "huge"'}, ": resolution must be"),
 ])
 def test_a_bad_protocol_is_one_line_naming_the_file_and_the_key(tmp_path, change, message):
@@ -241,11 +243,34 @@ def test_a_recalibrated_built_in_does_not_take_a_shipped_preset_s_name(tmp_path,
     tuned, presets = run.calibrated(entries.parse("lgmd1"), protocol.load(tiny_protocol(tmp_path)),
                                     tmp_path / "out")
     assert tuned.label == "lgmd1/robot-recalibrated"
-    with run.user_presets(presets):
-        from lgmd_sim import models
-
+    assert presets == tmp_path / "out" / tuned.key / run.PRESETS
+    with user_presets_from(presets):
         assert models.make("lgmd1", preset="robot-recalibrated").params.c_sig == 1.0
         assert models.make("lgmd1", preset="robot").params.c_sig == pytest.approx(88.84, 1e-3)
+
+
+def test_a_job_carries_the_presets_file_that_stands_in_for_the_user_s_to_its_worker(
+        tmp_path):
+    """A calibrated entry's preset reached the workers through LGMD_SIM_DATA_DIR, set
+    around the run (a Ray cluster's never saw it); a job made within the block now carries
+    what the file holds, wherever and whenever it runs."""
+    from lgmd_sim.core.jobs import Job
+    from lgmd_sim.core.parallel import RunOptions, run_jobs
+
+    made = {"from": "published", "params": {"threshold": 0.5}}
+    file = tmp_path / "calibrated.json"
+    file.write_text(json.dumps({"presets": {"lgmd1": {"mine": made}}}))
+    with user_presets_from(file):
+        assert models.presets_of("lgmd1")["mine"]["threshold"] == 0.5
+        jobs = [Job(f"job{i}", carrying_presets(models.presets_of), {"name": "lgmd1"})
+                for i in range(2)]
+    assert "mine" not in models.presets_of("lgmd1")  # the block is over in this process
+    file.unlink()  # as on another machine
+    got = {}
+    run_jobs(jobs, lambda job, presets: got.update({job.key: presets["mine"]["threshold"]}),
+             RunOptions(workers=2, progress=False))  # two worker processes
+    assert got == {"job0": 0.5, "job1": 0.5}
+    assert carrying_presets(models.presets_of) is models.presets_of  # outside a block
 
 
 def test_a_detector_that_always_alarms_scores_0_and_one_that_never_does_0_5(tmp_path,

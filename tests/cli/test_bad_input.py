@@ -374,3 +374,36 @@ def test_version(capsys):
     assert exc.value.code == 0
     assert capsys.readouterr().out.strip() == f"lgmd-sim {lgmd_sim.__version__}"
     assert version("lgmd-sim") == lgmd_sim.__version__  # one version, in lgmd_sim/__init__.py
+
+
+@pytest.mark.parametrize(("argv", "keys", "line"), [
+    (["bench", "closed-loop", "--seeds", "0"], "",
+     "argument --seeds: must be an integer >= 1, got 0"),
+    (["bench", "closed-loop", "--jitter", "9"], "",
+     "error: --jitter must hold jitter levels in [0, 5], got '9'"),
+    (["train", "--envs", "0"], "", "error: --envs must be an integer >= 1, got 0"),
+    (["bench", "closed-loop"], "cruise = 2\n",
+     "error: {file}: cruise must be a number in [-1, 1], got 2"),
+    (["bench", "open-loop"], "window = -1\n",
+     "error: {file}: window must be a finite number >= 0, got -1"),
+    (["calibrate", "--seeds", "200"], "heldout_seed = 150\n",
+     "error: the search and held-out seeds overlap: move heldout_seed"),
+    (["bench", "closed-loop", "--seeds", "3"], "seeds = 0\ncruise = 2\n",  # the option wins
+     "error: {file}: cruise must be a number in [-1, 1], got 2"),
+])
+def test_the_command_line_names_the_option_where_the_config_names_the_field(
+        argv, keys, line, tmp_path, capsys):
+    """One check per field: the option's type and the configuration refuse a value with the
+    same words; the command names its option where the configuration names its field, and
+    its --config file where the file's key is at fault."""
+    file = tmp_path / "keys.toml"
+    file.write_text(keys)
+    out = tmp_path / "never"
+    try:
+        code = cli.main([*argv, "--config", str(file), "--out", str(out)])
+    except SystemExit as exc:  # argparse's own refusal, of the option's type
+        code = exc.code
+    assert code == 2
+    err = capsys.readouterr().err
+    assert line.format(file=file) in err.strip().splitlines()[-1], err  # after any usage
+    assert not out.exists()

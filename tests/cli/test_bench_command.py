@@ -6,10 +6,16 @@ from __future__ import annotations
 
 import csv
 import json
+from pathlib import Path
 
 import pytest
 
 from lgmd_sim import cli, models
+
+#: --config files of the commands' research keys.
+KEYS = Path(__file__).parent / "keys"
+#: bench open-loop without the noisy copies of the clips.
+NO_NOISE = ["--config", str(KEYS / "no-noise.toml")]
 
 # A fast sweep: the tripod scenario at 64 x 64 (about 0.2 s an episode); the machinery
 # is the same as on the robot.
@@ -27,7 +33,7 @@ TABLES = ("episodes.csv", "summary.csv", "summary.md")
 
 OPEN = ["bench", "open-loop", "--scenarios", "StationaryApproach,PassBy", "--jitter", "0",
         "--models", "lgmd1,feedback", "--seeds", "1", "--resolution", "small",
-        "--noise-levels", "0.005", "--workers", "1", "--no-progress"]
+        "--config", str(KEYS / "one-noise.toml"), "--workers", "1", "--no-progress"]
 
 
 def _bench(out, *extra: str) -> int:
@@ -48,7 +54,7 @@ def test_ray_gives_the_same_results(one_worker, tmp_path):
     ray.init(num_cpus=2, include_dashboard=False, log_to_driver=False)
     try:
         out = tmp_path / "ray"
-        assert _bench(out, "--ray", "local") == 0
+        assert _bench(out, "--workers", "ray") == 0
     finally:
         ray.shutdown()
     for name in TABLES:
@@ -112,8 +118,8 @@ def test_a_run_whose_preset_changed_since_is_not_resumed(one_worker, tmp_path, c
     ("--models", "feedback/nope", "unknown preset 'nope'"),
     ("--controllers", "pilot", "unknown controller(s) 'pilot'"),
     ("--scenarios", "Moon", "unknown scenario(s) 'Moon'"),
-    ("--jitter", "0,9", "jitter level '9'"),
-    ("--jitter", "x", "jitter level 'x'"),
+    ("--jitter", "0,9", "--jitter must hold jitter levels in [0, 5], got '9'"),
+    ("--jitter", "x", "--jitter must hold jitter levels in [0, 5], got 'x'"),
     ("--presets", "nope", "no model listed has any of the presets nope"),
 ])
 def test_bad_input_is_one_line_before_any_episode(tmp_path, capsys, option, value, message):
@@ -158,7 +164,7 @@ def test_open_loop_on_a_dataset_equals_the_simulated_clips(tmp_path):
     assert cli.main(["dataset", "generate", "--scenarios", "StationaryApproach", "--jitter",
                      "0", "--episodes", "1", "--resolution", "small", "--out", str(data),
                      "--workers", "1", "--no-progress"]) == 0
-    base = ["bench", "open-loop", "--models", "lgmd1", "--noise-levels", "", "--workers", "1",
+    base = ["bench", "open-loop", "--models", "lgmd1", *NO_NOISE, "--workers", "1",
             "--no-progress"]
     assert cli.main([*base, "--dataset", str(data), "--out", str(tmp_path / "a")]) == 0
     assert cli.main([*base, "--scenarios", "StationaryApproach", "--jitter", "0", "--seeds",
@@ -172,7 +178,7 @@ def test_open_loop_runs_detectors_with_front_ends(tmp_path):
     out = tmp_path / "front"
     assert cli.main(["bench", "open-loop", "--scenarios", "HandheldApproach", "--jitter", "1",
                      "--seeds", "1", "--models", "lgmd1,lgmd1/published+pose",
-                     "--resolution", "small", "--noise-levels", "", "--workers", "1",
+                     "--resolution", "small", *NO_NOISE, "--workers", "1",
                      "--no-progress", "--out", str(out)]) == 0
     rows = {r["detector"]: r for r in csv.DictReader((out / "summary.csv").open())}
     assert set(rows) == {"lgmd1/published", "lgmd1/published+pose"}

@@ -75,7 +75,7 @@ def test_the_leaderboard_ranks_the_entries_and_refuses_another_protocol(tiny_run
 
 
 @pytest.mark.slow  # whole benchmarks of a tiny protocol: 15-50 s each
-def test_a_plug_in_calibrated_first_runs_at_the_preset_it_made(tmp_path, monkeypatch):
+def test_a_plug_in_calibrated_first_runs_at_the_preset_it_made(tmp_path, monkeypatch, capsys):
     monkeypatch.syspath_prepend(str(Path(__file__).resolve().parents[1] / "plugins"))
     mine = tmp_path / "mine"  # the user's own presets folder, which must stay as it is
     monkeypatch.setenv("LGMD_SIM_DATA_DIR", str(mine))
@@ -92,6 +92,10 @@ def test_a_plug_in_calibrated_first_runs_at_the_preset_it_made(tmp_path, monkeyp
     assert (folder / "calibration" / "run.json").is_file()
     assert not mine.exists()
     assert os.environ["LGMD_SIM_DATA_DIR"] == str(mine)  # as before the command
+    # its episodes replay at that preset on worker processes, which the jobs tell it
+    assert cli.main(["verify", str(folder), "--protocol", str(tiny), "--all", "--workers",
+                     "2", "--no-progress"]) == 0
+    assert "4 of 4 episodes identical" in capsys.readouterr().out
 
 
 @pytest.mark.parametrize("case", ["two policies of one folder name",
@@ -127,14 +131,16 @@ def test_a_second_benchmark_of_the_same_entry_into_the_same_folder_is_refused(tm
 @pytest.mark.parametrize("address, why", [("127.0.0.1:1", "no Ray cluster answers there"),
                                           ("bogus", "give local, auto or HOST:PORT")])
 def test_a_ray_address_where_no_cluster_answers_is_one_line_at_once(tmp_path, capsys,
-                                                                     address, why):
+                                                                     monkeypatch, address, why):
     """It retried for ever, and the Ray example with it."""
     out = tmp_path / "out"
     start = time.perf_counter()
+    monkeypatch.setenv("RAY_ADDRESS", address)
     assert cli.main(["benchmark", "straight", "--protocol", str(tiny_protocol(tmp_path)), "--out",
-                     str(out), "--ray", address]) == 2
+                     str(out), "--workers", "ray"]) == 2
     err = capsys.readouterr().err.strip()
-    assert len(err.splitlines()) == 1 and "--ray" in err and address in err and why in err, err
+    assert len(err.splitlines()) == 1 and "Ray address" in err and address in err and why in err
+
     assert time.perf_counter() - start < 30 and not out.exists()
 
 
@@ -183,3 +189,7 @@ def test_a_benchmark_writes_every_track_s_scores_with_intervals(tiny_run):
     assert result["protocol"]["version"] == 1
     straight = json.loads((out / "straight" / "result.json").read_text())
     assert "detection" not in straight["scores"]
+    for track in ("goal", "arena"):  # the bench's tables, not figures no page shows
+        made = {p.name for p in (out / "lgmd1-published" / track).iterdir()}
+        assert {"episodes.csv", "summary.csv", "summary.md", "run.json"} <= made
+        assert not [name for name in made if name.endswith(".png")], made

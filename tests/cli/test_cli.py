@@ -150,29 +150,25 @@ OPTIONS = {
     "models": "--check",
     "envs": "",
     "bench": "",
-    "bench closed-loop": "--scenarios --controllers --models --presets --jitter --seeds --out"
-                         " --resume --workers --no-progress"
-                         " | --sides --first-seed --cruise --horizon --top-views --resolution"
-                         " --ray",
-    "bench open-loop": "--scenarios --jitter --models --presets --seeds --dataset --out --resume"
-                       " --workers --no-progress"
-                       " | --first-seed --noise-levels --resolution --horizon --window --ray",
-    "calibrate": "--task --detectors --budget --seeds --save-presets --out --resume --workers"
-                 " --no-progress"
-                 " | --first-seed --heldout-seed --seed --resolution --presets-file --ray",
+    "bench closed-loop": "--scenarios --controllers --models --presets --policies --jitter"
+                         " --seeds --config --out --resume --workers --no-progress"
+                         " | --first-seed --resolution",
+    "bench open-loop": "--scenarios --jitter --models --presets --seeds --dataset --config --out"
+                       " --resume --workers --no-progress"
+                       " | --first-seed --resolution",
+    "calibrate": "--task --detectors --budget --seeds --save-presets --config --out --resume"
+                 " --workers --no-progress"
+                 " | --first-seed --resolution",
     "dataset": "",
     "dataset generate": "--scenarios --jitter --episodes --out --resolution --workers"
                         " --no-progress"
-                        " | --controller --models --noise --video --seed --set --ray",
+                        " | --controller --models --noise --video --seed --set",
     "dataset verify": "",
     "dataset export": "--format --codec",
     "train": "--algo --env --obs --model --preset --steps --envs --seed --config --out --resume"
              " --no-progress"
              " | --resolution --jitter --hp",
-    "eval": "--controllers --models --presets --jitter --seeds --out --resume --workers"
-            " --no-progress"
-            " | --first-seed --cruise --horizon --top-views --ray",
-    "benchmark": "--out --smoke --calibrate --workers --no-progress | --protocol --ray",
+    "benchmark": "--out --smoke --calibrate --workers --no-progress | --protocol",
     "leaderboard": "--out --protocol",
     "verify": "--episodes --all --workers --no-progress | --protocol --seed",
 }
@@ -205,42 +201,42 @@ PARSED = {
         "preset": "robot-image", "steps": 104000, "envs": None, "seed": None,
         "config": "student.toml", "out": "runs/mine", "resume": None, "no_progress": False,
         "resolution": None, "jitter": None, "hp": None},
-    "eval runs/mine runs/mine/best --controllers none --first-seed 900 --seeds 50 "
-    "--out runs/choice --no-progress": {
-        "command": "eval", "policies": ["runs/mine", "runs/mine/best"], "controllers": "none",
-        "models": None, "presets": None, "jitter": "1,2", "seeds": 50, "first_seed": 900,
-        "cruise": 0.6, "horizon": 2.0, "top_views": 3, "out": "runs/choice", "resume": False,
-        "workers": None, "ray": None, "no_progress": True},
+    "bench closed-loop --policies runs/mine,runs/mine/best --controllers none --first-seed 900 "
+    "--seeds 50 --out runs/choice --no-progress": {
+        "command": "bench", "what": "closed-loop", "scenarios": None, "controllers": "none",
+        "models": None, "presets": None, "policies": ("runs/mine", "runs/mine/best"),
+        "jitter": None, "seeds": 50, "config": None, "out": "runs/choice", "resume": False,
+        "workers": None, "no_progress": True, "first_seed": 900, "resolution": None},
     "bench closed-loop --scenarios RoughTerrainObstacles,ArenaRoam --jitter 1 "
-    "--models lgmd2/robot-imu,lgmd1/robot-image --sides halves,eyes "
+    "--models lgmd2/robot-imu,lgmd1/robot-image --config sides.toml "
     "--out runs/closed-loop-robot-j1 --workers 2 --no-progress": {
         "command": "bench", "what": "closed-loop",
-        "scenarios": "RoughTerrainObstacles,ArenaRoam", "controllers": "straight,oracle,reactive",
-        "models": "lgmd2/robot-imu,lgmd1/robot-image", "presets": None, "sides": "halves,eyes",
-        "jitter": "1", "seeds": 50, "first_seed": 1000, "cruise": 0.6, "horizon": 2.0,
-        "top_views": 1, "resolution": "rl", "out": "runs/closed-loop-robot-j1",
-        "resume": False, "workers": 2, "ray": None, "no_progress": True},
-    "bench open-loop --jitter 0,1 --noise-levels '' --first-seed 200 "
+        "scenarios": ("RoughTerrainObstacles", "ArenaRoam"), "controllers": None,
+        "models": "lgmd2/robot-imu,lgmd1/robot-image", "presets": None, "policies": None,
+        "jitter": "1", "seeds": None, "config": "sides.toml",
+        "out": "runs/closed-loop-robot-j1", "resume": False, "workers": 2, "no_progress": True,
+        "first_seed": None, "resolution": None},
+    "bench open-loop --jitter 0,1 --config no-noise.toml --first-seed 200 "
     "--models feedback/paper+image,lgmd1/calibrated-image --out runs/open-loop-compensated "
     "--workers 2 --no-progress": {
-        "command": "bench", "what": "open-loop", "scenarios": "all", "jitter": "0,1",
-        "models": "feedback/paper+image,lgmd1/calibrated-image", "presets": None, "seeds": 8,
-        "dataset": None, "out": "runs/open-loop-compensated", "resume": False,
-        "first_seed": 200, "noise_levels": "", "resolution": "paper", "horizon": 1.0,
-        "window": 1.0, "workers": 2, "ray": None, "no_progress": True},
+        "command": "bench", "what": "open-loop", "scenarios": None, "jitter": "0,1",
+        "models": "feedback/paper+image,lgmd1/calibrated-image", "presets": None, "seeds": None,
+        "dataset": None, "config": "no-noise.toml", "out": "runs/open-loop-compensated",
+        "resume": False, "workers": 2, "no_progress": True, "first_seed": 200,
+        "resolution": None},
     "calibrate --task robot --budget 16 --seeds 6 --save-presets "
     "--detectors eta_lgmd:EtaLGMD+imu --out runs/calibration-eta --workers 2 --no-progress "
     "--resume": {
-        "command": "calibrate", "task": "robot", "detectors": "eta_lgmd:EtaLGMD+imu",
-        "budget": 16, "seeds": 6, "save_presets": True, "out": "runs/calibration-eta",
-        "resume": True, "first_seed": 0, "heldout_seed": 100, "seed": 0, "resolution": "rl",
-        "presets_file": None, "workers": 2, "ray": None, "no_progress": True},
+        "command": "calibrate", "task": "robot", "detectors": ("eta_lgmd:EtaLGMD+imu",),
+        "budget": 16, "seeds": 6, "save_presets": True, "config": None,
+        "out": "runs/calibration-eta", "resume": True, "workers": 2, "no_progress": True,
+        "first_seed": None, "resolution": None},
     "dataset generate --scenarios PassBy --jitter 0,1 --episodes 2 --resolution small "
-    "--ray local --out ray-dataset": {
+    "--workers ray --out ray-dataset": {
         "command": "dataset", "what": "generate", "scenarios": "PassBy", "jitter": "0,1",
         "episodes": 2, "out": "ray-dataset", "resolution": "small", "controller": "straight",
         "models": "none", "noise": "", "video": "huffyuv", "seed": 0, "set": [],
-        "workers": None, "ray": "local", "no_progress": False},
+        "workers": "ray", "no_progress": False},
     "detect handheld.mp4 --collision-frame 96 --stabilize image --fov 55 "
     "--out docs/stabilize/image": {
         "command": "detect", "videos": ["handheld.mp4"], "models": "all", "preset": None,

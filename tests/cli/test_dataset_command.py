@@ -32,10 +32,10 @@ LGMD_SIM = [sys.executable, "-m", "lgmd_sim.cli", "dataset", "generate"]
     (["--models", "feedback,lgmd9"], "unknown model(s) 'lgmd9'"),
     (["--noise", "gaussian:0.005,fog:1"], "unknown noise 'fog'"),
     (["--noise", "gaussian"], "bad noise 'gaussian'"),
-    (["--jitter", "0,9"], "--jitter: jitter level '9' is not a number in [0, 5]"),
-    (["--jitter", "0,x"], "--jitter: jitter level 'x' is not a number"),
+    (["--jitter", "0,9"], "--jitter must hold jitter levels in [0, 5], got '9'"),
+    (["--jitter", "0,x"], "--jitter must hold jitter levels in [0, 5], got 'x'"),
     (["--set", "warp=3"], "unknown parameter(s) warp"),
-    (["--set", "jitter=3"], "--set jitter: use --jitter"),
+    (["--set", "jitter=3"], "overrides sets jitter, a field of the dataset's own: give it as jitter"),
 ])
 def test_bad_input_is_one_line_naming_it_before_any_episode(tmp_path, capsys, args, named):
     out = tmp_path / "ds"
@@ -48,7 +48,7 @@ def test_bad_input_is_one_line_naming_it_before_any_episode(tmp_path, capsys, ar
 def test_episodes_below_one_is_refused(tmp_path, capsys):
     with pytest.raises(SystemExit) as exc:
         main(["dataset", "generate", "--episodes", "0", "--out", str(tmp_path)])
-    assert exc.value.code == 2 and "--episodes: must be a positive integer" in \
+    assert exc.value.code == 2 and "--episodes: must be an integer >= 1, got 0" in \
         capsys.readouterr().err
 
 

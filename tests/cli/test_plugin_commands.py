@@ -22,6 +22,11 @@ from lgmd_sim.calibration.run import CalibrateConfig
 from lgmd_sim.controllers import options
 from lgmd_sim.envs.wrappers import LGMDFeatures
 
+#: --config files of the commands' research keys.
+KEYS = Path(__file__).parent / "keys"
+#: bench open-loop without the noisy copies of the clips.
+NO_NOISE = ["--config", str(KEYS / "no-noise.toml")]
+
 # The plug-in, tests/plugins/lgmd_plug.py, by its specs: a model with a search space, the
 # same without one ("Untuned"), and a controller.
 SPEC = "lgmd_plug:Blink"
@@ -281,7 +286,7 @@ def test_open_loop_bench_runs_a_spec_with_a_front_end(tmp_path):
     out = tmp_path / "open"
     assert cli.main(["bench", "open-loop", "--scenarios", "HandheldApproach", "--jitter", "1",
                      "--seeds", "1", "--models", f"{SPEC},{SPEC}/fast+image",
-                     "--resolution", "small", "--noise-levels", "", *QUIET,
+                     "--resolution", "small", *NO_NOISE, *QUIET,
                      "--out", str(out)]) == 0
     rows = {r["detector"] for r in csv.DictReader((out / "summary.csv").open())}
     assert rows == {f"{SPEC}/plain", f"{SPEC}/fast+image"}

@@ -3,9 +3,16 @@ one line naming the plug-in, exit status 2, nothing left behind."""
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import pytest
 
 from lgmd_sim import cli
+
+#: --config files of the commands' research keys.
+KEYS = Path(__file__).parent / "keys"
+#: bench open-loop without the noisy copies of the clips.
+NO_NOISE = ["--config", str(KEYS / "no-noise.toml")]
 
 # the faulty plug-ins are tests/plugins/hostile.py
 pytestmark = pytest.mark.usefixtures("test_plugins_on_path")
@@ -33,7 +40,7 @@ BENCHES = {
                     "--controllers", "reactive", "--seeds", "1", "--resolution", "small",
                     "--models"],
     "open-loop": ["bench", "open-loop", "--scenarios", "HandheldApproach", "--jitter", "1",
-                  "--seeds", "1", "--resolution", "small", "--noise-levels", "", "--models"],
+                  "--seeds", "1", "--resolution", "small", *NO_NOISE, "--models"],
     "calibrate": ["calibrate", "--budget", "2", "--seeds", "1", "--resolution", "small",
                   "--detectors"],
     "dataset": ["dataset", "generate", "--scenarios", "StationaryApproach", "--episodes", "1",
@@ -67,7 +74,7 @@ def test_detect_refuses_potentials_the_contract_does_not_allow(video, tmp_path, 
 def test_calibrate_refuses_bad_potentials_and_writes_no_preset(tmp_path, capsys, plugin):
     out, presets = tmp_path / "cal", tmp_path / "presets.json"
     assert cli.main(["calibrate", "--detectors", f"hostile:{plugin}", "--budget", "2",
-                     "--seeds", "1", "--resolution", "small", "--presets-file", str(presets),
+                     "--seeds", "1", "--resolution", "small", "--save-presets", str(presets),
                      *QUIET, "--out", str(out)]) == 2
     _one_line(capsys, f"hostile:{plugin}/plain: potentials: potential")
     assert not out.exists() and not presets.exists()

@@ -1,5 +1,6 @@
-"""Policies as inputs from anyone: a bad policy is refused before `lgmd-sim eval` makes its
-run folder, and a policy folder is data, never code (no pickle is loaded from it)."""
+"""Policies as inputs from anyone: a bad policy is refused before `lgmd-sim bench closed-loop
+--policies` makes its run folder, and a policy folder is data, never code (no pickle is
+loaded from it)."""
 
 from __future__ import annotations
 
@@ -58,8 +59,9 @@ def good(model, tmp_path_factory):
 
 
 def _eval(policy, out) -> int:
-    return cli.main(["eval", str(policy), "--controllers", "none", "--jitter", "1", "--seeds",
-                     "1", "--workers", "1", "--out", str(out), "--no-progress"])
+    return cli.main(["bench", "closed-loop", "--policies", str(policy), "--controllers", "none",
+                     "--jitter", "1", "--seeds", "1", "--workers", "1", "--out", str(out),
+                     "--no-progress"])
 
 
 def _edit_json(folder, edit) -> None:
@@ -165,9 +167,9 @@ def test_the_safe_format_round_trips_and_carries_no_pickle(model, good):
     env.close()
 
 
-def test_eval_help_says_it_needs_the_rl_extra_and_which_files_are_pickles(capsys):
+def test_the_policies_help_says_they_need_the_rl_extra_and_which_files_are_pickles(capsys):
     with pytest.raises(SystemExit):
-        cli.main(["eval", "--help"])
+        cli.main(["bench", "closed-loop", "--help"])
     text = " ".join(capsys.readouterr().out.split())
     assert "rl extra" in text
     assert "pickle" in text and "checkpoints" in text and "trust" in text
@@ -309,10 +311,10 @@ def test_a_plug_in_the_user_names_or_registers_is_observed(model, tmp_path, monk
         policies.load(folder)
     loaded = policies.load(folder, plugins=("lgmd_plug:Blink",))
     assert loaded.config.model == "lgmd_plug:Blink"
-    # from the command line: eval's --models names it, for the policy's cells too
-    assert cli.main(["eval", str(folder), "--models", "lgmd_plug:Blink", "--controllers",
-                     "none", "--jitter", "1", "--seeds", "1", "--workers", "1", "--out",
-                     str(tmp_path / "eval"), "--no-progress"]) == 0
+    # from the command line: --models names it, for the policy's cells too
+    assert cli.main(["bench", "closed-loop", "--policies", str(folder), "--models",
+                     "lgmd_plug:Blink", "--controllers", "none", "--jitter", "1", "--seeds", "1",
+                     "--workers", "1", "--out", str(tmp_path / "eval"), "--no-progress"]) == 0
     models.register("blink", "lgmd_plug:Blink")  # a name the user registered themselves
     _edit_json(folder, lambda d: d["config"].update(model="blink"))
     assert policies.load(folder).config.model == "blink"

@@ -258,12 +258,12 @@ def test_a_corrupt_target_is_refused_before_the_calibration_starts(user_dir, tmp
 def test_presets_file_writes_there_and_never_into_the_package(user_dir, tmp_path, capsys):
     package_file = Path(models.__file__).with_name("calibrated.json")
     assert cli.main(["calibrate", "--detectors", "lgmd1", *TINY, "--out",
-                     str(tmp_path / "cal"), "--presets-file", str(package_file)]) == 2
+                     str(tmp_path / "cal"), "--save-presets", str(package_file)]) == 2
     assert "ship_presets.py" in capsys.readouterr().err
     assert not (tmp_path / "cal").exists()
     target = tmp_path / "elsewhere" / "p.json"
     assert cli.main(["calibrate", "--detectors", "lgmd1", *TINY, "--out",
-                     str(tmp_path / "cal"), "--presets-file", str(target)]) == 0
+                     str(tmp_path / "cal"), "--save-presets", str(target)]) == 0
     assert list(json.loads(target.read_text())["presets"]["lgmd1"]) == ["calibrated"]
     assert not user_dir.exists()
 
@@ -308,7 +308,7 @@ def test_an_unwritable_presets_file_is_refused_before_the_calibration_naming_it(
     read_only(folder)
     out, target = tmp_path / "cal", folder / where
     assert cli.main(["calibrate", "--detectors", "lgmd1", *TINY, "--out", str(out),
-                     "--presets-file", str(target)]) == 2
+                     "--save-presets", str(target)]) == 2
     err = capsys.readouterr().err
     assert err == (f"lgmd-sim calibrate: error: presets file {target}: "
                    f"{reason.format(folder=folder)}: Read-only file system\n")

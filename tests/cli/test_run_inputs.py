@@ -10,6 +10,7 @@ import argparse
 import json
 import shutil
 import sys
+from pathlib import Path
 
 import pytest
 
@@ -18,12 +19,17 @@ from lgmd_sim.core import fileio
 from lgmd_sim.core.runs import RunFolder
 from lgmd_sim.training.config import TrainConfig
 
+#: --config files of the commands' research keys.
+KEYS = Path(__file__).parent / "keys"
+#: bench open-loop without the noisy copies of the clips.
+NO_NOISE = ["--config", str(KEYS / "no-noise.toml")]
+
 # One episode, one clip: the machinery of a full run, in seconds.
 CLOSED = ["bench", "closed-loop", "--scenarios", "StationaryApproach", "--jitter", "0",
           "--controllers", "straight", "--seeds", "1", "--resolution", "small",
           "--workers", "1", "--no-progress"]
 OPEN = ["bench", "open-loop", "--scenarios", "StationaryApproach", "--jitter", "0",
-        "--models", "lgmd1", "--seeds", "1", "--resolution", "small", "--noise-levels", "",
+        "--models", "lgmd1", "--seeds", "1", "--resolution", "small", *NO_NOISE,
         "--workers", "1", "--no-progress"]
 CALIBRATE = ["calibrate", "--detectors", "lgmd1", "--budget", "1", "--seeds", "1",
              "--resolution", "small", "--workers", "1", "--no-progress"]
@@ -337,8 +343,8 @@ def test_the_missing_extra_hint_is_a_command_that_works_from_a_checkout(monkeypa
     assert "from a checkout of lgmd-sim: pip install -c constraints.txt '.[rl]'" in message
 
 
-@pytest.mark.parametrize("how, why", [({"workers": 0}, "workers must be a positive integer"),
-                                      ({"workers": True}, "workers must be a positive integer"),
+@pytest.mark.parametrize("how, why", [({"workers": 0}, "workers must be an integer >= 1"),
+                                      ({"workers": True}, "workers must be an integer >= 1"),
                                       ({"ray_address": "127.0.0.1:1"}, "no Ray cluster"),
                                       ({"ray_address": "nowhere"}, "give local, auto")])
 def test_how_the_jobs_run_is_refused_when_it_is_made(how, why):

@@ -19,6 +19,8 @@ from lgmd_sim import cli, controllers
 from lgmd_sim.policies.observe import base_env, observe
 from lgmd_sim.training.envs import make_vec_env
 
+from train_tiny import config_option
+
 # The tripod scenario at 64 x 64: episodes of a few seconds, steps of a few ms.
 ENV = "lgmd_sim/StationaryApproach-v0"
 TINY = ["train", "--algo", "ppo", "--env", ENV, "--resolution", "small", "--hp", "n_steps=64",
@@ -88,11 +90,8 @@ def test_a_privileged_policy_trains_and_acts_on_a_rendering_env(tmp_path):
 
 def _train(out, *extra: str, **keys) -> int:
     """TINY into `out`, with a --config file beside it holding TINY_KEYS and `keys`."""
-    from lgmd_sim.training.config import config_toml
-
-    path = out.parent / f"{out.name}.toml"
-    path.write_text(config_toml({**TINY_KEYS, **keys}))
-    return cli.main([*TINY, "--config", str(path), "--out", str(out), *extra])
+    config = config_option(out.parent / f"{out.name}.toml", {**TINY_KEYS, **keys})
+    return cli.main([*TINY, *config, "--out", str(out), *extra])
 
 
 @pytest.fixture(scope="module")
@@ -196,8 +195,8 @@ def test_resume_continues_the_step_count(run, tmp_path):
 @pytest.mark.parametrize("obs", ["pixels", "privileged"])
 def test_validation_plays_the_episodes_eval_plays_on_its_seeds(tmp_path, obs):
     """Two validation environments play seeds 900 and 901 as the policy's controller does
-    alone (`lgmd-sim eval`): the same distance travelled, to the last digit (a batch of
-    observations rounds the CNN's actions differently, and the robot drives on them; a
+    alone (`bench closed-loop --policies`): the same distance travelled, to the last digit
+    (a batch of observations rounds the CNN's actions differently, and the robot drives on them; a
     vector policy's actions come from `lgmd_sim.policies.forward` on both sides)."""
     from stable_baselines3 import PPO
     from stable_baselines3.common.vec_env import VecNormalize
@@ -233,11 +232,11 @@ def test_validation_plays_the_episodes_eval_plays_on_its_seeds(tmp_path, obs):
 
 
 @pytest.mark.slow
-def test_eval_runs_the_policy_beside_the_hand_made_controllers(run, tmp_path, capsys):
+def test_policies_run_beside_the_hand_made_controllers(run, tmp_path, capsys):
     out = tmp_path / "eval"
-    assert cli.main(["eval", str(run), str(run / "best"), "--controllers", "straight,reactive",
-                     "--models", "lgmd1", "--jitter", "1", "--seeds", "1", "--workers", "1",
-                     "--out", str(out), "--no-progress"]) == 0
+    assert cli.main(["bench", "closed-loop", "--policies", f"{run},{run / 'best'}",
+                     "--controllers", "straight,reactive", "--models", "lgmd1", "--jitter", "1",
+                     "--seeds", "1", "--workers", "1", "--out", str(out), "--no-progress"]) == 0
     rows = list(csv.DictReader((out / "episodes.csv").open()))
     assert {(r["controller"], r["tag"] or r["model"]) for r in rows} == {
         ("policy", "tiny"), ("policy", "tiny-best"), ("straight", ""), ("reactive", "lgmd1")}
@@ -250,12 +249,12 @@ def test_eval_runs_the_policy_beside_the_hand_made_controllers(run, tmp_path, ca
 
 
 @pytest.mark.parametrize(("args", "keys", "message"), [
-    (["--algo", "a2c"], {}, "unknown algorithm 'a2c'"),
-    (["--obs", "rgb"], {}, "unknown observation 'rgb'"),
+    (["--algo", "a2c"], {}, "--algo must be one of 'ppo', 'sac', got 'a2c'"),
+    (["--obs", "rgb"], {}, "--obs must be one of 'features', 'pixels', 'privileged', got 'rgb'"),
     (["--model", "lgmd9"], {}, "unknown model 'lgmd9'"),
     (["--preset", "nope"], {}, "unknown preset 'nope'"),
     (["--env", "lgmd_sim/Moon-v0"], {}, "unknown environment id 'lgmd_sim/Moon-v0'"),
-    (["--steps", "0"], {}, "--steps must be a positive integer, got 0"),
+    (["--steps", "0"], {}, "--steps must be an integer >= 1, got 0"),
     (["--hp", "warp=9"], {}, "unknown hyperparameter 'warp'"),
     ([], {"reward": ["jitter=2"]}, "never.toml: reward 'jitter=2': not KEY=VALUE with KEY one of"),
     ([], {"reward": ["goal_bonus=lots"]}, "never.toml: reward goal_bonus=lots: 'lots' is not a "
@@ -264,13 +263,13 @@ def test_eval_runs_the_policy_beside_the_hand_made_controllers(run, tmp_path, ca
     ([], {"reward": ["goal_bonus=1", "goal_bonus=2"]}, "never.toml: reward goal_bonus is given "
      "twice"),
     (["--env", "lgmd_test/NanReward-v0", "--envs", "1"], {}, "is not finite"),
-    (["--obs", "pixels"], {"grid": [2, 2]}, "never.toml: grid is the S-layer grid of --obs "
-     "features, not pixels"),
-    (["--obs", "privileged"], {"grid_history": 2}, "never.toml: grid_history is of --obs "
+    (["--obs", "pixels"], {"grid": [2, 2]}, "never.toml: grid is of obs features, not "
+     "pixels"),
+    (["--obs", "privileged"], {"grid_history": 2}, "never.toml: grid_history is of obs "
      "features"),
-    ([], {"grid_history": 0}, "never.toml: grid_history must be a positive integer, got 0"),
-    ([], {"memory": -1}, "never.toml: memory must be a non-negative integer (frames), got -1"),
-    (["--obs", "pixels"], {"memory": 30}, "never.toml: memory is of --obs features"),
+    ([], {"grid_history": 0}, "never.toml: grid_history must be an integer >= 1, got 0"),
+    ([], {"memory": -1}, "never.toml: memory must be an integer >= 0, got -1"),
+    (["--obs", "pixels"], {"memory": 30}, "never.toml: memory is of obs features"),
 ])
 def test_bad_input_is_one_line_before_training(tmp_path, capsys, args, keys, message):
     if "lgmd_test/NanReward-v0" not in gym.registry:
@@ -284,14 +283,14 @@ def test_bad_input_is_one_line_before_training(tmp_path, capsys, args, keys, mes
 
 @pytest.mark.parametrize(("text", "message"), [
     ("dagger_round = 3\n", "unknown key 'dagger_round' (did you mean dagger_rounds?)"),
-    ("dagger_rounds = 0\n", "dagger_rounds must be a positive integer, got 0"),
+    ("dagger_rounds = 0\n", "dagger_rounds must be an integer >= 1, got 0"),
     ("eval_seeds = 200\n", "eval_seeds must be at most 100"),
-    ('dagger_student = "greedy"\n', "dagger_student must be one of sample, mean"),
-    ('grid = "3x5"\n', "grid must be [rows, columns] of positive integers, got '3x5'"),
-    ('reward = "goal_bonus=5"\n', "reward must be a list of KEY=VALUE strings"),
+    ('dagger_student = "greedy"\n', "dagger_student must be one of 'sample', 'mean', got 'greedy'"),
+    ('grid = "3x5"\n', "grid must be a sequence of 2 values ([rows, columns]), got '3x5'"),
+    ('reward = "goal_bonus=5"\n', "reward must be a sequence of values (KEY=VALUE strings)"),
     ('[teacher]\nname = "oracle"\n', "teacher must be oracle, steer, reactive or a policy"),
     ('teacher = "nowhere"\n', "teacher nowhere: no policy at nowhere"),
-    ("steps = true\n", "--steps must be a positive integer, got True"),
+    ("steps = true\n", "steps must be an integer >= 1, got True"),
     ("teacher =\n", "not a TOML file (Invalid value (at line 1, column 10))"),
     (None, "cannot read it"),
 ])
@@ -314,7 +313,7 @@ def test_an_option_s_error_is_not_the_config_file_s(tmp_path, capsys):
     assert cli.main(["train", "--config", str(path), "--steps", "0",
                      "--out", str(tmp_path / "never")]) == 2
     assert capsys.readouterr().err.strip() == (
-        "lgmd-sim train: error: --steps must be a positive integer, got 0")
+        "lgmd-sim train: error: --steps must be an integer >= 1, got 0")
 
 
 def test_folders_holding_another_run_or_no_checkpoint_are_refused(run, tmp_path, capsys):
@@ -333,7 +332,8 @@ def test_folders_holding_another_run_or_no_checkpoint_are_refused(run, tmp_path,
 def test_a_missing_rl_extra_is_one_line_naming_it(monkeypatch, tmp_path, capsys):
     monkeypatch.setitem(sys.modules, "stable_baselines3", None)  # as if not installed
     for argv in (["train", "--out", str(tmp_path / "x"), "--steps", "64"],
-                 ["eval", "--out", str(tmp_path / "y")]):
+                 ["bench", "closed-loop", "--policies", "shipped", "--out",
+                  str(tmp_path / "y")]):
         assert cli.main(argv) == 2
         err = capsys.readouterr().err.strip()
         assert len(err.splitlines()) == 1 and "'rl' extra" in err
@@ -347,8 +347,9 @@ def test_ship_policy_releases_a_runs_best_policy_with_its_rows(run, tmp_path, mo
     ship_policy = importlib.import_module("ship_policy")
     monkeypatch.setattr(ship_policy, "POLICIES", tmp_path / "policies")
     out = tmp_path / "eval"
-    assert cli.main(["eval", str(run / "best"), "--controllers", "none", "--jitter", "1",
-                     "--seeds", "1", "--workers", "1", "--out", str(out), "--no-progress"]) == 0
+    assert cli.main(["bench", "closed-loop", "--policies", str(run / "best"), "--controllers",
+                     "none", "--jitter", "1", "--seeds", "1", "--workers", "1", "--out",
+                     str(out), "--no-progress"]) == 0
     folder = ship_policy.ship(run, out, "mine", best=True)
     assert (folder / "policy.npz").read_bytes() == (run / "best" / "policy.npz").read_bytes()
     text = (folder / "POLICY.md").read_text()

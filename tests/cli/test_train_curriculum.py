@@ -18,6 +18,8 @@ from lgmd_sim.core import fileio
 from lgmd_sim.training import curriculum, curve
 from lgmd_sim.training import envs as training_envs
 
+from train_tiny import config_option
+
 # Frameless (privileged) episodes of the goal task: steps of well under a millisecond.
 ENV = "lgmd_sim/RoughTerrainObstacles-v0"
 TINY = ["train", "--obs", "privileged", "--env", ENV, "--envs", "1", "--hp", "n_steps=64",
@@ -29,12 +31,8 @@ AT_THE_GOAL = "n_obstacles = 0\ngoal_distance = 0.8\ngoal_radius = 1.0\n"
 def _tiny(tmp_path, **keys) -> list[str]:
     """TINY with a --config file in `tmp_path` holding `keys` and its validation and
     checkpoint intervals."""
-    from lgmd_sim.training.config import config_toml
-
-    path = tmp_path / "tiny.toml"
-    path.write_text(config_toml({"eval_every": 128, "eval_seeds": 1, "checkpoint_every": 128,
-                                 **keys}))
-    return [*TINY, "--config", str(path)]
+    return [*TINY, *config_option(tmp_path / "tiny.toml", {
+        "eval_every": 128, "eval_seeds": 1, "checkpoint_every": 128, **keys})]
 
 
 def _stages(tmp_path, *tables: str, window: int = 2):

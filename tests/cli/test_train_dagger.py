@@ -19,6 +19,8 @@ from lgmd_sim.policies.observe import base_env, observe
 from lgmd_sim.training import curve, dagger
 from lgmd_sim.training.envs import make_vec_env
 
+from train_tiny import config_option
+
 ENV = "lgmd_sim/RoughTerrainObstacles-v0"
 # frameless (privileged) observations: the DAgger machinery at the physics' speed; 1 s
 # episodes, so that the workers reset during a collection
@@ -214,19 +216,15 @@ def test_the_student_drives_by_its_mean_or_a_sample_and_is_fitted_the_epochs_ask
 def test_a_bad_dagger_option_is_one_line_naming_it():
     from lgmd_sim.training.run import TrainConfig
 
-    with pytest.raises(ValueError, match="dagger_student must be one of sample, mean"):
+    with pytest.raises(ValueError, match="dagger_student must be one of 'sample', 'mean'"):
         TrainConfig(obs="privileged", model=None, teacher="oracle", dagger_student="greedy")
-    with pytest.raises(ValueError, match="dagger_epochs must be a positive integer"):
+    with pytest.raises(ValueError, match="dagger_epochs must be an integer >= 1"):
         TrainConfig(obs="privileged", model=None, teacher="oracle", dagger_epochs=0)
 
 
 def _tiny(folder, **keys) -> list[str]:
     """TINY with its --config file, written into `folder`, holding `keys` too."""
-    from lgmd_sim.training.config import config_toml
-
-    path = folder / "tiny.toml"
-    path.write_text(config_toml({**TINY_KEYS, **keys}))
-    return [*TINY, "--config", str(path)]
+    return [*TINY, *config_option(folder / "tiny.toml", {**TINY_KEYS, **keys})]
 
 
 @pytest.mark.slow
@@ -298,7 +296,7 @@ def test_a_run_stopped_inside_the_rounds_resumes_at_the_next(tmp_path, monkeypat
 
 
 @pytest.mark.parametrize(("args", "keys", "message"), [
-    (["--algo", "sac"], {}, "teacher needs --algo ppo"),
+    (["--algo", "sac"], {}, "teacher needs algo ppo"),
     ([], {"imitation_steps": 256}, "tiny.toml: imitation_steps 256 must be fewer than --steps "
      "256"),
     ([], {"teacher": "nowhere"}, "tiny.toml: teacher nowhere: no policy at nowhere"),
@@ -307,8 +305,8 @@ def test_a_run_stopped_inside_the_rounds_resumes_at_the_next(tmp_path, monkeypat
     ([], {"dagger_rounds": 200}, "tiny.toml: imitation_steps 128 must be at least"),
     ([], {"value_warmup": 128}, "tiny.toml: imitation_steps 128 and value_warmup 128 must be "
      "fewer than --steps 256"),
-    ([], {"value_warmup": -1}, "tiny.toml: value_warmup must be a non-negative integer, got -1"),
-    ([], {"dagger_student": "greedy"}, "tiny.toml: dagger_student must be one of sample, mean"),
+    ([], {"value_warmup": -1}, "tiny.toml: value_warmup must be an integer >= 0, got -1"),
+    ([], {"dagger_student": "greedy"}, "tiny.toml: dagger_student must be one of 'sample', 'mean'"),
 ])
 def test_a_bad_teacher_is_one_line_before_training(tmp_path, capsys, args, keys, message):
     out = tmp_path / "never"

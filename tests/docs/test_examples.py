@@ -92,7 +92,7 @@ def test_a_bad_option_of_the_dataset_loop_is_one_line_and_makes_no_folder(
 def test_the_training_example_refuses_its_seeds_before_training(tmp_path):
     out = tmp_path / "out"
     assert _refused("train.py", "--out", str(out), "--seeds", "0") == (
-        "train.py: error: --seeds must be a positive integer, got 0\n")
+        "train.py: error: --seeds must be an integer >= 1, got 0\n")
     assert not out.exists()  # no policy trained first
 
 

@@ -26,6 +26,8 @@ def test_the_shipped_policy_s_table_is_its_evaluation_s_with_its_command():
     assert f"\n{table}\n" in text, ("the guide's table differs from "
                                     "docs/training/runs/eval-shipped/eval.md: copy it again")
     command = json.loads((EVAL_SHIPPED / "run.json").read_text())["command"]
+    # recorded by `lgmd-sim eval` with no policy: today's `bench closed-loop --policies shipped`
+    command = command.replace("lgmd-sim eval ", "lgmd-sim bench closed-loop --policies shipped ")
     assert f"```bash\n{command}\n```\n\n{table}" in text
 
 
@@ -66,13 +68,13 @@ KEYS = re.compile(r"^<!-- TrainConfig keys: .*?-->\n(.*?)^<!-- end of TrainConfi
 def test_the_guide_lists_every_config_key_as_train_config_declares_it():
     """The keys of `lgmd-sim train --config`, their defaults and meanings, are TrainConfig's
     fields' (declared there once)."""
-    from lgmd_sim.training.config import keys_markdown
+    from lgmd_sim.core.configfile import keys_markdown
+    from lgmd_sim.training.config import TrainConfig
 
     found = KEYS.search(GUIDE.read_text())
     assert found, "the guide lost its list of the config file's keys"
-    assert found.group(1) == keys_markdown(), (
-        "the guide's keys differ from TrainConfig's: paste the output of python -c 'from "
-        "lgmd_sim.training.config import keys_markdown; print(keys_markdown(), end=\"\")'")
+    assert found.group(1) == keys_markdown(TrainConfig), (
+        "the guide's keys differ from TrainConfig's: `python -m scripts.reference` writes them")
 
 
 SHIPPED_RUN = ROOT / "docs" / "training" / "runs" / "student-feedback-h4-mean"

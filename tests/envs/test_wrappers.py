@@ -146,9 +146,9 @@ def test_the_memory_keeps_the_excitation_by_column_and_fades_over_its_frames():
 
 
 @pytest.mark.parametrize(("kwargs", "message"), [
-    ({"memory": -1}, "memory must be a non-negative integer"),
-    ({"memory": 1.5}, "memory must be a non-negative integer"),
-    ({"memory": True}, "memory must be a non-negative integer"),
+    ({"memory": -1}, "memory must be an integer >= 0"),
+    ({"memory": 1.5}, "memory must be an integer >= 0"),
+    ({"memory": True}, "memory must be an integer >= 0"),
     ({"memory": 30, "grid": None}, "memory needs a grid"),
 ])
 def test_a_bad_memory_is_refused_naming_it(kwargs, message):

@@ -1,6 +1,7 @@
-"""`lgmd-sim train` and `lgmd-sim eval`: a tiny run end to end, the saved policy acting as
-in training (same observations, frozen normalisation, deterministic), resuming, the
-shipped policy, and bad input refused in one line before anything starts."""
+"""`lgmd-sim train` and `lgmd-sim bench closed-loop --policies`: a tiny run end to end, the
+saved policy acting as in training (same observations, frozen normalisation,
+deterministic), resuming, the shipped policy, and bad input refused in one line before
+anything starts."""
 
 from __future__ import annotations
 
@@ -92,17 +93,21 @@ def test_pixels_stack_small_grey_frames_channels_first():
     env.close()
 
 
-def test_eval_by_default_runs_reactive_with_the_detector_the_policy_observes_and_draws_seeds(
+def test_policies_by_default_run_reactive_with_the_detector_they_observe_and_draw_seeds(
         run):
     from lgmd_sim.cli import build_parser
-    from lgmd_sim.cli.eval import config_from_args
+    from lgmd_sim.cli.bench import closed_loop_config
+
+    def config_from_args(argv: list[str]):
+        return closed_loop_config(build_parser().parse_args(
+            ["bench", "closed-loop", "--policies", *argv]))
 
     _, trained, _ = policy_lib.load_config(run)
-    config = config_from_args(build_parser().parse_args(["eval", str(run)]))
+    config = config_from_args([str(run)])
     assert config.detectors is None and config.seeds == policies.EVAL_SEEDS
     assert config.bench().detectors == ((trained.model, trained.preset),)
     assert config.bench().top_views == policies.EVAL_TOP_VIEWS > 1  # beside the Oracle
-    given = config_from_args(build_parser().parse_args(["eval", str(run), "--models", "lgmd2"]))
+    given = config_from_args([str(run), "--models", "lgmd2"])
     assert [m for m, _ in given.bench().detectors] == ["lgmd2"]
 
 

@@ -1,15 +1,15 @@
 """Did the robot see what it hit? Each collision's obstacle in the camera's frames before it.
 
-Replays the collisions of a closed-loop evaluation (an ``lgmd-sim eval`` or ``lgmd-sim
-bench closed-loop`` run folder of scenarios whose episodes end at a collision: its
-cells and seeds, the episodes its episodes.csv records as collided). In each frame of the
-last WINDOW seconds before a hit it renders the camera's segmentation (which geom each
-pixel shows, so occlusion and the frame's edges count: what the controller's detector
-was shown) and takes the bearing of the nearest point of the obstacle hit. It reports
-how many pixels of that obstacle the camera saw LAGS seconds before the hit: an obstacle
-out of the frame then is one that no detector on this camera could warn of in time,
-while the Oracle and the privileged policy read the truth wherever the obstacle is. For a
-controller that steers by its detector's excitation (LoomSteer: 0 at rest, 1 at the
+Replays the collisions of a closed-loop evaluation (an ``lgmd-sim bench closed-loop`` run
+folder, with ``--policies`` or without, of scenarios whose episodes end at a collision:
+its cells and seeds, the episodes its episodes.csv records as collided). In each frame of
+the last WINDOW seconds before a hit it renders the camera's segmentation (which geom
+each pixel shows, so occlusion and the frame's edges count: what the controller's
+detector was shown) and takes the bearing of the nearest point of the obstacle hit. It
+reports how many pixels of that obstacle the camera saw LAGS seconds before the hit: an
+obstacle out of the frame then is one that no detector on this camera could warn of in
+time, while the Oracle and the privileged policy read the truth wherever the obstacle is.
+For a controller that steers by its detector's excitation (LoomSteer: 0 at rest, 1 at the
 alarm threshold) it also records that excitation and the alarm on each frame, so that an
 obstacle in view the detector did not answer to is told from one it alarmed for too late.
 A replay must end in the recorded collision frame (the same processor plays the same
@@ -42,11 +42,11 @@ from lgmd_sim import controllers
 from lgmd_sim.benchmark.closed_loop import ClosedLoopConfig
 from lgmd_sim.benchmark.episode import Cell, driven
 from lgmd_sim.benchmark.summary import cell_of
-from lgmd_sim.controllers import options
 from lgmd_sim.core.extras import MissingExtra
 from lgmd_sim.core.fileio import atomic_outputs, error_text, read_text
 from lgmd_sim.core.jobs import Job
 from lgmd_sim.core.parallel import RunOptions, run_jobs
+from lgmd_sim.core.params import checked, count
 from lgmd_sim.core.runs import NULL, NUMBER, RECORD, Fields, Maybe, read_record
 from lgmd_sim.detect.outputs import check_out_folder
 from lgmd_sim.envs.catalogue import params_for
@@ -69,7 +69,7 @@ CONFIG_FIELDS: Fields = {"config": {
                      "tag": (str, NULL)}]),
     "sides": Maybe([str]), "top_views": Maybe(int)}}
 #: What a user whose folder is refused can do about it.
-REMEDY = "give the run folder of an lgmd-sim eval or lgmd-sim bench closed-loop run"
+REMEDY = "give the run folder of an lgmd-sim bench closed-loop run (--policies or not)"
 #: The columns of episodes.csv the replay reads.
 COLUMNS = ("scenario", "jitter", "controller", "model", "preset", "seed", "frames",
            "collided")
@@ -158,7 +158,7 @@ def replay(folder: Path, out: Path, workers: int | None) -> None:
     `out`: every input is checked before the first replay, and the outputs move into place
     as a set, so that a refusal or a failure leaves `out` as it was."""
     if workers is not None:
-        options.check_positive(workers, "--workers", integer=True)
+        checked("workers", workers, count)
     check_out_folder(out)
     config = _config(folder)
     cells = {cell.key(seed): cell for cell in config.cells() for seed in config.seed_list}

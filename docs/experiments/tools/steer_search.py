@@ -2,7 +2,7 @@
 seven variations, each driving the search seeds of RoughTerrainObstacles at jitter 1 with
 no frames rendered (the controller reads the ground truth only); the one with the most
 successes less collisions (then the most successes; the first among equals) is the
-default. Held-out seeds are `lgmd-sim eval`'s, never these.
+default. Held-out seeds are `lgmd-sim bench closed-loop`'s, never these.
 
     .venv/bin/python docs/experiments/tools/steer_search.py            # about 3 minutes on one core
 """
@@ -18,7 +18,7 @@ import lgmd_sim  # noqa: F401  (registers the scenarios)
 from lgmd_sim import controllers
 
 #: The search seeds: neither `lgmd-sim train`'s (training, validation from 900) nor
-#: `lgmd-sim eval`'s (1000 and up, 50 by default).
+#: `lgmd-sim bench closed-loop`'s (1000 and up; 50 by default, 30 with --policies).
 SEEDS = range(2000, 2030)
 #: The first setting ({}: the values it was designed with) and its variations.
 SETTINGS: list[dict[str, float]] = [

@@ -51,6 +51,64 @@ PAGE = ROOT / "docs" / "experiments" / "training-runs.md"
 FIGURES = ROOT / "docs" / "training"
 RESULTS = "## Results"
 
+#: The options of `lgmd-sim eval` (now `bench closed-loop --policies`) that took a value.
+EVAL_VALUES = {"--controllers", "--models", "--presets", "--jitter", "--seeds", "--first-seed",
+               "--cruise", "--horizon", "--top-views", "--out", "--workers", "--ray"}
+
+
+def today(command: str) -> str | None:
+    """A recorded command as today's lgmd-sim says it: `lgmd-sim eval POLICY ... OPTIONS` is
+    `lgmd-sim bench closed-loop --policies POLICY,... OPTIONS` (no POLICY: `shipped`),
+    `--ray local` is `--workers ray`, `--ray ADDRESS` `RAY_ADDRESS=ADDRESS ... --workers
+    ray`; None where today's parser refuses the result (an option that is now a key of
+    --config FILE.toml: no command line says it)."""
+    import contextlib
+    import io
+
+    from lgmd_sim.cli import build_parser
+
+    words = shlex.split(command)
+    if words[:1] != ["lgmd-sim"]:
+        return command
+    args, env = words[1:], []
+    if args[:1] == ["eval"]:
+        policies, rest, k = [], [], 1
+        while k < len(args):
+            word = args[k]
+            if word in EVAL_VALUES and k + 1 < len(args):
+                rest += args[k:k + 2]
+                k += 2
+            else:
+                (rest if word.startswith("--") else policies).append(word)
+                k += 1
+        args = ["bench", "closed-loop", "--policies", ",".join(policies) or "shipped", *rest]
+    if "--ray" in args[:-1]:
+        k = args.index("--ray")
+        address = args[k + 1]
+        args = [w for i, w in enumerate(args) if i not in (k, k + 1)]
+        if "--workers" in args[:-1]:
+            del args[args.index("--workers"):args.index("--workers") + 2]
+        args += ["--workers", "ray"]
+        env = [] if address == "local" else [f"RAY_ADDRESS={shlex.quote(address)}"]
+    try:
+        with contextlib.redirect_stderr(io.StringIO()):
+            build_parser().parse_args(args)
+    except SystemExit:
+        return None
+    return " ".join([*env, shlex.join(["lgmd-sim", *args])])
+
+
+def command_block(commands: list[str]) -> list[str]:
+    """Recorded commands as a shell block of today's commands where each has an exact
+    equivalent (`today`); else as they were run (a text block), and a line on why."""
+    now = [today(command) for command in commands]
+    if None not in now:
+        return ["```bash", *now, "```"]
+    return ["```text", *commands, "```", "",
+            "Run by an earlier lgmd-sim; today the options it no longer takes are keys of "
+            "`--config FILE.toml` (docs/reference/cli.md)."]
+
+
 def _episodes(run: Path) -> list[dict[str, str]]:
     with (run / "episodes.csv").open(newline="") as f:
         return list(csv.DictReader(f))
@@ -384,13 +442,14 @@ def _against(runs: list[Path], label: str, shipped: str) -> str | None:
 
 
 def choice(runs: list[Path], tag: str, name: str) -> list[str]:
-    """The rule that chose the shipped policy, from `runs`: ``lgmd-sim eval`` runs of the
-    candidate policies on the same validation seeds (below the evaluation's), never on the
-    evaluation's. A candidate's score: successes minus collisions, as rates, averaged over
-    the jitter levels; the highest is shipped, and a later candidate replaces the shipped
-    policy only where a run that played both (the shipped one again, on that machine) puts
-    the difference beyond its paired interval. `tag`: the shipped policy's name there (the
-    training run's policy it was released from); `name`: its shipped name."""
+    """The rule that chose the shipped policy, from `runs`: ``lgmd-sim bench closed-loop
+    --policies`` runs of the candidate policies on the same validation seeds (below the
+    evaluation's), never on the evaluation's. A candidate's score: successes minus
+    collisions, as rates, averaged over the jitter levels; the highest is shipped, and a
+    later candidate replaces the shipped policy only where a run that played both (the
+    shipped one again, on that machine) puts the difference beyond its paired interval.
+    `tag`: the shipped policy's name there (the training run's policy it was released
+    from); `name`: its shipped name."""
     records = [json.loads((run / "run.json").read_text()) for run in runs]
     seeds = {tuple(r["config"]["seeds"]) for r in records}
     if len(seeds) > 1:
@@ -408,7 +467,7 @@ def choice(runs: list[Path], tag: str, name: str) -> list[str]:
                         / cells[j, label]["n"] for j in jitters) / len(jitters)
              for label in labels}
     top = max(score.values())
-    lines = ["", "```text", *(record["command"] for record in records), "```", "",
+    lines = ["", *command_block([record["command"] for record in records]), "",
              "| candidate | " + " | ".join(f"jitter {j:g}: successes / collisions %"
                                            for j in jitters) + " | score |",
              "|---|" + "---:|" * (len(jitters) + 1)]
@@ -533,8 +592,9 @@ def main() -> None:
                         help="evaluations on the same seeds and jitter levels: one table")
     parser.add_argument("--bench", type=Path, nargs="*", default=[])
     parser.add_argument("--choice", type=Path, nargs="*", default=[],
-                        help="lgmd-sim eval runs of the candidate policies on the same "
-                        "validation seeds: the rule that chose the shipped one")
+                        help="lgmd-sim bench closed-loop --policies runs of the "
+                        "candidate policies on the same validation seeds: the rule that "
+                        "chose the shipped one")
     parser.add_argument("--collisions", type=Path,
                         help="docs/experiments/tools/collision_views.py's output on the "
                         "evaluation: what the collisions hit, and whether the camera saw it")
@@ -577,10 +637,9 @@ def main() -> None:
         f"policy: {name}": about(config) for name, config in configs.items()})
     names = [c["tag"] for e in evaluations for c in e["config"]["extra"]]
     evaluated = list(dict.fromkeys(names))
-    lines += ["### Evaluation on held-out seeds", "", "```bash", evaluation["command"]]
-    lines += [record["command"] for record in benches.values()
-              if record["command"] != evaluation["command"]]  # the evaluation as its bench
-    lines += ["```", "",
+    lines += ["### Evaluation on held-out seeds", "", *command_block(
+        [evaluation["command"], *(record["command"] for record in benches.values()
+                                  if record["command"] != evaluation["command"])]), "",
               f"{seeds(evaluation, list(records.values()))} ReactiveAvoid's best detector is "
               "the one with the fewest collisions (then the most successes) over all the "
               "closed-loop benchmark's seeds at that jitter level, shown here on the "

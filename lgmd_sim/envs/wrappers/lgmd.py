@@ -20,6 +20,7 @@ from gymnasium.vector import AutoresetMode, VectorEnv, VectorWrapper
 from gymnasium.vector.utils import batch_space
 
 from lgmd_sim import models
+from lgmd_sim.core.params import because, checked, count, optional, seed, tuple_of
 from lgmd_sim.envs.wrappers.frames import check_frame_space, frame_size_of
 from lgmd_sim.models.layers import needed_layer
 
@@ -34,10 +35,6 @@ REST = 0.5
 #: The features are a compact summary for a policy's MLP; a larger request (history=1e9
 #: from a policy.json) would exhaust the memory when the wrapper is made, before any use.
 MAX_FEATURES = 2**20
-
-
-def _count(v: Any) -> bool:
-    return isinstance(v, int | np.integer) and not isinstance(v, bool) and v >= 1
 
 
 def _check_grid(grid: tuple[int, int], height: int, width: int) -> None:
@@ -115,23 +112,16 @@ class LGMDFeatures:
                  grid: tuple[int, int] | None = (1, 3), grid_history: int = 1,
                  memory: int = 0, keep_frame: bool = True,
                  frame_size: tuple[int, int] | None = None, **params: Any) -> None:
-        if not _count(n_envs):
-            raise ValueError(f"n_envs must be a positive integer, got {n_envs!r}")
+        checked("n_envs", n_envs, count)
         names = [model] if isinstance(model, str) else model
         if not (isinstance(names, Sequence) and names and all(isinstance(n, str) for n in names)):
             raise ValueError(f"model must be a model name or a list of them, got {model!r}")
         if len(set(names)) < len(names):
             raise ValueError(f"model names a model twice: {list(names)}")
-        for name, value in (("history", history), ("grid_history", grid_history)):
-            if not _count(value):
-                raise ValueError(f"{name} must be a positive integer, got {value!r}")
-        if grid is not None and not (isinstance(grid, Sequence) and len(grid) == 2
-                                     and all(_count(v) for v in grid)):
-            raise ValueError(f"grid must be (rows, cols) of positive integers or None, "
-                             f"got {grid!r}")
-        if not (_count(memory) or (isinstance(memory, int | np.integer)
-                                   and not isinstance(memory, bool) and memory == 0)):
-            raise ValueError(f"memory must be a non-negative integer (frames), got {memory!r}")
+        checked("history", history, count)
+        checked("grid_history", grid_history, count)
+        checked("grid", grid, optional(because(tuple_of(count, 2), "(rows, cols)")))
+        checked("memory", memory, seed)
         if memory and grid is None:
             raise ValueError("memory needs a grid: it remembers by the grid's columns")
         if not isinstance(keep_frame, bool | np.bool_):

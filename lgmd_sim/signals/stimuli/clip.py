@@ -12,7 +12,7 @@ from typing import Any
 import cv2
 import numpy as np
 
-from lgmd_sim.core.params import Check, int_at_least, positive
+from lgmd_sim.core.params import checked, int_at_least, positive
 from lgmd_sim.signals import noise
 
 #: Texture amplitude around the background level (fraction of full scale).
@@ -44,14 +44,6 @@ class Stimulus:
         return len(self.frames)
 
 
-def require(name: str, value: Any, check: Check) -> Any:
-    """``value`` if the parameter ``check`` accepts it, else a ValueError naming it."""
-    error = check(value)
-    if error:
-        raise ValueError(f"{name} {error}, got {value!r}")
-    return value
-
-
 def fraction(value: Any) -> str | None:
     """A `lgmd_sim.core.params` check: a number in (0, 1] (a contrast, a modulation depth)."""
     return None if positive(value) is None and value <= 1 else "must be a number in (0, 1]"
@@ -59,12 +51,12 @@ def fraction(value: Any) -> str | None:
 
 def positive_float(name: str, value: Any) -> float:
     """``value``, checked to be a finite number > 0, as a float."""
-    return float(require(name, value, positive))
+    return float(checked(name, value, positive))
 
 
 def count(name: str, value: Any, lo: int) -> int:
     """``value``, checked to be an integer >= ``lo``."""
-    return int(require(name, value, int_at_least(lo)))
+    return int(checked(name, value, int_at_least(lo)))
 
 
 def frame_shape(shape: Sequence[int]) -> tuple[int, int]:

@@ -7,7 +7,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from lgmd_sim.core.params import finite, one_of
+from lgmd_sim.core.params import checked, finite, one_of
 from lgmd_sim.signals.stimuli.clip import (
     BACKGROUNDS,
     Stimulus,
@@ -16,7 +16,6 @@ from lgmd_sim.signals.stimuli.clip import (
     fraction,
     frame_shape,
     positive_float,
-    require,
     to_uint8,
 )
 
@@ -59,9 +58,9 @@ def grating(
     period = positive_float("period", period)
     speed = positive_float("speed", speed)
     fps = positive_float("fps", fps)
-    require("orientation", orientation, finite)
-    require("waveform", waveform, one_of(*WAVEFORMS))
-    contrast = float(require("contrast", contrast, fraction))
+    checked("orientation", orientation, finite)
+    checked("waveform", waveform, one_of(*WAVEFORMS))
+    contrast = float(checked("contrast", contrast, fraction))
     n_frames = count("n_frames", n_frames, 1)
     ss = 1 if waveform == "sine" else 4
     offs = (np.arange(ss) + 0.5) / ss - 0.5  # sub-pixel sample positions
@@ -107,11 +106,11 @@ def flicker(
     """
     shape = frame_shape(shape)
     frequency = positive_float("frequency", frequency)
-    depth = float(require("depth", depth, fraction))
-    require("waveform", waveform, one_of(*WAVEFORMS))
+    depth = float(checked("depth", depth, fraction))
+    checked("waveform", waveform, one_of(*WAVEFORMS))
     fps = positive_float("fps", fps)
     n_frames = count("n_frames", n_frames, 1)
-    require("background", background, one_of(*BACKGROUNDS))
+    checked("background", background, one_of(*BACKGROUNDS))
     scene = draw_background(shape, 0.5, background, count("seed", seed, 0))
     t = np.arange(n_frames) / fps
     gains = np.concatenate([np.ones(count("still_frames", still_frames, 0)),

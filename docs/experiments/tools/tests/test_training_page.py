@@ -228,3 +228,24 @@ def test_the_log_says_met_only_in_its_targets_table_once_per_policy(monkeypatch)
     names = [line.split(" | ")[0] for line in verdicts]
     assert len(names) == len(set(names)), "a policy with two verdicts"
     assert targets.startswith("### Targets\n\nIssue 17")
+
+
+def test_a_recorded_command_is_shown_as_today_s_where_one_says_the_same(monkeypatch):
+    """`lgmd-sim eval POLICY ...` is `bench closed-loop --policies POLICY,...` with the same
+    options, `--ray` is `--workers ray` (its address in RAY_ADDRESS); a command that set an
+    option now a key of --config FILE.toml stays as it was run, in a text block."""
+    monkeypatch.syspath_prepend(str(TOOLS))
+    page = importlib.import_module("training_page")
+    assert page.today("lgmd-sim eval --out runs/e --no-progress") == (
+        "lgmd-sim bench closed-loop --policies shipped --out runs/e --no-progress")
+    assert page.today("lgmd-sim eval a b/best --controllers none --seeds 5 --ray local") == (
+        "lgmd-sim bench closed-loop --policies a,b/best --controllers none --seeds 5 "
+        "--workers ray")
+    assert page.today("lgmd-sim bench closed-loop --ray auto --workers 2") == (
+        "RAY_ADDRESS=auto lgmd-sim bench closed-loop --workers ray")
+    assert page.today("lgmd-sim eval a --top-views 2") is None
+    assert page.command_block(["lgmd-sim eval a"]) == [
+        "```bash", "lgmd-sim bench closed-loop --policies a", "```"]
+    text = page.command_block(["lgmd-sim eval a", "lgmd-sim bench closed-loop --sides eyes"])
+    assert text[:4] == ["```text", "lgmd-sim eval a", "lgmd-sim bench closed-loop --sides eyes",
+                        "```"]
