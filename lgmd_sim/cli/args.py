@@ -8,6 +8,7 @@ the printout of a job that keeps a run folder."""
 from __future__ import annotations
 
 import argparse
+import os
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
@@ -79,7 +80,12 @@ def advanced(p: argparse.ArgumentParser, about: str) -> argparse._ArgumentGroup:
 
 def workers(text: str) -> int | str:
     """--workers: a number of local worker processes, or "ray"."""
-    return text if text == "ray" else positive_int(text)
+    if text == "ray":
+        return text
+    try:
+        return positive_int(text)
+    except argparse.ArgumentTypeError:
+        raise argparse.ArgumentTypeError(f"must be an integer >= 1 or ray, got {text}") from None
 
 
 def add_parallel_options(p: Options, unit: str = "episodes") -> None:
@@ -103,13 +109,11 @@ def add_run_folder_options(p: Options, default: str) -> None:
 def run_options(args: argparse.Namespace) -> RunOptions:
     """How a job given the options of `add_parallel_options` (and `add_run_folder_options`,
     where it has them) runs, checked before it starts."""
-    import os
-
     from lgmd_sim.core.parallel import RunOptions
 
     ray = args.workers == "ray"
     return RunOptions(workers=None if ray else args.workers,
-                      ray_address=os.environ.get("RAY_ADDRESS") or "local" if ray else None,
+                      ray_address=(os.environ.get("RAY_ADDRESS") or "local") if ray else None,
                       progress=False if args.no_progress else None,
                       resume=getattr(args, "resume", False), command=args.command_line)
 
@@ -147,11 +151,14 @@ def option(p: Options, cls: type, name: str, *, shown: str | None = None,
     applies (`configured`)."""
     from lgmd_sim.core.configfile import defaults, doc
 
+    default = defaults(cls)[name]
+    listed = isinstance(default, list) or (default is None and kwargs.get("type") is names)
     if shown is None:
-        default = defaults(cls)[name]
-        shown = ",".join(map(str, default)) if isinstance(default, list) else str(default)
+        shown = (",".join(f"{v:g}" if isinstance(v, float) else str(v) for v in default)
+                 if isinstance(default, list) else str(default))
+    about = f"comma-separated; default {shown}" if listed else f"default {shown}"
     p.add_argument("--" + name.replace("_", "-"), default=None,
-                   help=f"{doc(cls, name)} (default {shown})".replace("%", "%%"), **kwargs)
+                   help=f"{doc(cls, name)} ({about})".replace("%", "%%"), **kwargs)
 
 
 def add_config_file(p: Options, about: str, *classes: type) -> None:
@@ -159,10 +166,10 @@ def add_config_file(p: Options, about: str, *classes: type) -> None:
     (`classes`: the configurations it makes, the first unless the help says otherwise),
     `about` saying which fields only a file sets. The option keeps `classes`
     (``config_classes``): the command line's reference lists their keys."""
-    names = " or ".join(cls.__name__ for cls in classes)
+    made = " or ".join(cls.__name__ for cls in classes)
     action = p.add_argument(
         "--config", metavar="FILE.toml",
-        help=f"settings as KEY = VALUE lines of a TOML file, KEY a field of {names}: "
+        help=f"settings as KEY = VALUE lines of a TOML file, KEY a field of {made}: "
         f"{about} and any other (docs/reference/cli.md lists them); the options given "
         "override the file")
     action.config_classes = classes  # type: ignore[attr-defined]
@@ -178,11 +185,12 @@ def configured(cls: type, args: argparse.Namespace, given: dict[str, Any]) -> An
     """
     from lgmd_sim.core.configfile import read_toml
 
-    read = read_toml(args.config, cls) if args.config else {}
+    file = getattr(args, "config", None)  # a command without --config: its options only
+    read = read_toml(file, cls) if file else {}
     from_file = {k: v for k, v in read.items() if given.get(k) is None}
     try:
         return cls(**from_file, **{k: v for k, v in given.items() if v is not None})
     except FieldError as exc:
         if exc.field in from_file:
-            raise ValueError(f"{args.config}: {exc}") from None
+            raise ValueError(f"{file}: {exc}") from None
         raise

@@ -10,15 +10,22 @@ from typing import Any
 from lgmd_sim.cli.args import (
     add_parallel_options,
     advanced,
+    configured,
+    names,
     non_negative_int,
+    option,
     positive_int,
     resolution,
     run_options,
 )
 from lgmd_sim.controllers import options
+from lgmd_sim.core.configfile import doc
 
 
 def add(sub: argparse._SubParsersAction) -> None:
+    from lgmd_sim.data.generate import GenerateConfig
+    from lgmd_sim.data.layout import VIDEO_FORMATS
+
     p = sub.add_parser(
         "dataset", help="generate, verify and export labelled jitter datasets",
         description="Labelled jitter datasets: camera frames stored losslessly with the "
@@ -32,35 +39,20 @@ def add(sub: argparse._SubParsersAction) -> None:
         "them in --out. Re-running the same command resumes an interrupted run; the same "
         "command gives byte-identical files whatever the number of workers, and on Ray.",
     )
-    g.add_argument("--scenarios", default="all",
-                   help="comma-separated scenario names, or all (default)")
-    g.add_argument("--jitter", default="0,1,2",
-                   help="comma-separated jitter levels (default 0,1,2)")
-    g.add_argument("--episodes", type=positive_int, default=10,
-                   help="episodes per scenario and jitter level (default 10)")
+    option(g, GenerateConfig, "scenarios", type=names, shown="all")
+    option(g, GenerateConfig, "jitter")
+    option(g, GenerateConfig, "episodes", type=positive_int)
     g.add_argument("--out", required=True, metavar="DIR", help="the dataset folder")
-    g.add_argument("--resolution", type=resolution, default="paper",
-                   help="paper (270x480, default), rl (120x160), small (64x64) or HxW")
+    option(g, GenerateConfig, "resolution", type=resolution)
     more = advanced(g, "what drives the carrier, LGMD labels, noise variants, the frames' "
                     "storage, seeds and environment parameters")
-    more.add_argument("--controller", default="straight",
-                      help="what drives the carrier: a name from lgmd_sim.controllers "
-                      "(default straight)")
-    more.add_argument("--models", default="none",
-                      help="LGMD models whose potential and alarm join the labels: none "
-                      "(default), all, or a comma-separated list")
-    more.add_argument("--noise", default="",
-                      help="noise variants, comma-separated, e.g. "
-                      "gaussian:0.005,saltpepper:0.005 (join noises of one variant with +); "
-                      "derived from the clean frames on loading, not stored")
-    more.add_argument("--video", choices=("huffyuv", "ffv1", "mpeg4"), default="huffyuv",
-                      help="frame storage: huffyuv (lossless, fast; default), ffv1 (lossless, "
-                      "about half the size, slower to write), mpeg4 (lossy, small)")
-    more.add_argument("--seed", type=non_negative_int, default=0,
-                      help="first episode seed (default 0)")
+    option(more, GenerateConfig, "controller")
+    option(more, GenerateConfig, "models", shown="none; all: every model")
+    option(more, GenerateConfig, "noise", shown="none")
+    option(more, GenerateConfig, "video", choices=tuple(VIDEO_FORMATS))
+    option(more, GenerateConfig, "seed", type=non_negative_int)
     more.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
-                      help="an environment parameter for every scenario, e.g. time_limit=2 "
-                      "or miss_distance=0.5 (repeatable; see lgmd-sim envs NAME)")
+                      help=f"{doc(GenerateConfig, 'overrides')}; repeatable")
     add_parallel_options(g)
     v = what.add_parser(
         "verify", help="check a dataset: counts, checksums, label consistency",
@@ -85,17 +77,16 @@ def add(sub: argparse._SubParsersAction) -> None:
 
 
 def config_from_args(args: argparse.Namespace) -> Any:
-    """The `GenerateConfig` of ``dataset generate``'s arguments."""
+    """The `GenerateConfig` of ``dataset generate``'s arguments (repeats kept: the
+    configuration refuses a scenario or a level given twice)."""
     from lgmd_sim.data.generate import GenerateConfig
-    from lgmd_sim.envs.catalogue import scenarios
     from lgmd_sim.signals import noise
 
-    # repeats kept: the configuration refuses a scenario or a level given twice
-    names = options.names(args.scenarios, list(scenarios()), "scenario(s)",
-                          drop_repeats=False)
-    models = [] if args.models in ("", "none") else options.model_names(args.models)
-    variants = ["+".join(map(str, noise.parse(v.replace("+", ","))))
-                for v in args.noise.split(",")] if args.noise else []
+    models = None if args.models is None else (
+        () if args.models in ("", "none") else tuple(options.model_names(args.models)))
+    variants = None if args.noise is None else tuple(
+        "+".join(map(str, noise.parse(v.replace("+", ",")))) for v in options.comma_list(
+            args.noise))
     overrides: dict[str, Any] = {}
     for item in args.set:
         key, sep, value = item.partition("=")
@@ -105,10 +96,13 @@ def config_from_args(args: argparse.Namespace) -> Any:
             overrides[key.strip()] = json.loads(value)
         except ValueError:
             overrides[key.strip()] = value
-    jitter = options.jitter_levels(args.jitter, drop_repeats=False)
-    return GenerateConfig(tuple(names), jitter, args.episodes,
-                          args.resolution, args.controller, tuple(models), tuple(variants),
-                          args.video, args.seed, overrides)
+    jitter = None if args.jitter is None else options.jitter_levels(args.jitter,
+                                                                    drop_repeats=False)
+    return configured(GenerateConfig, args, {
+        "scenarios": args.scenarios, "jitter": jitter, "episodes": args.episodes,
+        "resolution": args.resolution, "controller": args.controller, "models": models,
+        "noise": variants, "video": args.video, "seed": args.seed,
+        "overrides": overrides or None})
 
 
 def run(args: argparse.Namespace) -> int:

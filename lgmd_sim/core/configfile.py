@@ -25,12 +25,19 @@ def setting(default: Any, doc: str, *, in_file: bool = True) -> Any:
     """A field of a job's configuration: its default, and what it means (one line of the
     docs' list of keys; the option's help where the command line sets it); `in_file`:
     whether a --config file may set it (False: a value no TOML holds)."""
-    return dataclasses.field(default=default, metadata={"doc": doc, "in_file": in_file})
+    metadata = {"doc": doc, "in_file": in_file}
+    if isinstance(default, dict):  # mutable: each configuration its own copy
+        return dataclasses.field(default_factory=lambda: dict(default), metadata=metadata)
+    return dataclasses.field(default=default, metadata=metadata)
+
+
+def _default(f: dataclasses.Field) -> Any:
+    return f.default_factory() if f.default is dataclasses.MISSING else f.default
 
 
 def _keys(cls: type) -> list[dataclasses.Field]:
-    """The fields of `cls` a --config file may set."""
-    return [f for f in dataclasses.fields(cls) if f.metadata.get("in_file", True)]
+    """The fields of `cls` a --config file may set: its settings (`setting`) in a file."""
+    return [f for f in dataclasses.fields(cls) if f.metadata.get("in_file")]
 
 
 def doc(cls: type, name: str) -> str:
@@ -41,7 +48,7 @@ def doc(cls: type, name: str) -> str:
 def defaults(cls: type) -> dict[str, Any]:
     """The defaults of the keys of `cls`'s --config file, as JSON records them (tuples as
     lists)."""
-    return {f.name: json.loads(json.dumps(f.default)) for f in _keys(cls)}
+    return {f.name: json.loads(json.dumps(_default(f))) for f in _keys(cls)}
 
 
 def _toml(value: Any) -> str:
@@ -60,7 +67,7 @@ def keys_markdown(cls: type) -> str:
     (where it has one) and meaning."""
     lines = []
     for f in _keys(cls):
-        default = "" if f.default is None else f" = {_toml(f.default)}"
+        default = "" if _default(f) is None else f" = {_toml(_default(f))}"
         lines.append(f"- `{f.name}{default}`: {f.metadata['doc']}")
     return "\n".join(lines) + "\n"
 

@@ -31,11 +31,12 @@ import os
 import tempfile
 import time
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 from lgmd_sim.controllers import options
+from lgmd_sim.core.configfile import setting
 from lgmd_sim.core.fileio import (
     canonical_json,
     remove_stale_partials,
@@ -59,35 +60,40 @@ _OWN_FIELDS = ("jitter", "resolution")
 
 @dataclass(frozen=True)
 class GenerateConfig:
-    """What a dataset holds: every option of ``dataset generate`` that shapes its files.
-
-    Attributes:
-        scenarios: catalogue scenario names.
-        jitter: jitter levels; every scenario is run at each.
-        episodes: episodes per (scenario, jitter), seeded ``seed``, ``seed + 1``, ...
-            (the same seeds at every jitter level: paired worlds).
-        resolution: a preset name or (height, width).
-        controller: a name of `lgmd_sim.controllers.available()`, or a
-            "package.module:Class" spec.
-        models: LGMD models whose potential and alarm join the labels (names or specs).
-        noise: noise variants, each "kind:level" or several joined by "+".
-        video: how frames are stored, a key of `layout.VIDEO_FORMATS`.
-        seed: the first episode seed.
-        overrides: further environment parameters, for every scenario.
+    """What a dataset holds: every option of ``dataset generate`` that shapes its files,
+    checked when it is made (a bad value raises a one-line ValueError naming it). Each field
+    is declared with its meaning (`lgmd_sim.core.configfile.setting`): the command's options.
     """
 
-    scenarios: tuple[str, ...]
-    jitter: tuple[float, ...]
-    episodes: int
-    resolution: str | tuple[int, int] = "paper"
-    controller: str = "straight"
-    models: tuple[str, ...] = ()
-    noise: tuple[str, ...] = ()
-    video: str = layout.DEFAULT_VIDEO
-    seed: int = 0
-    overrides: Mapping[str, Any] = field(default_factory=dict)
+    scenarios: tuple[str, ...] = setting(("all",), "catalogue scenario names (`lgmd-sim "
+                                         "envs`), or all")
+    jitter: tuple[float, ...] = setting((0.0, 1.0, 2.0),
+                                        "jitter levels; every scenario runs at each")
+    episodes: int = setting(10, "episodes per scenario and jitter level, seeded seed, seed + 1, "
+                            "... (the same seeds at every level: paired worlds)")
+    resolution: str | tuple[int, int] = setting(
+        "paper", "frame size: paper (270x480), rl (120x160), small (64x64) or HxW")
+    controller: str = setting("straight", "what drives the carrier: a name of "
+                              "`lgmd_sim.controllers.available()` or a package.module:Class")
+    models: tuple[str, ...] = setting(
+        (), "LGMD models whose potential and alarm join the labels: names or specs")
+    noise: tuple[str, ...] = setting(
+        (), "noise variants, each kind:level, noises of one variant joined by + (e.g. "
+        "gaussian:0.005, saltpepper:0.005): derived from the clean frames on loading, not "
+        "stored")
+    video: str = setting(layout.DEFAULT_VIDEO, "frame storage: huffyuv (lossless, fast), "
+                         "ffv1 (lossless, about half the size, slower to write), mpeg4 "
+                         "(lossy, small)")
+    seed: int = setting(0, "the first episode seed")
+    overrides: Mapping[str, Any] = setting(
+        {}, "environment parameters for every scenario, e.g. time_limit=2 or "
+        "miss_distance=0.5 (`lgmd-sim envs NAME` lists them)")
 
     def __post_init__(self) -> None:
+        from lgmd_sim.envs.catalogue import scenarios
+
+        if tuple(self.scenarios) == ("all",):
+            object.__setattr__(self, "scenarios", tuple(scenarios()))
         object.__setattr__(self, "resolution", options.resolution(self.resolution))
         _validate(self)
 

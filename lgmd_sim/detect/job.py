@@ -8,6 +8,7 @@ import sys
 from dataclasses import dataclass
 from pathlib import Path
 
+from lgmd_sim.core.configfile import setting
 from lgmd_sim.core.fileio import error_text
 from lgmd_sim.core.params import checked, in_range, seed
 from lgmd_sim.detect.clip import check_collision_frame, detect
@@ -16,7 +17,10 @@ from lgmd_sim.detect.specs import detector, detector_names, front_end_params, wi
 from lgmd_sim.signals import noise as noise_lib
 from lgmd_sim.signals.video import VideoReader
 
-__all__ = ["DetectConfig", "Video", "run"]
+__all__ = ["FOV", "DetectConfig", "Video", "run"]
+
+#: A camera's vertical field of view, in degrees.
+FOV = in_range(1.0, 179.0)
 
 
 @dataclass(frozen=True)
@@ -32,39 +36,57 @@ class Video:
 @dataclass(frozen=True)
 class DetectConfig:
     """What `run` does, checked when it is made (a bad value raises a one-line ValueError
-    naming it).
+    naming it). Each field but `videos` is declared with its meaning
+    (`lgmd_sim.core.configfile.setting`): the command's options.
 
     Attributes:
         videos: the inputs: video files or image folders (a path), or `Video`s.
-        models: detectors, each MODEL, MODEL/PRESET or either with video front ends
-            ("lgmd1/robot-image", "lgmd1+image+gain"), or ("all",): every model.
-        preset: run every model listed without a preset at this one where it has it (the
-            others at their default); a model listed with another preset is refused.
-        collision_frame: the labelled collision frame of every video (over a `Video`'s own).
-        window: a first alarm within this many seconds before the collision frame, that
-            frame included, is a hit (`lgmd_sim.signals.metrics.evaluate_clip`, as the benchmarks
-            count it).
-        out: the output folder; None: ``detect-out``, or no files with `json_lines`.
-        json_lines: print one JSON record per video instead of a line.
-        noise: corrupt every frame first ("kind:level,...", `lgmd_sim.signals.noise`).
-        noise_seed: the noise's seed.
-        stabilize: front ends for videos: "none", "image", "gain" or "image+gain".
-        fov: the camera's vertical field of view (degrees), for the "image" front end.
-        progress: show a progress bar (None: only on a terminal).
     """
 
     videos: tuple[str | Video, ...]
-    models: tuple[str, ...] = ("all",)
-    preset: str | None = None
-    collision_frame: int | None = None
-    window: float = 1.0
-    out: str | None = None
-    json_lines: bool = False
-    noise: str | None = None
-    noise_seed: int = 0
-    stabilize: str = "none"
-    fov: float = 55.0
-    progress: bool | None = None
+    models: tuple[str, ...] = setting(
+        ("all",), "all (every model `lgmd-sim models` lists) or a list of "
+        "MODEL[/PRESET][+FRONT...]: a model name or a plug-in's 'package.module:Class' spec, "
+        "optionally with its preset and the front ends a video can have, +image and +gain "
+        "(e.g. lgmd1/robot-image,feedback+gain)")
+    preset: str | None = setting(
+        None, "run each model listed without a preset at this one where it has it, e.g. "
+        "calibrated (see `lgmd-sim models`); the others at their default. A model listed "
+        "with another preset (MODEL/PRESET) is refused: give its preset once")
+    collision_frame: int | None = setting(
+        None, "the labelled collision frame (0-based) of every video, over a dataset "
+        "episode's own: marked in the figure, and used to score each model: a hit when its "
+        "first alarm falls in the window before this frame, this frame included (lead 0 s: "
+        "an alarm with the collision, too late to act on), otherwise a miss (early, late or "
+        "none), as `bench open-loop` and the published evaluation count it "
+        "(`lgmd_sim.signals.metrics.evaluate_clip`)")
+    window: float = setting(1.0, "the hit window, seconds before the collision frame")
+    out: str | None = setting(
+        None, "write <name>.csv, <name>.json and <name>.png per video into this folder "
+        "(unset: ./detect-out, but for json_lines: no files). <name> is the video's stem, "
+        "or its file name where two videos share a stem")
+    json_lines: bool = setting(False, "print one JSON object per video to stdout (with the "
+                               "membrane potential of every frame)")
+    noise: str | None = setting(
+        None, "corrupt every frame before the models and the SSIM see it, as the paper's "
+        "noisy streams: comma-separated kind:level of gaussian (variance on the [0, 1] "
+        "scale, the paper's 0.001 to 0.009), saltpepper (density, 0.001 to 0.009), shake "
+        "(extra rotation, translation and brightness gain, level 1: about 1 degree and 2 "
+        "pixels), and a real camera's: exposure (a smoothly drifting gain, level 1: about "
+        "10%), sensor (signal-dependent noise), blur (motion blur, level 1: about 3 pixels) "
+        "and jpeg (compression at quality 1 to 100), e.g. gaussian:0.005,saltpepper:0.005; "
+        "recorded in the JSON summary (`lgmd_sim.signals.noise`)")
+    noise_seed: int = setting(0, "seed of the noise; frame t's noise depends only on the "
+                              "seed, the noise and t")
+    stabilize: str = setting(
+        "none", "ego-motion compensation before every model: 'image' removes the camera's "
+        "rotation between frames, fitted from the frames alone (it needs the camera's field "
+        "of view, fov); 'gain' removes brightness changes between frames; 'image+gain' "
+        "both; a model listed with front ends of its own (+image) is refused with it. "
+        "Recorded per model in the JSON summary")
+    fov: float = setting(55.0, "the camera's vertical field of view in degrees, 1 to 179, "
+                         "for stabilize image (55: the simulator's camera)")
+    progress: bool | None = setting(None, "show a progress bar (unset: only on a terminal)")
 
     def __post_init__(self) -> None:
         if not self.videos:
@@ -80,6 +102,7 @@ class DetectConfig:
         if self.collision_frame is not None:
             checked("collision_frame", self.collision_frame, seed)
         checked("window", self.window, in_range(0, 3600))
+        checked("fov", self.fov, FOV)
 
     @property
     def out_folder(self) -> Path | None:

@@ -233,15 +233,15 @@ PARSED = {
         "first_seed": None, "resolution": None},
     "dataset generate --scenarios PassBy --jitter 0,1 --episodes 2 --resolution small "
     "--workers ray --out ray-dataset": {
-        "command": "dataset", "what": "generate", "scenarios": "PassBy", "jitter": "0,1",
-        "episodes": 2, "out": "ray-dataset", "resolution": "small", "controller": "straight",
-        "models": "none", "noise": "", "video": "huffyuv", "seed": 0, "set": [],
+        "command": "dataset", "what": "generate", "scenarios": ("PassBy",), "jitter": "0,1",
+        "episodes": 2, "out": "ray-dataset", "resolution": "small", "controller": None,
+        "models": None, "noise": None, "video": None, "seed": None, "set": [],
         "workers": "ray", "no_progress": False},
     "detect handheld.mp4 --collision-frame 96 --stabilize image --fov 55 "
     "--out docs/stabilize/image": {
-        "command": "detect", "videos": ["handheld.mp4"], "models": "all", "preset": None,
+        "command": "detect", "videos": ["handheld.mp4"], "models": None, "preset": None,
         "collision_frame": 96, "out": "docs/stabilize/image", "json": False,
-        "no_progress": False, "window": 1.0, "noise": None, "noise_seed": 0,
+        "no_progress": False, "window": None, "noise": None, "noise_seed": None,
         "stabilize": "image", "fov": 55.0},
 }
 
