@@ -35,7 +35,7 @@ LGMD_SIM = [sys.executable, "-m", "lgmd_sim.cli", "dataset", "generate"]
     (["--jitter", "0,9"], "--jitter must hold jitter levels in [0, 5], got '9'"),
     (["--jitter", "0,x"], "--jitter must hold jitter levels in [0, 5], got 'x'"),
     (["--set", "warp=3"], "unknown parameter(s) warp"),
-    (["--set", "jitter=3"], "overrides sets jitter, a field of the dataset's own: give it as jitter"),
+    (["--set", "jitter=3"], "overrides sets jitter, a field of the dataset's own"),
 ])
 def test_bad_input_is_one_line_naming_it_before_any_episode(tmp_path, capsys, args, named):
     out = tmp_path / "ds"
