@@ -42,8 +42,9 @@ from lgmd_sim import controllers
 from lgmd_sim.benchmark.closed_loop import ClosedLoopConfig
 from lgmd_sim.benchmark.episode import Cell, driven
 from lgmd_sim.benchmark.summary import cell_of
+from lgmd_sim.cli.args import error_line
 from lgmd_sim.core.extras import MissingExtra
-from lgmd_sim.core.fileio import atomic_outputs, error_text, read_text
+from lgmd_sim.core.fileio import atomic_outputs, read_text
 from lgmd_sim.core.jobs import Job
 from lgmd_sim.core.parallel import RunOptions, run_jobs
 from lgmd_sim.core.params import checked, count
@@ -150,7 +151,7 @@ def main() -> None:
     try:
         replay(args.eval, args.out, args.workers)
     except (ValueError, OSError, MissingExtra) as exc:  # a bad input: one line naming it
-        sys.exit(f"collision_views.py: {error_text(exc)}")
+        sys.exit(f"collision_views.py: {error_line(exc, parser, args)}")
 
 
 def replay(folder: Path, out: Path, workers: int | None) -> None:

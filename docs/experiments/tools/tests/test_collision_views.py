@@ -129,7 +129,7 @@ def _bad(folder: Path, case: str) -> tuple[list[str], Path, str]:
         (run / "run.json").unlink()
     elif case in ("--workers 0", "--workers -1"):
         args += case.split()
-        names = "--workers must be a positive integer"
+        names = "--workers must be an integer >= 1"
     elif case == "--out a file":
         out.write_text("kept")
         names = f"output folder {out} is a file"
