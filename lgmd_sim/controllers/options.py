@@ -26,7 +26,6 @@ __all__ = [
     "jitter_list",
     "model_names",
     "names",
-    "noise_levels",
     "noise_list",
     "resolution",
 ]
@@ -117,20 +116,6 @@ def noise_list(levels: Any) -> str | None:
     densities): each in (0, 1]."""
     ok = isinstance(levels, tuple | list) and all(map(_is_noise_level, levels))
     return None if ok else _NOISE_RANGE
-
-
-def noise_levels(text: str) -> tuple[float, ...]:
-    """Noise levels from "0.001,0.005", each in (0, 1]; "" is none."""
-    levels = []
-    for item in comma_list(text):
-        try:
-            level = float(item)
-        except ValueError:
-            level = -1.0
-        if not _is_noise_level(level):
-            raise FieldError("noise_levels", f"{_NOISE_RANGE}, got {item!r}")
-        levels.append(level)
-    return tuple(dict.fromkeys(levels))
 
 
 def resolution(value: str | Sequence[int], field: str = "resolution"
