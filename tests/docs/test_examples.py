@@ -148,12 +148,12 @@ def test_the_ray_example_gives_the_rows_of_a_local_run(tmp_path):
 @pytest.mark.slow  # a clip, its detection, a calibrated benchmark of a tiny protocol
 def test_the_own_detector_guide_runs_as_written(tmp_path):
     """The guide's five-minute block, line for line, from a folder holding examples/ (the
-    benchmark and the leaderboard on a tiny protocol: the real one takes 10 minutes), then
-    the first lines of "Make it yours"."""
+    smoke run, the benchmark and the leaderboard on a tiny protocol: the real one takes 10
+    minutes), then the first lines of "Make it yours"."""
     tiny = tiny_protocol(tmp_path, budget="budget = 2", seeds="seeds = 1")
     (tmp_path / "examples").symlink_to(ROOT / "examples")
     five, yours = _bash_blocks(GUIDES / "own-detector.md")[:2]
-    tiny_lines = [line.replace(" --out runs ", f" --out runs --protocol {tiny} --workers 1 ")
+    tiny_lines = [line.replace(" --", f" --protocol {tiny} --workers 1 --", 1)
                   if line.startswith("lgmd-sim benchmark ") else
                   f"{line} --protocol {tiny}" if line.startswith("lgmd-sim leaderboard ")
                   else line for line in five]
