@@ -96,7 +96,7 @@ class CalibrateConfig:
         "in $LGMD_SIM_DATA_DIR (else the user data folder, ~/.local/share/lgmd-sim on "
         "Linux): only the calibrated detectors' presets change there, and the models read "
         "it on top of the shipped presets")
-    presets_file: str | None = setting(
+    presets_file: str | Path | None = setting(
         None, "merge them into this file instead (implies save_presets); never one inside "
         "the installed package; the models read only your presets file, so a file named "
         "calibrated.json serves them once LGMD_SIM_DATA_DIR names its folder. Either "
