@@ -142,20 +142,28 @@ def names(text: str) -> tuple[str, ...]:
     return tuple(comma_list(text))
 
 
+def _spelled(default: Any) -> str:
+    """A field's default as an option spells it (a list comma-separated, 1.0 as 1)."""
+    if isinstance(default, list):
+        return ",".join(f"{v:g}" if isinstance(v, float) else str(v) for v in default)
+    return str(default)
+
+
 def option(p: Options, cls: type, name: str, *, shown: str | None = None,
-           **kwargs: Any) -> None:
+           beside: tuple[str, type] | None = None, **kwargs: Any) -> None:
     """--NAME (`name`, its ``_`` as ``-``): field `name` of configuration `cls`, whose help
     is the field's meaning and default as `cls` declares them
-    (`lgmd_sim.core.configfile.setting`; `shown`: the default as the option spells it).
-    Unset (None) unless given, so that a --config file's key, or else the field's default,
-    applies (`configured`)."""
+    (`lgmd_sim.core.configfile.setting`; `shown`: the default as the option spells it;
+    `beside`: (an option, the configuration it makes instead), whose default the help gives
+    too). Unset (None) unless given, so that a --config file's key, or else the field's
+    default, applies (`configured`)."""
     from lgmd_sim.core.configfile import defaults, doc
 
     default = defaults(cls)[name]
     listed = isinstance(default, list) or (default is None and kwargs.get("type") is names)
-    if shown is None:
-        shown = (",".join(f"{v:g}" if isinstance(v, float) else str(v) for v in default)
-                 if isinstance(default, list) else str(default))
+    shown = _spelled(default) if shown is None else shown
+    if beside is not None:
+        shown += f"; with {beside[0]} {_spelled(defaults(beside[1])[name])}"
     about = f"comma-separated; default {shown}" if listed else f"default {shown}"
     p.add_argument("--" + name.replace("_", "-"), default=None,
                    help=f"{doc(cls, name)} ({about})".replace("%", "%%"), **kwargs)

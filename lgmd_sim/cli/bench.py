@@ -31,10 +31,6 @@ from lgmd_sim.cli.args import (
 from lgmd_sim.controllers import options
 from lgmd_sim.core.extras import install_command
 
-#: What ``--policies`` changes of the defaults: those of the evaluation a shipped policy's
-#: POLICY.md quotes (`lgmd_sim.training.evaluate.EvalConfig`).
-_WITH_POLICIES = {"jitter": "1,2", "seeds": "30", "top_views": "3"}
-
 
 def add(sub: argparse._SubParsersAction) -> None:
     from lgmd_sim.benchmark.closed_loop import ClosedLoopConfig
@@ -82,10 +78,10 @@ def add(sub: argparse._SubParsersAction) -> None:
                    "and policy.npz, as lgmd-sim train writes them) or shipped names (shipped: "
                    "the default policy); their defaults are those of the evaluation a "
                    "shipped policy's POLICY.md quotes")
-    option(b, ClosedLoopConfig, "jitter",
-           shown=f"0,1,2; with --policies {_WITH_POLICIES['jitter']}")
-    option(b, ClosedLoopConfig, "seeds", type=positive_int,
-           shown=f"50; with --policies {_WITH_POLICIES['seeds']}")
+    # --policies makes an EvalConfig: its defaults are those of the evaluation a shipped
+    # policy's POLICY.md quotes
+    option(b, ClosedLoopConfig, "jitter", beside=("--policies", EvalConfig))
+    option(b, ClosedLoopConfig, "seeds", type=positive_int, beside=("--policies", EvalConfig))
     add_config_file(b, "cruise, horizon, sides, top_views (with --policies, EvalConfig's: "
                     "cruise, horizon, top_views)", ClosedLoopConfig, EvalConfig)
     add_run_folder_options(b, "bench-closed-loop")
