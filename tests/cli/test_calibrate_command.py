@@ -19,6 +19,18 @@ ROOT = Path(__file__).resolve().parents[2]
 TOOLS = ROOT / "docs" / "experiments" / "tools"  # the research log's scripts
 
 
+def _potentials(out, records, preset: str) -> list[np.ndarray]:
+    """LGMD1 at `preset` over the clips of `records` the calibration in `out` stored, each
+    from a reset, as the calibration scores a detector."""
+    model = models.make("lgmd1", preset=preset)
+    potentials = []
+    for r in records:
+        frames, _ = clips.load_clip(out / "clips", r["key"])
+        model.reset()
+        potentials.append(np.array([model.step(f).potential for f in frames]))
+    return potentials
+
+
 @pytest.mark.slow
 def test_a_tiny_calibration_writes_presets_that_models_take(tmp_path, monkeypatch):
     out = tmp_path / "cal"
@@ -45,16 +57,9 @@ def test_a_tiny_calibration_writes_presets_that_models_take(tmp_path, monkeypatc
         loop = models.make("feedback", preset="calibrated-open-loop")
         assert loop.params.feedback_gain == 0.0
         # the stabilized preset, run on its own, scores what the calibration scored
-        from lgmd_sim.calibration import clips, search
-
         records = [json.loads(p.read_text()) for p in sorted((out / "records").glob("clip-*"))]
         heldout = [r for r in records if r["key"].endswith("-s100")]
-        model = models.make("lgmd1", preset="calibrated-image")
-        potentials = []
-        for r in heldout:
-            frames, _ = clips.load_clip(out / "clips", r["key"])
-            model.reset()
-            potentials.append(np.array([model.step(f).potential for f in frames]))
+        potentials = _potentials(out, heldout, "calibrated-image")
         at = np.array([stabilized["params"]["threshold"]])
         hit = obj.hits([clips.label(r) for r in heldout], potentials, at)
         score, _ = obj.objective([clips.label(r) for r in heldout], hit)
@@ -124,12 +129,7 @@ def test_a_tiny_video_calibration_writes_video_presets_that_score_as_calibrated(
         # scores on the held-out clips what the calibration scored from stored motions
         heldout = [r for r in records if r["key"].endswith("-s100")]
         assert len(heldout) == len(transfer)
-        model = models.make("lgmd1", preset="video")
-        potentials = []
-        for r in heldout:
-            frames, _ = clips.load_clip(out / "clips", r["key"])
-            model.reset()
-            potentials.append(np.array([model.step(f).potential for f in frames]))
+        potentials = _potentials(out, heldout, "video")
         labels = [obj.VIDEO.label(r, {}) for r in heldout]
         score, _ = obj.VIDEO.value(np.array([r["kind"] for r in heldout]),
                                    obj.VIDEO.scores(labels, potentials, search.THRESHOLDS),
