@@ -145,18 +145,18 @@ def names(text: str) -> tuple[str, ...]:
 def _spelled(default: Any) -> str:
     """A field's default as an option spells it (a list comma-separated, 1.0 as 1)."""
     if isinstance(default, list):
-        return ",".join(f"{v:g}" if isinstance(v, float) else str(v) for v in default)
-    return str(default)
+        return ",".join(map(_spelled, default))
+    return f"{default:g}" if isinstance(default, float) else str(default)
 
 
 def option(p: Options, cls: type, name: str, *, shown: str | None = None,
            beside: tuple[str, type] | None = None, **kwargs: Any) -> None:
     """--NAME (`name`, its ``_`` as ``-``): field `name` of configuration `cls`, whose help
     is the field's meaning and default as `cls` declares them
-    (`lgmd_sim.core.configfile.setting`; `shown`: the default as the option spells it;
-    `beside`: (an option, the configuration it makes instead), whose default the help gives
-    too). Unset (None) unless given, so that a --config file's key, or else the field's
-    default, applies (`configured`)."""
+    (`lgmd_sim.core.configfile.setting`; `shown`: the default as the option spells it, ""
+    where the field's text says it; `beside`: (an option, the configuration it makes
+    instead), whose default the help gives too). Unset (None) unless given, so that a
+    --config file's key, or else the field's default, applies (`configured`)."""
     from lgmd_sim.core.configfile import defaults, doc
 
     default = defaults(cls)[name]
@@ -164,9 +164,10 @@ def option(p: Options, cls: type, name: str, *, shown: str | None = None,
     shown = _spelled(default) if shown is None else shown
     if beside is not None:
         shown += f"; with {beside[0]} {_spelled(defaults(beside[1])[name])}"
-    about = f"comma-separated; default {shown}" if listed else f"default {shown}"
+    about = [*(["comma-separated"] if listed else []), *([f"default {shown}"] if shown else [])]
+    text = f"{doc(cls, name)} ({'; '.join(about)})" if about else doc(cls, name)
     p.add_argument("--" + name.replace("_", "-"), default=None,
-                   help=f"{doc(cls, name)} ({about})".replace("%", "%%"), **kwargs)
+                   help=text.replace("%", "%%"), **kwargs)
 
 
 def add_config_file(p: Options, about: str, *classes: type) -> None:

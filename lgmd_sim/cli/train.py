@@ -18,12 +18,14 @@ import re
 from pathlib import Path
 from typing import Any
 
-from lgmd_sim.cli.args import advanced, print_result, resolution
+from lgmd_sim.cli.args import add_config_file, advanced, option, print_result, resolution
 from lgmd_sim.core.extras import install_command
 from lgmd_sim.core.params import FieldError
 
 
 def add(sub: argparse._SubParsersAction) -> None:
+    from lgmd_sim.training.config import TrainConfig
+
     p = sub.add_parser(
         "train", help="train an avoidance policy with stable-baselines3 (needs the rl extra)",
         description="Train a policy that reads an LGMD model's signals (--obs features: its "
@@ -38,25 +40,17 @@ def add(sub: argparse._SubParsersAction) -> None:
         "environment's (lgmd-sim envs NAME) unless --config shapes it. Needs the rl extra, "
         f"stable-baselines3 and PyTorch (install it {install_command('rl')}).",
     )
-    p.add_argument("--algo", help="ppo or sac (default ppo)")
-    p.add_argument("--env", metavar="ID", help="Gymnasium id of the environment (default "
-                   "lgmd_sim/RoughTerrainObstacles-v0)")
-    p.add_argument("--obs", help="features, pixels or privileged (default features)")
-    p.add_argument("--model", help="the LGMD model of --obs features, MODEL or MODEL/PRESET "
-                   "(default feedback)")
-    p.add_argument("--preset", help="its preset (default: the model's default)")
-    p.add_argument("--steps", type=int, help="environment steps in all, over every "
-                   "environment (default 300000); with --resume, the new total")
-    p.add_argument("--envs", type=int, metavar="K",
-                   help="environments stepped in parallel, one worker process each (default 2)")
-    p.add_argument("--seed", type=int, help="seed of the model and of the first training "
-                   "environment (default 0; training seeds stay below 900)")
-    p.add_argument("--config", metavar="FILE.toml",
-                   help="settings as KEY = VALUE lines of a TOML file, KEY one of "
-                   "TrainConfig's fields: the research ones (the S-layer grid, validation, "
-                   "reward shaping, a curriculum, a teacher and DAgger) and any other, e.g. "
-                   "teacher = \"steer\"; docs/guides/training.md lists the keys and their "
-                   "defaults; the options given override the file")
+    option(p, TrainConfig, "algo")
+    option(p, TrainConfig, "env", metavar="ID")
+    option(p, TrainConfig, "obs")
+    option(p, TrainConfig, "model")
+    option(p, TrainConfig, "preset", shown="")
+    option(p, TrainConfig, "steps", type=int)
+    option(p, TrainConfig, "envs", type=int, metavar="K")
+    option(p, TrainConfig, "seed", type=int)
+    add_config_file(p, "the research ones (the S-layer grid, validation, reward shaping, a "
+                    "curriculum, a teacher and DAgger; docs/guides/training.md explains them)",
+                    TrainConfig)
     p.add_argument("--out", metavar="DIR", help="output folder, new or empty (default "
                    "./train-ALGO-OBS)")
     p.add_argument("--resume", metavar="DIR", help="continue the run in DIR from its last "
@@ -64,11 +58,8 @@ def add(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--no-progress", action="store_true", help="hide the progress bar")
     more = advanced(p, "the frames and jitter it trains on, and the algorithm's "
                     "hyperparameters")
-    more.add_argument("--resolution", type=resolution,
-                      help="frame size the environment renders: rl (120x160, default, as the "
-                      "benchmark), paper, small or HxW")
-    more.add_argument("--jitter", type=float, help="jitter level of the training episodes "
-                      "(default 1)")
+    option(more, TrainConfig, "resolution", type=resolution)
+    option(more, TrainConfig, "jitter", type=float)
     more.add_argument("--hp", action="append", metavar="KEY=VALUE",
                       help="override a hyperparameter of the algorithm (repeatable), e.g. "
                       "--hp n_steps=512 --hp learning_rate=1e-4; with --resume, added to the "
